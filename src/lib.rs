@@ -1,0 +1,11 @@
+//! dvrk-tissue-sim: MPM soft-tissue simulation for da Vinci Research Kit arms.
+//!
+//! Module map (see DESIGN.md): `config` (scene files), `tools` (rigid tool SDFs and
+//! contact), `mpm` (particles, grid, materials, solvers), `world` (one scene's simulation),
+//! `bench` (scenes with analytic answers, throughput).
+
+pub mod bench;
+pub mod config;
+pub mod mpm;
+pub mod tools;
+pub mod world;

@@ -1,0 +1,5 @@
+//! Scenes with analytic answers (accuracy) and throughput measurement.
+
+pub mod analytic;
+pub mod scenes;
+pub mod throughput;

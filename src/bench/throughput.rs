@@ -1,0 +1,133 @@
+//! Throughput on the seed-000 scene size: ≈24,000 particles, a 64³ grid over the domain,
+//! dt from CFL, a gripper retracting the tissue (SurRoL's benchmark setting).
+
+use super::scenes::*;
+use crate::config::Scene;
+use crate::tools::{ContactModel, Shape};
+use crate::world::World;
+use std::time::Instant;
+
+/// The seed-000 benchmark scene: a 0.1 m domain on a 64³ grid, a 24×25×5-cell block with
+/// 8 particles per cell (24,000 particles), liver-like Neo-Hookean material, gripper lift.
+pub fn seed000_scene() -> Scene {
+    let dx = 0.1 / 64.0;
+    let size = [24.0 * dx, 25.0 * dx, 5.0 * dx];
+    let table = 4.0 * dx;
+    let top = table + size[2];
+    let gripper = Shape::Gripper {
+        jaw_length: 0.01,
+        jaw_width: 0.005,
+        jaw_thickness: 0.002,
+    };
+    let x = 0.5 * size[0] - 0.004;
+    let rpy = [180.0, 0.0, 90.0];
+    let frames = vec![
+        key(0.0, [x, 0.0, top + 0.004], rpy, 60.0),
+        key(0.1, [x, 0.0, top + 0.006], rpy, 60.0),
+        key(0.2, [x, 0.0, top + 0.006], rpy, 5.0),
+        key(1.0, [x, 0.0, top + 0.03], rpy, 5.0),
+    ];
+    scene(
+        "seed000-retraction",
+        40.0,
+        domain([-0.05, -0.05, 0.0], [0.1, 0.1, 0.1], dx, [0.0, 0.0, -9.81]),
+        Some(bonded_table(table)),
+        vec![tissue(
+            [0.0, 0.0, table + 0.5 * size[2]],
+            size,
+            material(5000.0, 0.4, 1000.0, 2.0),
+        )],
+        vec![tool(
+            "gripper",
+            gripper,
+            ContactModel::Coulomb {
+                friction: 2.0,
+                drag: 0.0,
+            },
+            frames,
+        )],
+    )
+}
+
+pub struct ThroughputResult {
+    pub backend: &'static str,
+    pub particles: usize,
+    pub grid: [usize; 3],
+    pub frames: u32,
+    pub substeps: u64,
+    pub wall_s: f64,
+    pub threads: usize,
+}
+
+impl ThroughputResult {
+    pub fn particle_substeps_per_s(&self) -> f64 {
+        self.particles as f64 * self.substeps as f64 / self.wall_s
+    }
+
+    pub fn table(&self) -> String {
+        let ms_per_substep = 1e3 * self.wall_s / self.substeps as f64;
+        format!(
+            "| backend | threads | particles | grid | frames | substeps | wall (s) | ms/substep | ms per 25-substep frame | M particle-substeps/s |\n\
+             |---|---|---|---|---|---|---|---|---|---|\n\
+             | {} | {} | {} | {}×{}×{} | {} | {} | {:.3} | {:.3} | {:.2} | {:.2} |\n",
+            self.backend,
+            self.threads,
+            self.particles,
+            self.grid[0],
+            self.grid[1],
+            self.grid[2],
+            self.frames,
+            self.substeps,
+            self.wall_s,
+            ms_per_substep,
+            25.0 * ms_per_substep,
+            self.particle_substeps_per_s() / 1e6
+        )
+    }
+}
+
+/// Times `frames` frames of the seed-000 scene on the CPU backend after one warm-up frame.
+pub fn run_seed000(frames: u32) -> ThroughputResult {
+    let scene = seed000_scene();
+    let mut world = World::new(&scene);
+    world.step_frame().expect("seed-000 scene is stable");
+    let start = Instant::now();
+    let mut substeps = 0u64;
+    for _ in 0..frames {
+        substeps += world
+            .step_frame()
+            .expect("seed-000 scene is stable")
+            .substeps as u64;
+    }
+    ThroughputResult {
+        backend: "cpu",
+        particles: world.particles().len(),
+        grid: world.solver.layout.nodes,
+        frames,
+        substeps,
+        wall_s: start.elapsed().as_secs_f64(),
+        threads: rayon::current_num_threads(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn seed000_scene_matches_the_paper_setting() {
+        let scene = seed000_scene();
+        assert!(
+            crate::config::validate(&scene).is_empty(),
+            "{:?}",
+            crate::config::validate(&scene)
+        );
+        let world = World::new(&scene);
+        assert_eq!(world.particles().len(), 24_000);
+        assert_eq!(
+            world.solver.layout.nodes,
+            [68, 68, 68],
+            "64 cells (+1 node, rounded to blocks)"
+        );
+    }
+}

@@ -1,0 +1,187 @@
+//! Scene file model (TOML). Every field is documented here; `config/*.toml` are examples.
+//!
+//! Units are SI (m, kg, s, Pa) unless a name says otherwise (`rpy_deg`, `jaw_deg`).
+
+use crate::mpm::guard::GuardPolicy;
+use crate::mpm::material::MaterialModel;
+use crate::tools::{ContactModel, Shape};
+use serde::{Deserialize, Serialize};
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    #[serde(default = "default_name")]
+    pub name: String,
+    /// Simulation frames per second (output and command exchange rate).
+    #[serde(default = "default_frame_rate")]
+    pub frame_rate_hz: f64,
+    pub domain: Domain,
+    #[serde(default)]
+    pub solver: Solver,
+    #[serde(default)]
+    pub table: Option<Table>,
+    #[serde(default, rename = "tissue")]
+    pub tissues: Vec<Tissue>,
+    #[serde(default, rename = "tool")]
+    pub tools: Vec<Tool>,
+}
+
+fn default_name() -> String {
+    "unnamed".into()
+}
+fn default_frame_rate() -> f64 {
+    60.0
+}
+
+/// The simulated box of space and its background grid.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Domain {
+    /// Lowest corner (m).
+    pub origin: [f64; 3],
+    /// Extent along x, y, z (m).
+    pub size: [f64; 3],
+    /// Grid spacing (m).
+    pub dx: f64,
+    #[serde(default = "default_gravity")]
+    pub gravity: [f64; 3],
+}
+
+fn default_gravity() -> [f64; 3] {
+    [0.0, 0.0, -9.81]
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Solver {
+    /// Fraction of a cell a wave or particle may cross per substep (0 < cfl ≤ 1).
+    #[serde(default = "default_cfl")]
+    pub cfl: f64,
+    /// Fixed substep (s), rounded down so that whole substeps fill a frame. Subdivided (with
+    /// a warning) where larger than the CFL bound.
+    #[serde(default)]
+    pub dt: Option<f64>,
+    /// Most substeps one frame may take; past it the frame advances less simulated time.
+    #[serde(default = "default_max_substeps")]
+    pub max_substeps_per_frame: u32,
+    /// Particle speed the guard treats as a runaway (m/s).
+    #[serde(default = "default_max_speed")]
+    pub max_speed: f64,
+    #[serde(default)]
+    pub guard_policy: GuardPolicy,
+}
+
+fn default_cfl() -> f64 {
+    0.5
+}
+fn default_max_substeps() -> u32 {
+    2000
+}
+fn default_max_speed() -> f64 {
+    20.0
+}
+
+impl Default for Solver {
+    fn default() -> Self {
+        Solver {
+            cfl: default_cfl(),
+            dt: None,
+            max_substeps_per_frame: default_max_substeps(),
+            max_speed: default_max_speed(),
+            guard_policy: GuardPolicy::default(),
+        }
+    }
+}
+
+/// The table plane the tissue lies on.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Table {
+    /// World z of the table surface (m).
+    pub height: f64,
+    /// `bonded`: the bottom face sticks; `resting`: contact with Coulomb `friction`.
+    #[serde(default = "default_hold")]
+    pub hold: Hold,
+    #[serde(default = "default_table_friction")]
+    pub friction: f64,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Hold {
+    Bonded,
+    Resting,
+}
+
+fn default_hold() -> Hold {
+    Hold::Bonded
+}
+fn default_table_friction() -> f64 {
+    0.5
+}
+
+/// An axis-aligned block of tissue.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Tissue {
+    #[serde(default = "default_tissue_name")]
+    pub name: String,
+    /// Centre of the block (m).
+    pub center: [f64; 3],
+    /// Edge lengths (m).
+    pub size: [f64; 3],
+    /// Particles per grid cell along each axis (2 gives 8 particles per cell).
+    #[serde(default = "default_per_axis")]
+    pub particles_per_axis: u32,
+    pub material: Material,
+}
+
+fn default_tissue_name() -> String {
+    "tissue".into()
+}
+fn default_per_axis() -> u32 {
+    2
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Material {
+    #[serde(default)]
+    pub model: MaterialModel,
+    /// Young's modulus E (Pa).
+    pub youngs_modulus: f64,
+    /// Poisson ratio ν, 0 ≤ ν < 0.5.
+    pub poisson_ratio: f64,
+    /// kg/m³.
+    pub density: f64,
+    /// Mass-proportional velocity damping (1/s), 0 for none.
+    #[serde(default)]
+    pub damping: f64,
+}
+
+/// A rigid tool with a scripted trajectory (headless runs) or, later, an arm driving it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Tool {
+    pub name: String,
+    pub shape: Shape,
+    #[serde(default)]
+    pub contact: ContactModel,
+    #[serde(default, rename = "keyframe")]
+    pub keyframes: Vec<Keyframe>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Keyframe {
+    /// Simulated time (s).
+    pub t: f64,
+    /// Tool frame origin in the world (m).
+    pub position: [f64; 3],
+    /// Orientation as roll, pitch, yaw about fixed x, y, z (degrees).
+    #[serde(default)]
+    pub rpy_deg: [f64; 3],
+    /// Gripper opening (degrees).
+    #[serde(default)]
+    pub jaw_deg: f64,
+}

@@ -1,0 +1,329 @@
+//! Semantic checks of a parsed scene: every problem is reported (not just the first), each
+//! naming the key, the value and what is allowed.
+
+use super::scene::{Hold, Scene};
+use crate::mpm::grid::WALL_NODES;
+use crate::mpm::MAX_TOOLS;
+use crate::tools::{ContactModel, Shape};
+use std::fmt;
+
+/// One invalid value.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Problem {
+    /// Dotted path of the key, e.g. `tissue[0].material.poisson_ratio`.
+    pub key: String,
+    pub value: String,
+    /// What would be accepted.
+    pub allowed: String,
+}
+
+impl fmt::Display for Problem {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} = {}: {}", self.key, self.value, self.allowed)
+    }
+}
+
+struct Checker {
+    problems: Vec<Problem>,
+}
+
+impl Checker {
+    fn require(
+        &mut self,
+        ok: bool,
+        key: impl Into<String>,
+        value: impl fmt::Debug,
+        allowed: impl Into<String>,
+    ) {
+        if !ok {
+            self.problems.push(Problem {
+                key: key.into(),
+                value: format!("{value:?}"),
+                allowed: allowed.into(),
+            });
+        }
+    }
+
+    fn positive(&mut self, key: impl Into<String>, value: f64) {
+        self.require(
+            value.is_finite() && value > 0.0,
+            key,
+            value,
+            "must be a finite number > 0",
+        );
+    }
+}
+
+/// All problems of `scene`; empty when it can be simulated.
+pub fn validate(scene: &Scene) -> Vec<Problem> {
+    let mut c = Checker {
+        problems: Vec::new(),
+    };
+    c.require(
+        scene.frame_rate_hz.is_finite()
+            && scene.frame_rate_hz > 0.0
+            && scene.frame_rate_hz <= 10_000.0,
+        "frame_rate_hz",
+        scene.frame_rate_hz,
+        "0 < frame_rate_hz ≤ 10000",
+    );
+
+    let d = &scene.domain;
+    c.positive("domain.dx", d.dx);
+    for (a, axis) in ["x", "y", "z"].iter().enumerate() {
+        c.positive(format!("domain.size[{a}] ({axis})"), d.size[a]);
+        c.require(
+            d.origin[a].is_finite(),
+            format!("domain.origin[{a}]"),
+            d.origin[a],
+            "a finite number (m)",
+        );
+        c.require(
+            d.gravity[a].is_finite(),
+            format!("domain.gravity[{a}]"),
+            d.gravity[a],
+            "a finite number (m/s²)",
+        );
+    }
+    let domain_ok = d.dx > 0.0 && d.size.iter().all(|s| *s > 0.0);
+    if domain_ok {
+        for (a, size) in d.size.iter().enumerate() {
+            let cells = size / d.dx;
+            c.require(
+                (8.0..=1024.0).contains(&cells),
+                format!("domain.size[{a}]"),
+                *size,
+                format!(
+                    "between 8 and 1024 cells of dx = {} m (is {cells:.0})",
+                    d.dx
+                ),
+            );
+        }
+    }
+    // Usable region: particles and tools must stay clear of the slip walls.
+    let margin = WALL_NODES as f64 * d.dx;
+    let lo: Vec<f64> = (0..3).map(|a| d.origin[a] + margin).collect();
+    let hi: Vec<f64> = (0..3).map(|a| d.origin[a] + d.size[a] - margin).collect();
+    let inside = |p: [f64; 3]| (0..3).all(|a| p[a] >= lo[a] && p[a] <= hi[a]);
+    let region = format!(
+        "inside the domain less {WALL_NODES} wall cells: [{:.4}, {:.4}] × [{:.4}, {:.4}] × [{:.4}, {:.4}] m",
+        lo[0], hi[0], lo[1], hi[1], lo[2], hi[2]
+    );
+
+    let s = &scene.solver;
+    c.require(
+        s.cfl > 0.0 && s.cfl <= 1.0,
+        "solver.cfl",
+        s.cfl,
+        "0 < cfl ≤ 1",
+    );
+    if let Some(dt) = s.dt {
+        c.positive("solver.dt", dt);
+    }
+    c.require(
+        s.max_substeps_per_frame >= 1,
+        "solver.max_substeps_per_frame",
+        s.max_substeps_per_frame,
+        "≥ 1",
+    );
+    c.positive("solver.max_speed", s.max_speed);
+
+    if let Some(t) = &scene.table {
+        c.require(
+            t.height.is_finite() && t.height >= lo[2] && t.height <= hi[2],
+            "table.height",
+            t.height,
+            format!(
+                "between {:.4} and {:.4} m (inside the domain's z range less wall cells)",
+                lo[2], hi[2]
+            ),
+        );
+        if t.hold == Hold::Resting {
+            c.require(
+                t.friction >= 0.0 && t.friction.is_finite(),
+                "table.friction",
+                t.friction,
+                "≥ 0",
+            );
+        }
+    }
+
+    c.require(
+        !scene.tissues.is_empty(),
+        "tissue",
+        "none",
+        "at least one [[tissue]] block",
+    );
+    for (i, t) in scene.tissues.iter().enumerate() {
+        let key = |k: &str| format!("tissue[{i}].{k}");
+        let m = &t.material;
+        c.require(
+            m.youngs_modulus.is_finite() && m.youngs_modulus > 0.0 && m.youngs_modulus <= 1e9,
+            key("material.youngs_modulus"),
+            m.youngs_modulus,
+            "0 < E ≤ 1e9 Pa",
+        );
+        c.require(
+            m.poisson_ratio.is_finite() && (0.0..0.5).contains(&m.poisson_ratio),
+            key("material.poisson_ratio"),
+            m.poisson_ratio,
+            "0 ≤ ν < 0.5",
+        );
+        c.require(
+            m.density.is_finite() && m.density > 0.0 && m.density <= 1e5,
+            key("material.density"),
+            m.density,
+            "0 < ρ ≤ 1e5 kg/m³",
+        );
+        c.require(
+            m.damping.is_finite() && m.damping >= 0.0,
+            key("material.damping"),
+            m.damping,
+            "≥ 0 (1/s)",
+        );
+        c.require(
+            (1..=4).contains(&t.particles_per_axis),
+            key("particles_per_axis"),
+            t.particles_per_axis,
+            "1 to 4",
+        );
+        for a in 0..3 {
+            c.positive(key(&format!("size[{a}]")), t.size[a]);
+            if d.dx > 0.0 && t.size[a] > 0.0 {
+                c.require(
+                    t.size[a] >= 2.0 * d.dx,
+                    key(&format!("size[{a}]")),
+                    t.size[a],
+                    format!("at least 2 grid cells (2·dx = {} m): the grid is too coarse for this tissue", 2.0 * d.dx),
+                );
+            }
+        }
+        let lo_corner = [0, 1, 2].map(|a| t.center[a] - 0.5 * t.size[a]);
+        let hi_corner = [0, 1, 2].map(|a| t.center[a] + 0.5 * t.size[a]);
+        c.require(
+            inside(lo_corner) && inside(hi_corner),
+            key("center"),
+            t.center,
+            format!("the whole block {region}"),
+        );
+        if let Some(table) = &scene.table {
+            c.require(
+                lo_corner[2] >= table.height - 1e-9,
+                key("center"),
+                t.center,
+                format!(
+                    "block bottom z = {:.4} m must not be below table.height = {} m",
+                    lo_corner[2], table.height
+                ),
+            );
+        }
+    }
+
+    c.require(
+        scene.tools.len() <= MAX_TOOLS,
+        "tool",
+        scene.tools.len(),
+        format!("at most {MAX_TOOLS} tools"),
+    );
+    for (i, tool) in scene.tools.iter().enumerate() {
+        let key = |k: &str| format!("tool[{i}] ({}).{k}", tool.name);
+        if scene.tools[..i].iter().any(|o| o.name == tool.name) {
+            c.require(false, key("name"), &tool.name, "unique among tools");
+        }
+        match tool.shape {
+            Shape::Sphere { radius } => c.positive(key("shape.radius"), radius as f64),
+            Shape::Capsule {
+                radius,
+                half_length,
+            } => {
+                c.positive(key("shape.radius"), radius as f64);
+                c.positive(key("shape.half_length"), half_length as f64);
+            }
+            Shape::Box { half_extents } => {
+                for (a, h) in half_extents.iter().enumerate() {
+                    c.positive(key(&format!("shape.half_extents[{a}]")), *h as f64);
+                }
+            }
+            Shape::Gripper {
+                jaw_length,
+                jaw_width,
+                jaw_thickness,
+            } => {
+                c.positive(key("shape.jaw_length"), jaw_length as f64);
+                c.positive(key("shape.jaw_width"), jaw_width as f64);
+                c.positive(key("shape.jaw_thickness"), jaw_thickness as f64);
+            }
+            Shape::Needle {
+                radius,
+                arc_angle,
+                wire_radius,
+            } => {
+                c.positive(key("shape.radius"), radius as f64);
+                c.positive(key("shape.wire_radius"), wire_radius as f64);
+                c.require(
+                    arc_angle > 0.0 && arc_angle < std::f32::consts::TAU,
+                    key("shape.arc_angle"),
+                    arc_angle,
+                    "0 < arc_angle < 2π rad",
+                );
+            }
+        }
+        if let ContactModel::Coulomb { friction, drag } = tool.contact {
+            c.require(
+                friction.is_finite() && friction >= 0.0,
+                key("contact.friction"),
+                friction,
+                "≥ 0",
+            );
+            c.require(
+                (0.0..=1.0).contains(&drag),
+                key("contact.drag"),
+                drag,
+                "0 ≤ drag ≤ 1",
+            );
+        }
+        c.require(
+            !tool.keyframes.is_empty(),
+            key("keyframe"),
+            "none",
+            "at least one [[tool.keyframe]]",
+        );
+        for (k, kf) in tool.keyframes.iter().enumerate() {
+            let kkey = |f: &str| key(&format!("keyframe[{k}].{f}"));
+            c.require(
+                kf.t.is_finite() && kf.t >= 0.0,
+                kkey("t"),
+                kf.t,
+                "a time ≥ 0 s",
+            );
+            if k > 0 {
+                let prev = tool.keyframes[k - 1].t;
+                c.require(
+                    kf.t > prev,
+                    kkey("t"),
+                    kf.t,
+                    format!("greater than the previous keyframe's t = {prev}"),
+                );
+            }
+            c.require(
+                kf.position.iter().all(|v| v.is_finite()) && inside(kf.position),
+                kkey("position"),
+                kf.position,
+                format!("tool outside the domain: must be {region}"),
+            );
+            c.require(
+                kf.rpy_deg.iter().all(|v| v.is_finite()),
+                kkey("rpy_deg"),
+                kf.rpy_deg,
+                "finite angles (deg)",
+            );
+            c.require(
+                kf.jaw_deg.is_finite() && (-40.0..=80.0).contains(&kf.jaw_deg),
+                kkey("jaw_deg"),
+                kf.jaw_deg,
+                "−40° ≤ jaw ≤ 80° (the PSM jaw range)",
+            );
+        }
+    }
+    c.problems
+}

@@ -1,0 +1,403 @@
+//! Reference MLS-MPM solver on the CPU (rayon), f32 state.
+//!
+//! One substep (seed 002 Algorithm 1, seed 000 eqs. 1–10):
+//! 1. bin particles into grid blocks (see `binning`), clear the blocks they touch;
+//! 2. P2G: fused APIC momentum + MLS force transfer, block colours in turn;
+//! 3. grid update: velocity, gravity, tool contact with momentum exchange, table, walls;
+//! 4. G2P: velocity and affine velocity back to particles, advect, update F, guard.
+//!
+//! Work is proportional to the occupied blocks, not to the domain volume, and a substep
+//! allocates nothing.
+
+mod binning;
+
+use super::grid::{Boundary, GridLayout, Node, TableHold, NODES_PER_BLOCK, WALL_NODES};
+use super::guard::{GuardEvent, GuardKind};
+use super::kernel::Stencil;
+use super::material::kirchhoff_stress;
+use super::{Mat3, MaterialParams, Particles, SubstepStats, ToolImpulse, Vec3, MAX_TOOLS};
+use crate::tools::{contact, ToolKinematics};
+use binning::Binning;
+use rayon::prelude::*;
+
+/// Inputs of one substep that change from substep to substep.
+#[derive(Clone, Copy, Debug)]
+pub struct SubstepInput<'a> {
+    pub dt: f32,
+    pub gravity: Vec3,
+    pub tools: &'a [ToolKinematics],
+}
+
+pub struct CpuSolver {
+    pub layout: GridLayout,
+    pub particles: Particles,
+    pub materials: Vec<MaterialParams>,
+    pub boundary: Boundary,
+    /// Speed above which the guard reports a runaway (m/s).
+    pub max_speed: f32,
+    grid: Vec<Node>,
+    bins: Binning,
+}
+
+/// A raw pointer shared across rayon tasks that write provably disjoint elements.
+#[derive(Clone, Copy)]
+struct SharedMut<T>(*mut T);
+// SAFETY: only used where the caller guarantees that concurrent tasks touch disjoint indices
+// (block colouring in P2G, distinct blocks in clearing and the grid update).
+unsafe impl<T: Send> Send for SharedMut<T> {}
+unsafe impl<T: Send> Sync for SharedMut<T> {}
+
+/// Storage offsets of the three stencil nodes along each axis; a node's index is
+/// `ox[a] + oy[b] + oz[c]` because the blocked layout is separable.
+#[inline(always)]
+fn axis_offsets(layout: &GridLayout, base: super::IVec3) -> [[usize; 3]; 3] {
+    let bs = super::grid::BLOCK;
+    let stride = [
+        layout.blocks[1] * layout.blocks[2] * NODES_PER_BLOCK,
+        layout.blocks[2] * NODES_PER_BLOCK,
+        NODES_PER_BLOCK,
+    ];
+    let local = [bs * bs, bs, 1];
+    let mut out = [[0usize; 3]; 3];
+    for axis in 0..3 {
+        for (a, slot) in out[axis].iter_mut().enumerate() {
+            let n = (base[axis] + a as i32) as usize;
+            *slot = (n / bs) * stride[axis] + (n % bs) * local[axis];
+        }
+    }
+    out
+}
+
+impl CpuSolver {
+    pub fn new(
+        layout: GridLayout,
+        particles: Particles,
+        materials: Vec<MaterialParams>,
+        boundary: Boundary,
+        max_speed: f32,
+    ) -> Self {
+        let bins = Binning::new(&layout, particles.len());
+        CpuSolver {
+            grid: vec![[0.0; 4]; layout.node_count()],
+            layout,
+            particles,
+            materials,
+            boundary,
+            max_speed,
+            bins,
+        }
+    }
+
+    /// Grid velocity and mass of node (i, j, k) after the last grid update.
+    pub fn node(&self, i: usize, j: usize, k: usize) -> Node {
+        self.grid[self.layout.node_index(i, j, k)]
+    }
+
+    /// Number of grid blocks the last substep worked on.
+    pub fn active_blocks(&self) -> usize {
+        self.bins.touched.len()
+    }
+
+    pub fn substep(&mut self, input: &SubstepInput) -> SubstepStats {
+        assert!(input.tools.len() <= MAX_TOOLS, "at most {MAX_TOOLS} tools");
+        self.bin_particles();
+        self.clear_touched_blocks();
+        self.particle_to_grid(input.dt);
+        let tool_impulses = self.update_grid(input);
+        let (max_speed, clamped_particles, guard) = self.grid_to_particle(input.dt);
+        SubstepStats {
+            tool_impulses,
+            max_speed,
+            clamped_particles,
+            guard,
+        }
+    }
+
+    fn bin_particles(&mut self) {
+        let layout = self.layout;
+        self.bins
+            .key
+            .par_iter_mut()
+            .zip(self.particles.x.par_iter())
+            .with_min_len(1024)
+            .for_each(|(key, x)| {
+                let base = Stencil::new((x - layout.origin) * layout.inv_dx).base;
+                let bs = super::grid::BLOCK as i32;
+                *key = layout.block_index(
+                    (base.x / bs) as usize,
+                    (base.y / bs) as usize,
+                    (base.z / bs) as usize,
+                ) as u32;
+            });
+        self.bins.rebuild(&layout);
+    }
+
+    fn clear_touched_blocks(&mut self) {
+        let grid = SharedMut(self.grid.as_mut_ptr());
+        self.bins
+            .touched
+            .par_iter()
+            .with_min_len(16)
+            .for_each(move |&b| {
+                let grid = grid;
+                // SAFETY: `touched` lists each block once, so tasks clear disjoint slices.
+                let nodes = unsafe {
+                    std::slice::from_raw_parts_mut(
+                        grid.0.add(b as usize * NODES_PER_BLOCK),
+                        NODES_PER_BLOCK,
+                    )
+                };
+                nodes.fill([0.0; 4]);
+            });
+    }
+
+    fn particle_to_grid(&mut self, dt: f32) {
+        let layout = self.layout;
+        let parts = &self.particles;
+        let materials = &self.materials[..];
+        let order = &self.bins.order[..];
+        let grid = SharedMut(self.grid.as_mut_ptr());
+        let stress_scale = -dt * 4.0 * layout.inv_dx * layout.inv_dx;
+        for color in &self.bins.by_color {
+            color.par_iter().for_each(move |range| {
+                let grid = grid;
+                for &p in &order[range.start as usize..range.end as usize] {
+                    let p = p as usize;
+                    let s = Stencil::new((parts.x[p] - layout.origin) * layout.inv_dx);
+                    let mat = materials[parts.material[p] as usize];
+                    let m = parts.mass[p];
+                    let tau = kirchhoff_stress(mat.model, mat.lame, &parts.f[p]);
+                    // MLS-MPM: force and APIC affine momentum fused in one matrix (seed 002
+                    // eq. 10), scaled by dx because stencil offsets are in grid units.
+                    let q: Mat3 =
+                        (tau * (stress_scale * parts.volume0[p]) + parts.c[p] * m) * layout.dx;
+                    let momentum = parts.v[p] * m - q * s.fx;
+                    let offs = axis_offsets(&layout, s.base);
+                    for a in 0..3 {
+                        for b in 0..3 {
+                            for c in 0..3 {
+                                let w = s.weight(a, b, c);
+                                let contrib =
+                                    (momentum + q * Vec3::new(a as f32, b as f32, c as f32)) * w;
+                                let idx = offs[0][a] + offs[1][b] + offs[2][c];
+                                // SAFETY: blocks of one colour write disjoint node sets (see
+                                // `binning`), and `idx` is inside the grid because particles
+                                // are kept within `particle_bounds`.
+                                let node = unsafe { &mut *grid.0.add(idx) };
+                                node[0] += contrib.x;
+                                node[1] += contrib.y;
+                                node[2] += contrib.z;
+                                node[3] += w * m;
+                            }
+                        }
+                    }
+                }
+            });
+        }
+    }
+
+    fn update_grid(&mut self, input: &SubstepInput) -> [ToolImpulse; MAX_TOOLS] {
+        let layout = self.layout;
+        let boundary = self.boundary;
+        let grid = SharedMut(self.grid.as_mut_ptr());
+        let dt = input.dt;
+        let gravity = input.gravity;
+        let tools = input.tools;
+        self.bins
+            .touched
+            .par_iter()
+            .with_min_len(4)
+            .fold(
+                || [ToolImpulse::default(); MAX_TOOLS],
+                move |mut impulses, &b| {
+                    let grid = grid;
+                    // SAFETY: each block appears once in `touched`.
+                    let nodes = unsafe {
+                        std::slice::from_raw_parts_mut(
+                            grid.0.add(b as usize * NODES_PER_BLOCK),
+                            NODES_PER_BLOCK,
+                        )
+                    };
+                    for (local, node) in nodes.iter_mut().enumerate() {
+                        let m = node[3];
+                        if m <= 0.0 {
+                            continue;
+                        }
+                        let ijk = layout.node_coords(b as usize, local);
+                        let x = layout.node_position(ijk);
+                        let mut v = Vec3::new(node[0], node[1], node[2]) / m + gravity * dt;
+                        v = apply_tools(tools, x, v, m, &mut impulses);
+                        v = apply_boundary(&layout, &boundary, ijk, x, v);
+                        *node = [v.x, v.y, v.z, m];
+                    }
+                    impulses
+                },
+            )
+            .reduce(
+                || [ToolImpulse::default(); MAX_TOOLS],
+                |mut a, b| {
+                    for (a, b) in a.iter_mut().zip(&b) {
+                        a.add(b);
+                    }
+                    a
+                },
+            )
+    }
+
+    fn grid_to_particle(&mut self, dt: f32) -> (f32, u32, Option<GuardEvent>) {
+        let layout = self.layout;
+        let grid = &self.grid[..];
+        let materials = &self.materials[..];
+        let max_speed_limit = self.max_speed;
+        let (lo, hi) = layout.particle_bounds();
+        let parts = &mut self.particles;
+        const CHUNK: usize = 256;
+        parts
+            .x
+            .par_chunks_mut(CHUNK)
+            .zip(parts.v.par_chunks_mut(CHUNK))
+            .zip(parts.c.par_chunks_mut(CHUNK))
+            .zip(parts.f.par_chunks_mut(CHUNK))
+            .zip(parts.material.par_chunks(CHUNK))
+            .enumerate()
+            .fold(
+                || (0.0f32, 0u32, None::<GuardEvent>),
+                |(mut max_speed, mut clamped, mut guard), (chunk, ((((xs, vs), cs), fs), mats))| {
+                    for i in 0..xs.len() {
+                        let x0 = xs[i];
+                        let g = (x0 - layout.origin) * layout.inv_dx;
+                        let s = Stencil::new(g);
+                        let offs = axis_offsets(&layout, s.base);
+                        let mut v = Vec3::zeros();
+                        let mut b = Mat3::zeros();
+                        for a in 0..3 {
+                            for bb in 0..3 {
+                                for c in 0..3 {
+                                    let w = s.weight(a, bb, c);
+                                    let node = grid[offs[0][a] + offs[1][bb] + offs[2][c]];
+                                    let vi = Vec3::new(node[0], node[1], node[2]);
+                                    v += vi * w;
+                                    b += (vi * w) * s.offset(a, bb, c).transpose();
+                                }
+                            }
+                        }
+                        // APIC: C = B·D⁻¹ with D = dx²/4·I; offsets are in grid units.
+                        let c_new = b * (4.0 * layout.inv_dx);
+                        let mut g_new = g + v * (dt * layout.inv_dx);
+                        let inside = g_new.sup(&lo).inf(&hi);
+                        if inside != g_new {
+                            clamped += 1;
+                            g_new = inside;
+                        }
+                        let f_new = (Mat3::identity() + c_new * dt) * fs[i];
+                        let damping = materials[mats[i] as usize].damping;
+                        if damping > 0.0 {
+                            v *= (-damping * dt).exp();
+                        }
+                        let speed = v.norm();
+                        let finite = speed.is_finite()
+                            && c_new.iter().all(|e| e.is_finite())
+                            && f_new.iter().all(|e| e.is_finite())
+                            && g_new.iter().all(|e| e.is_finite());
+                        if !finite || speed > max_speed_limit {
+                            let event = GuardEvent {
+                                kind: if finite {
+                                    GuardKind::Runaway
+                                } else {
+                                    GuardKind::NonFinite
+                                },
+                                particle: (chunk * CHUNK + i) as u32,
+                                position: x0,
+                                speed: if finite { speed } else { f32::NAN },
+                            };
+                            guard = GuardEvent::first(guard, Some(event));
+                            // Leave this particle as it was: nothing non-finite is stored.
+                            continue;
+                        }
+                        max_speed = max_speed.max(speed);
+                        xs[i] = layout.origin + g_new * layout.dx;
+                        vs[i] = v;
+                        cs[i] = c_new;
+                        fs[i] = f_new;
+                    }
+                    (max_speed, clamped, guard)
+                },
+            )
+            .reduce(
+                || (0.0, 0, None),
+                |a, b| (a.0.max(b.0), a.1 + b.1, GuardEvent::first(a.2, b.2)),
+            )
+    }
+}
+
+/// Contact with the nearest tool the node is inside of (seed 000's collision-objects table:
+/// one tool per node), recording the impulse the tool receives.
+#[inline(always)]
+fn apply_tools(
+    tools: &[ToolKinematics],
+    x: Vec3,
+    v: Vec3,
+    m: f32,
+    impulses: &mut [ToolImpulse; MAX_TOOLS],
+) -> Vec3 {
+    let mut nearest: Option<(usize, crate::tools::NodeContact)> = None;
+    for (t, tool) in tools.iter().enumerate() {
+        if let Some(hit) = tool.probe(x) {
+            if hit.depth < 0.0 && nearest.is_none_or(|(_, best)| hit.depth < best.depth) {
+                nearest = Some((t, hit));
+            }
+        }
+    }
+    let Some((t, hit)) = nearest else {
+        return v;
+    };
+    let tool = &tools[t];
+    let v_tool = tool.surface_velocity(x, hit.part);
+    let v_new = contact::resolve(tool.contact, v, v_tool, hit.normal, hit.tangent);
+    // Momentum the tool takes from the tissue: the opposite of what it gives the node.
+    let dp = ((v - v_new) * m).cast::<f64>();
+    let arm = (x - tool.translation).cast::<f64>();
+    let imp = &mut impulses[t];
+    imp.linear += dp;
+    imp.angular += arm.cross(&dp);
+    imp.contact_nodes += 1;
+    v_new
+}
+
+/// Table plane and slip walls at the domain faces.
+#[inline(always)]
+fn apply_boundary(
+    layout: &GridLayout,
+    boundary: &Boundary,
+    ijk: [usize; 3],
+    x: Vec3,
+    mut v: Vec3,
+) -> Vec3 {
+    if let Some((height, hold)) = boundary.table {
+        if x.z <= height + 1e-3 * layout.dx {
+            v = match hold {
+                TableHold::Bonded => Vec3::zeros(),
+                TableHold::Resting { friction } => contact::resolve(
+                    contact::ContactModel::Coulomb {
+                        friction,
+                        drag: 0.0,
+                    },
+                    v,
+                    Vec3::zeros(),
+                    Vec3::z(),
+                    Vec3::zeros(),
+                ),
+            };
+        }
+    }
+    for axis in 0..3 {
+        let i = ijk[axis] as i32;
+        if i < WALL_NODES && v[axis] < 0.0 {
+            v[axis] = 0.0;
+        }
+        if i >= layout.nodes[axis] as i32 - WALL_NODES && v[axis] > 0.0 {
+            v[axis] = 0.0;
+        }
+    }
+    v
+}

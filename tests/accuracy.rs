@@ -1,0 +1,47 @@
+//! Accuracy against analytic answers, and convergence as dx shrinks. Bounds are what the
+//! solver reaches (see `bench accuracy`) plus margin.
+
+use dvrk_tissue_sim::bench::analytic;
+
+#[test]
+fn hertz_indentation_force_converges_to_hertz() {
+    let coarse = analytic::hertz(4.0);
+    let fine = analytic::hertz(6.0);
+    for r in [&coarse, &fine] {
+        assert!(r.samples.len() > 20, "samples cover d/R 0.05–0.3");
+        assert!(r
+            .samples
+            .iter()
+            .all(|s| s.force.is_finite() && s.force > 0.0));
+    }
+    let (e4, e6) = (coarse.rms_relative_error(), fine.rms_relative_error());
+    println!("Hertz RMS relative error: R = 4 dx {e4:.4}, R = 6 dx {e6:.4}");
+    // Measured: 15.4 % and 7.5 %.
+    assert!(e4 < 0.20, "R = 4 dx: {e4}");
+    assert!(e6 < 0.10, "R = 6 dx: {e6}");
+    assert!(e6 < 0.75 * e4, "error must shrink with dx: {e4} → {e6}");
+}
+
+#[test]
+fn vibrating_bar_period_converges_to_4l_over_c() {
+    let coarse = analytic::vibrating_bar(4);
+    let fine = analytic::vibrating_bar(8);
+    let (e4, e8) = (coarse.relative_error(), fine.relative_error());
+    println!("bar period error: 4 cells {e4:+.4}, 8 cells {e8:+.4}");
+    // Measured: +2.7 % and +1.2 %.
+    assert!(e4.abs() < 0.04, "4 cells: {e4}");
+    assert!(e8.abs() < 0.02, "8 cells: {e8}");
+    assert!(e8.abs() < 0.7 * e4.abs(), "error must shrink with dx");
+}
+
+#[test]
+fn large_neo_hookean_stretch_force_converges_to_analytic() {
+    let coarse = analytic::large_stretch(4, 1.3);
+    let fine = analytic::large_stretch(8, 1.3);
+    let (e4, e8) = (coarse.relative_error(), fine.relative_error());
+    println!("stretch force error: 4 cells {e4:+.4}, 8 cells {e8:+.4}");
+    // Measured: −7.2 % and −3.9 %.
+    assert!(e4.abs() < 0.10, "4 cells: {e4}");
+    assert!(e8.abs() < 0.055, "8 cells: {e8}");
+    assert!(e8.abs() < 0.7 * e4.abs(), "error must shrink with dx");
+}

@@ -1,0 +1,74 @@
+//! The command line as a user runs it.
+
+use std::process::Command;
+
+fn bin() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_dvrk-tissue-sim"));
+    c.current_dir(env!("CARGO_MANIFEST_DIR"));
+    c
+}
+
+#[test]
+fn headless_run_prints_frame_lines_and_a_summary() {
+    let out = bin()
+        .args([
+            "run",
+            "--scene",
+            "config/default.toml",
+            "--headless",
+            "--seconds",
+            "0.05",
+        ])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let frames: Vec<&str> = stdout.lines().filter(|l| l.starts_with("t=")).collect();
+    assert_eq!(frames.len(), 3, "{stdout}");
+    for line in &frames {
+        for field in ["substeps=", "probe F=(", "vmax=", "rtf="] {
+            assert!(line.contains(field), "{line} lacks {field}");
+        }
+    }
+    assert!(stdout.contains("M particle-substeps/s"), "{stdout}");
+    assert!(stdout.contains("real-time factor"), "{stdout}");
+}
+
+#[test]
+fn check_reports_bad_scene_with_key_value_and_range() {
+    let dir = std::env::temp_dir().join(format!("dts-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let bad = dir.join("bad.toml");
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/config/default.toml"))
+        .unwrap()
+        .replace("poisson_ratio = 0.45", "poisson_ratio = 0.55");
+    std::fs::write(&bad, text).unwrap();
+    let out = bin()
+        .args(["check", "config/default.toml"])
+        .arg(&bad)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(!out.status.success());
+    assert!(stdout.contains("config/default.toml: ok"), "{stdout}");
+    assert!(
+        stdout.contains("bad.toml: 1 problem(s)")
+            && stdout.contains("tissue[0].material.poisson_ratio = 0.55: 0 ≤ ν < 0.5"),
+        "{stdout}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn run_without_headless_says_what_to_do() {
+    let out = bin()
+        .args(["run", "--scene", "config/default.toml"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--headless"));
+}

@@ -1,0 +1,167 @@
+//! Scene files: shipped scenes are valid; each kind of bad input gives its own clear error.
+
+use dvrk_tissue_sim::config::{self, SceneError};
+use std::path::Path;
+
+const GOOD: &str = r#"
+name = "ok"
+[domain]
+origin = [-0.048, -0.048, 0.0]
+size = [0.096, 0.096, 0.048]
+dx = 0.002
+[table]
+height = 0.004
+[[tissue]]
+center = [0.0, 0.0, 0.014]
+size = [0.04, 0.04, 0.02]
+[tissue.material]
+youngs_modulus = 5400.0
+poisson_ratio = 0.45
+density = 1060.0
+[[tool]]
+name = "probe"
+shape = { type = "sphere", radius = 0.005 }
+[[tool.keyframe]]
+t = 0.0
+position = [0.0, 0.0, 0.031]
+"#;
+
+fn problems_of(text: &str) -> Vec<config::Problem> {
+    match config::from_str(text, Path::new("test.toml")) {
+        Err(SceneError::Invalid { problems, .. }) => problems,
+        other => panic!("expected validation problems, got {other:?}"),
+    }
+}
+
+/// Replaces the first occurrence of `from` in the good scene and returns the problems.
+fn problems_with(from: &str, to: &str) -> Vec<config::Problem> {
+    assert!(GOOD.contains(from), "fixture lacks {from}");
+    problems_of(&GOOD.replacen(from, to, 1))
+}
+
+fn assert_single(problems: &[config::Problem], key: &str, allowed_fragment: &str) {
+    assert_eq!(problems.len(), 1, "{problems:#?}");
+    assert_eq!(problems[0].key, key, "{problems:#?}");
+    assert!(
+        problems[0].allowed.contains(allowed_fragment),
+        "'{}' should mention '{allowed_fragment}'",
+        problems[0].allowed
+    );
+}
+
+#[test]
+fn shipped_scenes_are_valid() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("config");
+    let mut count = 0;
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "toml") {
+            config::load(&path).unwrap_or_else(|e| panic!("{e}"));
+            count += 1;
+        }
+    }
+    assert!(count >= 4, "default, retraction, push, needle at least");
+    assert!(config::from_str(GOOD, Path::new("good.toml")).is_ok());
+}
+
+#[test]
+fn poisson_ratio_of_one_half_or_more_is_rejected() {
+    let p = problems_with("poisson_ratio = 0.45", "poisson_ratio = 0.5");
+    assert_single(&p, "tissue[0].material.poisson_ratio", "ν < 0.5");
+    assert_eq!(p[0].value, "0.5");
+}
+
+#[test]
+fn non_positive_youngs_modulus_is_rejected() {
+    let p = problems_with("youngs_modulus = 5400.0", "youngs_modulus = -1.0");
+    assert_single(&p, "tissue[0].material.youngs_modulus", "0 < E");
+}
+
+#[test]
+fn tool_outside_the_domain_is_rejected() {
+    let p = problems_with(
+        "position = [0.0, 0.0, 0.031]",
+        "position = [0.5, 0.0, 0.031]",
+    );
+    assert_single(
+        &p,
+        "tool[0] (probe).keyframe[0].position",
+        "tool outside the domain",
+    );
+}
+
+#[test]
+fn grid_too_coarse_for_the_tissue_is_rejected() {
+    let p = problems_with("size = [0.04, 0.04, 0.02]", "size = [0.04, 0.04, 0.003]");
+    assert_single(&p, "tissue[0].size[2]", "too coarse");
+}
+
+#[test]
+fn tissue_below_the_table_is_rejected() {
+    let p = problems_with("height = 0.004", "height = 0.006");
+    assert_single(&p, "tissue[0].center", "below table.height");
+}
+
+#[test]
+fn keyframes_out_of_order_are_rejected() {
+    let text = format!("{GOOD}[[tool.keyframe]]\nt = 0.0\nposition = [0.0, 0.0, 0.03]\n");
+    let p = problems_of(&text);
+    assert_single(
+        &p,
+        "tool[0] (probe).keyframe[1].t",
+        "greater than the previous",
+    );
+}
+
+#[test]
+fn every_problem_is_reported_at_once() {
+    let text = GOOD
+        .replacen("poisson_ratio = 0.45", "poisson_ratio = 0.7", 1)
+        .replacen("dx = 0.002", "dx = 0.002\n", 1)
+        .replacen("density = 1060.0", "density = 0.0", 1)
+        .replacen("radius = 0.005", "radius = -0.005", 1);
+    let keys: Vec<String> = problems_of(&text).into_iter().map(|p| p.key).collect();
+    for key in [
+        "tissue[0].material.poisson_ratio",
+        "tissue[0].material.density",
+        "tool[0] (probe).shape.radius",
+    ] {
+        assert!(keys.iter().any(|k| k == key), "{key} missing from {keys:?}");
+    }
+}
+
+#[test]
+fn syntax_errors_and_unknown_keys_name_the_place() {
+    let err = config::from_str(
+        &GOOD.replacen("dx = 0.002", "dx = ", 1),
+        Path::new("broken.toml"),
+    )
+    .unwrap_err();
+    let msg = err.to_string();
+    assert!(
+        msg.starts_with("broken.toml: not a valid scene file"),
+        "{msg}"
+    );
+    assert!(msg.contains("line"), "{msg}");
+
+    let err = config::from_str(
+        &GOOD.replacen("dx = 0.002", "dx = 0.002\ndxx = 1", 1),
+        Path::new("typo.toml"),
+    )
+    .unwrap_err();
+    assert!(err.to_string().contains("dxx"), "{err}");
+
+    let err = config::from_str(
+        &GOOD.replacen("\"sphere\"", "\"cube\"", 1),
+        Path::new("shape.toml"),
+    )
+    .unwrap_err();
+    assert!(err.to_string().contains("cube"), "{err}");
+}
+
+#[test]
+fn missing_file_is_an_io_error_naming_the_path() {
+    let err = config::load(Path::new("/nonexistent/scene.toml")).unwrap_err();
+    assert!(matches!(err, SceneError::Io { .. }));
+    assert!(err.to_string().contains("/nonexistent/scene.toml"));
+}

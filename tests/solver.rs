@@ -1,0 +1,311 @@
+//! Whole-solver behaviour: conservation, grasping, needle contact, guard, time step.
+
+use dvrk_tissue_sim::bench::scenes::*;
+use dvrk_tissue_sim::config::{Hold, Scene, Table};
+use dvrk_tissue_sim::mpm::guard::GuardPolicy;
+use dvrk_tissue_sim::mpm::{timestep, Lame, Vec3};
+use dvrk_tissue_sim::tools::{ContactModel, Shape};
+use dvrk_tissue_sim::world::{StepError, World};
+
+fn free_block_scene() -> Scene {
+    scene(
+        "free-block",
+        60.0,
+        domain([-0.02, -0.02, -0.02], [0.04, 0.04, 0.04], 0.001, [0.0; 3]),
+        None,
+        vec![tissue(
+            [0.0, 0.0, 0.0],
+            [0.01, 0.008, 0.006],
+            material(5000.0, 0.4, 1000.0, 0.0),
+        )],
+        vec![],
+    )
+}
+
+#[test]
+fn free_flying_block_conserves_momentum() {
+    let mut world = World::new(&free_block_scene());
+    // Translation, spin and a squeeze: momentum is conserved whatever the internal motion.
+    for (x, v) in world
+        .solver
+        .particles
+        .x
+        .iter()
+        .zip(world.solver.particles.v.iter_mut())
+    {
+        *v = Vec3::new(0.02, -0.01, 0.005)
+            + Vec3::new(0.0, 0.0, 3.0).cross(x)
+            + Vec3::new(-2.0 * x.x, 0.0, 0.0);
+    }
+    let p0 = world.particles().momentum();
+    let com0 = world.particles().centre_of_mass();
+    for _ in 0..6 {
+        world.step_frame().unwrap();
+    }
+    let p1 = world.particles().momentum();
+    let drift = (p1 - p0).norm() / p0.norm();
+    assert!(drift < 1e-4, "momentum drift {drift:e}: {p0:?} → {p1:?}");
+    // The centre of mass moves with the initial mean velocity.
+    let com1 = world.particles().centre_of_mass();
+    let expected = com0
+        + p0 / world
+            .particles()
+            .mass
+            .iter()
+            .map(|&m| m as f64)
+            .sum::<f64>()
+            * world.time;
+    assert!((com1 - expected).norm() < 1e-6, "{com1:?} vs {expected:?}");
+}
+
+fn grasp_scene() -> Scene {
+    let gripper = Shape::Gripper {
+        jaw_length: 0.01,
+        jaw_width: 0.006,
+        jaw_thickness: 0.0015,
+    };
+    let rpy = [180.0, 0.0, 90.0];
+    let mut s = scene(
+        "grasp",
+        60.0,
+        domain(
+            [-0.016, -0.016, 0.0],
+            [0.032, 0.032, 0.048],
+            0.001,
+            [0.0, 0.0, -9.81],
+        ),
+        Some(Table {
+            height: 0.002,
+            hold: Hold::Resting,
+            friction: 0.3,
+        }),
+        vec![tissue(
+            [0.0, 0.0, 0.005],
+            [0.006, 0.006, 0.006],
+            material(5000.0, 0.4, 1000.0, 2.0),
+        )],
+        vec![tool(
+            "gripper",
+            gripper,
+            ContactModel::Coulomb {
+                friction: 2.0,
+                drag: 0.0,
+            },
+            vec![
+                key(0.0, [0.0, 0.0, 0.0135], rpy, 70.0),
+                key(0.2, [0.0, 0.0, 0.0135], rpy, 70.0),
+                key(0.5, [0.0, 0.0, 0.0135], rpy, 25.0),
+                key(1.0, [0.0, 0.0, 0.0235], rpy, 25.0),
+            ],
+        )],
+    );
+    s.solver.max_substeps_per_frame = 400;
+    s
+}
+
+#[test]
+fn closed_gripper_lifts_the_tissue_and_carries_its_weight() {
+    let scene = grasp_scene();
+    let mut world = World::new(&scene);
+    let z0 = world.particles().centre_of_mass().z;
+    let weight = world
+        .particles()
+        .mass
+        .iter()
+        .map(|&m| m as f64)
+        .sum::<f64>()
+        * 9.81;
+    let mut lift_forces = Vec::new();
+    while world.time < 1.15 {
+        let r = world.step_frame().unwrap();
+        if world.time > 1.05 {
+            lift_forces.push(r.wrenches[0].force.z);
+        }
+    }
+    let rise = world.particles().centre_of_mass().z - z0;
+    assert!(
+        rise > 0.8 * 0.010,
+        "tissue rose {rise} m of the tool's 0.010 m"
+    );
+    // Held still in the air, the gripper carries the tissue's weight (force on the tool
+    // points down).
+    let f = lift_forces.iter().sum::<f64>() / lift_forces.len() as f64;
+    assert!(
+        (f + weight).abs() < 0.2 * weight,
+        "tool force {f} N, tissue weight {weight} N"
+    );
+
+    // With open jaws the same motion leaves the tissue on the table.
+    let mut open = grasp_scene();
+    for k in &mut open.tools[0].keyframes {
+        k.jaw_deg = 70.0;
+    }
+    let mut world = World::new(&open);
+    while world.time < 1.15 {
+        world.step_frame().unwrap();
+    }
+    let rise = world.particles().centre_of_mass().z - z0;
+    assert!(
+        rise.abs() < 0.001,
+        "open jaws lifted the tissue by {rise} m"
+    );
+}
+
+/// A half-circle needle already through the tissue, then either turned about its own axis
+/// (motion along its curve) or translated sideways by the same distance.
+fn needle_scene(sideways: bool) -> Scene {
+    let travel: f64 = 0.003;
+    let r: f64 = 0.008;
+    let (end_pos, end_pitch) = if sideways {
+        ([0.0, travel, 0.013], 0.0)
+    } else {
+        ([0.0, 0.0, 0.013], (travel / r).to_degrees())
+    };
+    scene(
+        "needle",
+        60.0,
+        domain(
+            [-0.024, -0.016, 0.0],
+            [0.048, 0.032, 0.032],
+            0.001,
+            [0.0; 3],
+        ),
+        Some(bonded_table(0.002)),
+        vec![tissue(
+            [0.0, 0.0, 0.0065],
+            [0.03, 0.016, 0.009],
+            material(10_000.0, 0.4, 1000.0, 5.0),
+        )],
+        vec![tool(
+            "needle",
+            Shape::Needle {
+                radius: r as f32,
+                arc_angle: std::f32::consts::PI,
+                wire_radius: 0.0004,
+            },
+            ContactModel::Coulomb {
+                friction: 0.0,
+                drag: 0.0,
+            },
+            vec![
+                key(0.0, [0.0, 0.0, 0.013], [-90.0, 0.0, 0.0], 0.0),
+                key(0.1, [0.0, 0.0, 0.013], [-90.0, 0.0, 0.0], 0.0),
+                key(0.4, end_pos, [-90.0, end_pitch, 0.0], 0.0),
+            ],
+        )],
+    )
+}
+
+/// Mean displacement of particles within 2 mm of the needle's arc, after the move.
+fn displacement_near_needle(sideways: bool) -> f64 {
+    let mut world = World::new(&needle_scene(sideways));
+    let x0 = world.particles().x.clone();
+    while world.time < 0.45 {
+        world.step_frame().unwrap();
+    }
+    // The arc (radius 8 mm about (0, 0, 13 mm), in the xz plane, lower half).
+    let centre = Vec3::new(0.0, 0.0, 0.013);
+    let near: Vec<f64> = x0
+        .iter()
+        .zip(&world.particles().x)
+        .filter(|(p, _)| {
+            let d = *p - centre;
+            let radial = (d.x * d.x + d.z * d.z).sqrt() - 0.008;
+            d.z < 0.0 && (radial * radial + d.y * d.y).sqrt() < 0.002
+        })
+        .map(|(a, b)| (b - a).norm() as f64)
+        .collect();
+    assert!(
+        near.len() > 100,
+        "particles near the needle: {}",
+        near.len()
+    );
+    near.iter().sum::<f64>() / near.len() as f64
+}
+
+#[test]
+fn needle_slides_along_its_curve_but_drags_tissue_sideways() {
+    let along = displacement_near_needle(false);
+    let sideways = displacement_near_needle(true);
+    println!(
+        "mean displacement near the needle: along its curve {along:e} m, sideways {sideways:e} m"
+    );
+    assert!(
+        sideways > 0.0015,
+        "sideways move of 3 mm dragged tissue only {sideways} m"
+    );
+    assert!(
+        along < 0.15 * sideways,
+        "moving along the curve displaced {along} m vs {sideways} m sideways"
+    );
+}
+
+#[test]
+fn guard_stops_on_non_finite_state_and_restores_the_last_good_frame() {
+    let mut world = World::new(&free_block_scene());
+    world.step_frame().unwrap();
+    let good = world.particles().x.clone();
+    let t_good = world.time;
+    world.solver.particles.f[17] = dvrk_tissue_sim::mpm::Mat3::from_element(f32::NAN);
+    match world.step_frame() {
+        Err(StepError::Guard { event, .. }) => {
+            assert!(event.to_string().contains("non-finite"), "{event}")
+        }
+        other => panic!("expected a guard stop, got {other:?}"),
+    }
+    assert_eq!(world.time, t_good);
+    assert_eq!(
+        world.particles().x,
+        good,
+        "state restored to the last good frame"
+    );
+    assert!(world
+        .particles()
+        .x
+        .iter()
+        .all(|x| x.iter().all(|c| c.is_finite())));
+}
+
+#[test]
+fn guard_resets_tissue_on_runaway_speed_when_asked() {
+    let mut scene = free_block_scene();
+    scene.solver.guard_policy = GuardPolicy::ResetTissue;
+    scene.solver.max_speed = 1.0;
+    let mut world = World::new(&scene);
+    let rest = world.particles().x.clone();
+    world.solver.particles.v[5] = Vec3::new(50.0, 0.0, 0.0);
+    let report = world.step_frame().unwrap();
+    let event = report.tissue_reset.expect("guard event reported");
+    assert!(event.to_string().contains("runaway"), "{event}");
+    assert_eq!(world.particles().x, rest);
+    assert!(world.particles().v.iter().all(|v| v.norm() == 0.0));
+}
+
+#[test]
+fn too_large_fixed_dt_is_subdivided_never_run_as_given() {
+    let mut scene = free_block_scene();
+    scene.solver.dt = Some(0.01);
+    let mut world = World::new(&scene);
+    let report = world.step_frame().unwrap();
+    let m = &scene.tissues[0].material;
+    let stable = timestep::stable_dt(
+        scene.solver.cfl,
+        scene.domain.dx,
+        Lame::from_young_poisson(m.youngs_modulus, m.poisson_ratio).p_wave_speed(m.density),
+        0.0,
+    );
+    assert!(
+        report.dt_max <= stable * (1.0 + 1e-9),
+        "ran dt {} above the bound {stable}",
+        report.dt_max
+    );
+    assert!(report.substeps > 1);
+    // A fixed dt below the bound is used, rounded down to divide the frame evenly.
+    let fixed = stable / 3.0;
+    scene.solver.dt = Some(fixed);
+    let report = World::new(&scene).step_frame().unwrap();
+    assert!(
+        report.dt_max <= fixed && report.dt_min > 0.95 * fixed,
+        "{report:?}"
+    );
+}
