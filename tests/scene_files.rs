@@ -165,3 +165,9 @@ fn missing_file_is_an_io_error_naming_the_path() {
     assert!(matches!(err, SceneError::Io { .. }));
     assert!(err.to_string().contains("/nonexistent/scene.toml"));
 }
+
+#[test]
+fn tool_thinner_than_two_cells_is_rejected() {
+    let p = problems_with("radius = 0.005", "radius = 0.0015");
+    assert_single(&p, "tool[0] (probe).shape", "at least 2 grid cells thick");
+}

@@ -62,7 +62,7 @@ fn grasp_scene() -> Scene {
     let gripper = Shape::Gripper {
         jaw_length: 0.01,
         jaw_width: 0.006,
-        jaw_thickness: 0.0015,
+        jaw_thickness: 0.002,
     };
     let rpy = [180.0, 0.0, 90.0];
     let mut s = scene(

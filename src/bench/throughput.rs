@@ -17,7 +17,7 @@ pub fn seed000_scene() -> Scene {
     let gripper = Shape::Gripper {
         jaw_length: 0.01,
         jaw_width: 0.005,
-        jaw_thickness: 0.002,
+        jaw_thickness: 0.0032,
     };
     let x = 0.5 * size[0] - 0.004;
     let rpy = [180.0, 0.0, 90.0];

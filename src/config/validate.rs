@@ -268,6 +268,20 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
                 );
             }
         }
+        // Grid contact acts on nodes inside a solid; one thinner than two cells leaves too
+        // few of a particle's 27 stencil nodes constrained, and tissue flows through it.
+        if let (Some(thickness), true) = (tool.shape.solid_thickness(), d.dx > 0.0) {
+            c.require(
+                thickness as f64 >= 2.0 * d.dx * (1.0 - 1e-6),
+                key("shape"),
+                tool.shape,
+                format!(
+                    "solid parts at least 2 grid cells thick (2·dx = {} m, thinnest here {thickness} m): \
+                     the grid is too coarse for this tool and tissue would flow through it",
+                    2.0 * d.dx
+                ),
+            );
+        }
         if let ContactModel::Coulomb { friction, drag } = tool.contact {
             c.require(
                 friction.is_finite() && friction >= 0.0,

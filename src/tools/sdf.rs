@@ -214,9 +214,21 @@ impl Shape {
         }
     }
 
-    /// Whether contact keeps only the velocity along the curve (seed 002 eq. 19).
-    pub fn is_curve(&self) -> bool {
-        matches!(self, Shape::Needle { .. })
+    /// Thinnest dimension of a solid shape (m); `None` for curve shapes, which contact
+    /// fattens instead.
+    pub fn solid_thickness(&self) -> Option<f32> {
+        match *self {
+            Shape::Sphere { radius } | Shape::Capsule { radius, .. } => Some(2.0 * radius),
+            Shape::Box { half_extents } => {
+                Some(2.0 * half_extents.iter().fold(f32::INFINITY, |a, &b| a.min(b)))
+            }
+            Shape::Gripper {
+                jaw_thickness,
+                jaw_width,
+                ..
+            } => Some(jaw_thickness.min(jaw_width)),
+            Shape::Needle { .. } => None,
+        }
     }
 }
 
