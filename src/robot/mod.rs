@@ -1,0 +1,13 @@
+//! Robot models: URDF loading, serial kinematic chains (FK, Jacobian, IK), the dVRK PSM with its
+//! tool and jaw, joint-command validation and `move_jp` trajectories, and the MTM→PSM
+//! teleoperation mapping.
+//!
+//! Everything here is plain math on `f64` (SI units, nalgebra types): no ROS types and no clocks,
+//! so the ROS layer and the simulation loop can both drive it and tests can check it exactly.
+
+pub mod chain;
+pub mod dh;
+pub mod urdf;
+
+pub use chain::{ActuatedJoint, Chain, ChainError, JointKind};
+pub use urdf::UrdfError;
