@@ -7,7 +7,15 @@
 
 pub mod chain;
 pub mod dh;
+pub mod ik;
+pub mod joints;
+pub mod psm;
+pub mod trajectory;
 pub mod urdf;
 
 pub use chain::{ActuatedJoint, Chain, ChainError, JointKind};
+pub use ik::{IkError, IkOptions, IkSolution};
+pub use joints::{JointCommandError, JointGroup};
+pub use psm::{CartesianSolution, LinkFrame, Psm, PsmError, RcmPolicy, SafeTarget};
+pub use trajectory::{Trajectory, TrajectoryError};
 pub use urdf::UrdfError;
