@@ -10,6 +10,7 @@ pub mod dh;
 pub mod ik;
 pub mod joints;
 pub mod psm;
+pub mod teleop;
 pub mod trajectory;
 pub mod urdf;
 
@@ -17,5 +18,6 @@ pub use chain::{ActuatedJoint, Chain, ChainError, JointKind};
 pub use ik::{IkError, IkOptions, IkSolution};
 pub use joints::{JointCommandError, JointGroup};
 pub use psm::{CartesianSolution, LinkFrame, Psm, PsmError, RcmPolicy, SafeTarget};
+pub use teleop::{Teleop, TeleopConfig, TeleopError, TeleopState, TeleopTarget};
 pub use trajectory::{Trajectory, TrajectoryError};
 pub use urdf::UrdfError;
