@@ -2,10 +2,12 @@
 //!
 //! Module map (see DESIGN.md): `config` (scene files), `tools` (rigid tool SDFs and
 //! contact), `mpm` (particles, grid, materials, solvers), `world` (one scene's simulation),
-//! `bench` (scenes with analytic answers, throughput).
+//! `robot` (PSM URDF, kinematics, teleoperation mapping), `bench` (scenes with analytic
+//! answers, throughput).
 
 pub mod bench;
 pub mod config;
 pub mod mpm;
+pub mod robot;
 pub mod tools;
 pub mod world;

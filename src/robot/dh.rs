@@ -1,0 +1,130 @@
+//! Modified Denavit–Hartenberg forward kinematics of the classic PSM, straight from the table in
+//! dVRK's configuration (shared/reference/dvrk.md).
+//!
+//! The simulation itself uses the URDF ([`crate::robot::Chain`]); this module is the independent
+//! reference the tests hold the URDF to, so it is deliberately written from the table with
+//! matrices of elementary transforms and shares no code with the URDF path.
+
+use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
+
+use crate::robot::chain::JointKind;
+
+/// One row of a modified-DH (Craig) table: the transform from frame i−1 to frame i is
+/// `RotX(alpha) · TransX(a) · RotZ(theta) · TransZ(d)`, where the joint value plus `offset`
+/// replaces `theta` for a revolute joint and `d` for a prismatic one.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DhRow {
+    pub kind: JointKind,
+    pub alpha: f64,
+    pub a: f64,
+    pub theta: f64,
+    pub d: f64,
+    pub offset: f64,
+}
+
+impl DhRow {
+    /// The transform from frame i−1 to frame i at joint value `q`.
+    pub fn transform(&self, q: f64) -> Isometry3<f64> {
+        let (theta, d) = match self.kind {
+            JointKind::Revolute => (q + self.offset, self.d),
+            JointKind::Prismatic => (self.theta, q + self.offset),
+        };
+        let rot_x = Isometry3::from_parts(
+            Translation3::identity(),
+            UnitQuaternion::from_axis_angle(&Vector3::x_axis(), self.alpha),
+        );
+        let rot_z = Isometry3::from_parts(
+            Translation3::identity(),
+            UnitQuaternion::from_axis_angle(&Vector3::z_axis(), theta),
+        );
+        rot_x
+            * Isometry3::translation(self.a, 0.0, 0.0)
+            * rot_z
+            * Isometry3::translation(0.0, 0.0, d)
+    }
+}
+
+const FRAC_PI_2: f64 = std::f64::consts::FRAC_PI_2;
+
+const fn revolute(alpha: f64, a: f64, d: f64, offset: f64) -> DhRow {
+    DhRow {
+        kind: JointKind::Revolute,
+        alpha,
+        a,
+        theta: 0.0,
+        d,
+        offset,
+    }
+}
+
+/// Classic PSM with the Large Needle Driver 400006: yaw, pitch, insertion, roll, wrist_pitch,
+/// wrist_yaw (dvrk.md, "PSM kinematics").
+pub const PSM_LARGE_NEEDLE_DRIVER: [DhRow; 6] = [
+    revolute(FRAC_PI_2, 0.0, 0.0, FRAC_PI_2),
+    revolute(-FRAC_PI_2, 0.0, 0.0, -FRAC_PI_2),
+    DhRow {
+        kind: JointKind::Prismatic,
+        alpha: FRAC_PI_2,
+        a: 0.0,
+        theta: 0.0,
+        d: 0.0,
+        offset: -0.4318,
+    },
+    revolute(0.0, 0.0, 0.4162, 0.0),
+    revolute(-FRAC_PI_2, 0.0, 0.0, -FRAC_PI_2),
+    revolute(-FRAC_PI_2, 0.0091, 0.0, -FRAC_PI_2),
+];
+
+/// dVRK's tool offset: the pure rotation from DH frame 6 to the reported tool frame.
+pub fn psm_tool_offset() -> Isometry3<f64> {
+    let rotation = Rotation3::from_matrix_unchecked(Matrix3::new(
+        0.0, -1.0, 0.0, //
+        0.0, 0.0, 1.0, //
+        -1.0, 0.0, 0.0,
+    ));
+    Isometry3::from_parts(
+        Translation3::identity(),
+        UnitQuaternion::from_rotation_matrix(&rotation),
+    )
+}
+
+/// Frames 1..N in frame 0, for joint values `q`.
+pub fn forward<const N: usize>(rows: &[DhRow; N], q: &[f64; N]) -> [Isometry3<f64>; N] {
+    let mut pose = Isometry3::identity();
+    std::array::from_fn(|i| {
+        pose *= rows[i].transform(q[i]);
+        pose
+    })
+}
+
+/// The PSM tool frame (what `measured_cp` reports) in the RCM frame.
+pub fn psm_tool_pose(q: &[f64; 6]) -> Isometry3<f64> {
+    forward(&PSM_LARGE_NEEDLE_DRIVER, q)[5] * psm_tool_offset()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn home_pose_points_the_shaft_down_from_the_rcm() {
+        // At q = 0 except insertion, the jaw pivot sits on the shaft axis, insertion − 0.4318 +
+        // 0.4162 + 0.0091 m beyond the RCM, with the tool z axis along the shaft.
+        let insertion = 0.1;
+        let tool = psm_tool_pose(&[0.0, 0.0, insertion, 0.0, 0.0, 0.0]);
+        let depth = insertion - 0.4318 + 0.4162 + 0.0091;
+        assert!((tool.translation.vector - Vector3::new(0.0, 0.0, -depth)).norm() < 1e-12);
+        let z = tool.rotation * Vector3::z();
+        assert!((z - Vector3::new(0.0, 0.0, -1.0)).norm() < 1e-12);
+    }
+
+    #[test]
+    fn yaw_and_pitch_keep_the_shaft_through_the_rcm() {
+        let frames = forward(&PSM_LARGE_NEEDLE_DRIVER, &[0.7, -0.4, 0.15, 1.0, 0.3, -0.2]);
+        // Frame 3 (instrument back end) and frame 4 (wrist) are both on the line through the RCM.
+        let back = frames[2].translation.vector;
+        let wrist = frames[3].translation.vector;
+        assert!(back.cross(&wrist).norm() < 1e-12);
+        assert!((wrist.norm() - (0.15 - 0.4318 + 0.4162)).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,542 @@
+//! The dVRK Patient Side Manipulator: its kinematic chain from the URDF, joint and jaw limits,
+//! the RCM safety distance for Cartesian commands, IK, and `move_jp` planning.
+
+use std::path::Path;
+
+use nalgebra::{Isometry3, Matrix6xX, Translation3, Vector3};
+
+use crate::robot::chain::{Chain, ChainError, JointKind};
+use crate::robot::ik::{self, IkError, IkOptions, IkSolution};
+use crate::robot::joints::{JointCommandError, JointGroup};
+use crate::robot::trajectory::{Trajectory, TrajectoryError};
+use crate::robot::urdf::{self, UrdfError, CLASSIC_PSM_URDF, URDF_ARM_PREFIX};
+
+/// The arm joints, in dVRK's `JointState` order.
+pub const PSM_JOINT_NAMES: [&str; 6] = [
+    "yaw",
+    "pitch",
+    "insertion",
+    "roll",
+    "wrist_pitch",
+    "wrist_yaw",
+];
+
+/// The instrument's jaw opening joint.
+pub const JAW_JOINT_NAME: &str = "jaw";
+
+/// dVRK's Cartesian IK keeps the tool at least this far from the remote centre of motion (m):
+/// closer in, yaw and pitch barely move the tool and the instrument would leave the cannula.
+pub const RCM_MIN_DISTANCE: f64 = 0.045;
+
+#[derive(Debug, thiserror::Error)]
+pub enum PsmError {
+    #[error(transparent)]
+    Urdf(#[from] UrdfError),
+    #[error(transparent)]
+    Chain(#[from] ChainError),
+    #[error("the URDF does not describe a PSM: {0}")]
+    NotAPsm(String),
+    #[error(
+        "Cartesian target is {distance:.4} m from the RCM, closer than the {min:.3} m safety \
+         distance"
+    )]
+    TooCloseToRcm { distance: f64, min: f64 },
+    #[error("Cartesian target pose is not finite")]
+    NonFinitePose,
+    #[error(transparent)]
+    Joint(#[from] JointCommandError),
+    #[error(transparent)]
+    Ik(#[from] IkError),
+    #[error(transparent)]
+    Trajectory(#[from] TrajectoryError),
+}
+
+/// What to do with a Cartesian target closer to the RCM than [`RCM_MIN_DISTANCE`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RcmPolicy {
+    /// Refuse it with [`PsmError::TooCloseToRcm`].
+    Reject,
+    /// Move its position radially out to the safety distance (orientation unchanged).
+    Clamp,
+}
+
+/// A Cartesian target that respects the RCM safety distance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SafeTarget {
+    pub pose: Isometry3<f64>,
+    /// The requested distance from the RCM (m), when the position had to be moved out.
+    pub clamped_from: Option<f64>,
+}
+
+/// Joint values for a Cartesian command, with the target actually used.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CartesianSolution {
+    pub target: SafeTarget,
+    pub ik: IkSolution,
+}
+
+/// A link's pose in the arm's base (RCM) frame, for /tf.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LinkFrame {
+    pub link: String,
+    pub pose: Isometry3<f64>,
+}
+
+/// One PSM: frames are named after the arm (`PSM1_base`, `PSM1`, `PSM1_tool_tip`, ...).
+#[derive(Debug, Clone)]
+pub struct Psm {
+    name: String,
+    base_frame: String,
+    /// From `<name>_base` (the RCM) to the tool frame `<name>` (what `measured_cp` reports).
+    arm: Chain,
+    /// From the tool frame to every link below it (tool tip, jaws); their only variable is `jaw`.
+    attachments: Vec<Chain>,
+    joints: JointGroup,
+    jaw: JointGroup,
+    ik_options: IkOptions,
+}
+
+impl Psm {
+    /// The classic PSM with the Large Needle Driver (`urdf/psm.urdf`, built in).
+    pub fn classic(name: &str) -> Result<Psm, PsmError> {
+        Psm::from_urdf(urdf::parse_urdf(CLASSIC_PSM_URDF)?, name)
+    }
+
+    /// Loads a PSM URDF file written for `PSM1` (see [`crate::robot::urdf`]) as arm `name`.
+    pub fn from_urdf_file(path: &Path, name: &str) -> Result<Psm, PsmError> {
+        Psm::from_urdf(urdf::load_urdf_file(path)?, name)
+    }
+
+    /// Builds a PSM from a parsed URDF written for `PSM1`, renaming its links for arm `name`.
+    ///
+    /// The URDF must have a chain `<name>_base` → `<name>` through exactly the six PSM joints, and
+    /// below `<name>` only links moved by the `jaw` joint (directly or as mimics) or fixed.
+    pub fn from_urdf(mut robot: urdf_rs::Robot, name: &str) -> Result<Psm, PsmError> {
+        urdf::rename_arm_prefix(&mut robot, URDF_ARM_PREFIX, name)?;
+        let base_frame = format!("{name}_base");
+        let arm = Chain::from_urdf(&robot, &base_frame, name)?;
+        let arm_names: Vec<&str> = arm.joints().iter().map(|j| j.name.as_str()).collect();
+        if arm_names != PSM_JOINT_NAMES {
+            return Err(PsmError::NotAPsm(format!(
+                "the joints from {base_frame} to {name} are {arm_names:?}, expected {PSM_JOINT_NAMES:?}"
+            )));
+        }
+        if arm.joints()[2].kind != JointKind::Prismatic {
+            return Err(PsmError::NotAPsm("`insertion` must be prismatic".into()));
+        }
+
+        let mut attachments = Vec::new();
+        for link in &robot.links {
+            if link.name == name {
+                continue;
+            }
+            match Chain::from_urdf(&robot, name, &link.name) {
+                Ok(chain) => attachments.push(chain),
+                Err(ChainError::NoPath { .. }) => {}
+                Err(other) => return Err(other.into()),
+            }
+        }
+        let mut jaw = None;
+        for chain in &attachments {
+            for joint in chain.joints() {
+                if joint.name != JAW_JOINT_NAME {
+                    return Err(PsmError::NotAPsm(format!(
+                        "joint `{}` moves link `{}` below the tool frame; only `{JAW_JOINT_NAME}` \
+                         (and its mimics) may",
+                        joint.name,
+                        chain.tip_link()
+                    )));
+                }
+                jaw = Some(joint.clone());
+            }
+        }
+        let jaw = jaw.ok_or_else(|| {
+            PsmError::NotAPsm(format!(
+                "no `{JAW_JOINT_NAME}` joint below the tool frame {name}"
+            ))
+        })?;
+
+        let arm_joints = arm.joints().to_vec();
+        for joint in arm_joints.iter().chain([&jaw]) {
+            let usable = joint.lower.is_finite()
+                && joint.upper.is_finite()
+                && joint.max_velocity.is_finite()
+                && joint.max_velocity > 0.0;
+            if !usable {
+                return Err(PsmError::NotAPsm(format!(
+                    "joint `{}` needs finite position limits and a positive velocity limit \
+                     (move_jp speed), got [{}, {}] and {}",
+                    joint.name, joint.lower, joint.upper, joint.max_velocity
+                )));
+            }
+        }
+        Ok(Psm {
+            name: name.to_owned(),
+            base_frame,
+            arm,
+            attachments,
+            joints: JointGroup::new(arm_joints),
+            jaw: JointGroup::new(vec![jaw]),
+            ik_options: IkOptions::default(),
+        })
+    }
+
+    /// The arm name (`PSM1`), which is also the tool frame's name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The RCM frame, `<name>_base`: the frame of `measured_cp`.
+    pub fn base_frame(&self) -> &str {
+        &self.base_frame
+    }
+
+    /// The six arm joints: names, limits, `move_jp` speed limits, servo jump bounds.
+    pub fn joints(&self) -> &JointGroup {
+        &self.joints
+    }
+
+    pub fn joints_mut(&mut self) -> &mut JointGroup {
+        &mut self.joints
+    }
+
+    /// The jaw joint.
+    pub fn jaw(&self) -> &JointGroup {
+        &self.jaw
+    }
+
+    pub fn jaw_mut(&mut self) -> &mut JointGroup {
+        &mut self.jaw
+    }
+
+    /// The chain from the RCM to the tool frame.
+    pub fn chain(&self) -> &Chain {
+        &self.arm
+    }
+
+    pub fn ik_options(&self) -> &IkOptions {
+        &self.ik_options
+    }
+
+    pub fn set_ik_options(&mut self, options: IkOptions) {
+        self.ik_options = options;
+    }
+
+    /// The tool frame (`measured_cp`) in the RCM frame.
+    pub fn forward(&self, q: &[f64]) -> Result<Isometry3<f64>, PsmError> {
+        Ok(self.arm.tip_pose(q)?)
+    }
+
+    /// The tool frame's geometric Jacobian in the RCM frame (see [`Chain::jacobian`]).
+    pub fn jacobian(&self, q: &[f64]) -> Result<Matrix6xX<f64>, PsmError> {
+        Ok(self.arm.jacobian(q)?)
+    }
+
+    /// Every link's pose in the RCM frame (base first, then the arm, the tool frame, the tool tip
+    /// and the jaws), for /tf.
+    pub fn link_frames(&self, q: &[f64], jaw: f64) -> Result<Vec<LinkFrame>, PsmError> {
+        let poses = self.arm.link_poses(q)?;
+        let tool = *poses.last().unwrap_or(&Isometry3::identity());
+        let mut frames: Vec<LinkFrame> = self
+            .arm
+            .link_names()
+            .into_iter()
+            .zip(poses)
+            .map(|(link, pose)| LinkFrame {
+                link: link.to_owned(),
+                pose,
+            })
+            .collect();
+        for chain in &self.attachments {
+            let jaw_q = [jaw];
+            let q = &jaw_q[..chain.dof()];
+            frames.push(LinkFrame {
+                link: chain.tip_link().to_owned(),
+                pose: tool * chain.tip_pose(q)?,
+            });
+        }
+        Ok(frames)
+    }
+
+    /// Applies the RCM safety distance to a Cartesian target (in the RCM frame).
+    pub fn enforce_rcm_distance(
+        &self,
+        target: &Isometry3<f64>,
+        policy: RcmPolicy,
+    ) -> Result<SafeTarget, PsmError> {
+        let finite = target.translation.vector.iter().all(|v| v.is_finite())
+            && target.rotation.coords.iter().all(|v| v.is_finite());
+        if !finite {
+            return Err(PsmError::NonFinitePose);
+        }
+        let position = target.translation.vector;
+        let distance = position.norm();
+        if distance >= RCM_MIN_DISTANCE {
+            return Ok(SafeTarget {
+                pose: *target,
+                clamped_from: None,
+            });
+        }
+        match policy {
+            RcmPolicy::Reject => Err(PsmError::TooCloseToRcm {
+                distance,
+                min: RCM_MIN_DISTANCE,
+            }),
+            RcmPolicy::Clamp => {
+                // At the RCM itself there is no radial direction: go out along the tool's own
+                // axis, which points away from the RCM for any pose the arm can take.
+                let direction = if distance > 1e-9 {
+                    position / distance
+                } else {
+                    target.rotation * Vector3::z()
+                };
+                Ok(SafeTarget {
+                    pose: Isometry3::from_parts(
+                        Translation3::from(direction * RCM_MIN_DISTANCE),
+                        target.rotation,
+                    ),
+                    clamped_from: Some(distance),
+                })
+            }
+        }
+    }
+
+    /// Joint values for a Cartesian target of the tool frame (servo_cp / move_cp): RCM safety
+    /// first, then IK warm-started from `current`.
+    pub fn solve_cartesian(
+        &self,
+        target: &Isometry3<f64>,
+        current: &[f64],
+        policy: RcmPolicy,
+    ) -> Result<CartesianSolution, PsmError> {
+        let target = self.enforce_rcm_distance(target, policy)?;
+        let ik = ik::solve(&self.arm, &target.pose, current, &self.ik_options)?;
+        Ok(CartesianSolution { target, ik })
+    }
+
+    /// A `move_jp` from `start` to `goal` (canonical order) under the arm's speed limits; `goal`
+    /// must be inside the joint limits.
+    pub fn plan_move_jp(&self, start: &[f64], goal: &[f64]) -> Result<Trajectory, PsmError> {
+        let goal = self.joints.validate::<&str>(&[], goal, None)?;
+        Ok(Trajectory::new(
+            start,
+            &goal,
+            &self.joints.max_velocities(),
+        )?)
+    }
+
+    /// A `jaw/move_jp` from `start` to `goal` under the jaw's speed limit.
+    pub fn plan_move_jaw(&self, start: f64, goal: f64) -> Result<Trajectory, PsmError> {
+        let goal = self.jaw.validate::<&str>(&[], &[goal], None)?;
+        Ok(Trajectory::new(
+            &[start],
+            &goal,
+            &self.jaw.max_velocities(),
+        )?)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::PI;
+
+    fn psm() -> Psm {
+        Psm::classic("PSM2").unwrap()
+    }
+
+    #[test]
+    fn classic_psm_has_dvrk_names_and_limits() {
+        let psm = psm();
+        assert_eq!(psm.joints().names(), PSM_JOINT_NAMES);
+        assert_eq!(psm.jaw().names(), [JAW_JOINT_NAME]);
+        assert_eq!(psm.base_frame(), "PSM2_base");
+        assert_eq!(psm.chain().tip_link(), "PSM2");
+        let limits: Vec<(f64, f64)> = psm
+            .joints()
+            .joints()
+            .iter()
+            .map(|j| (j.lower, j.upper))
+            .collect();
+        assert_eq!(
+            limits,
+            [
+                (-1.588, 1.588),
+                (-0.925, 0.925),
+                (0.0, 0.24),
+                (-4.538, 4.538),
+                (-1.396, 1.396),
+                (-1.396, 1.396)
+            ]
+        );
+        let jaw = &psm.jaw().joints()[0];
+        assert_eq!((jaw.lower, jaw.upper), (-0.698, 1.396));
+        // dVRK's move_jp speeds: 90°/s, 0.2 m/s, 1080°/s; jaw 720°/s.
+        let deg = PI / 180.0;
+        let expected = [
+            90.0 * deg,
+            90.0 * deg,
+            0.2,
+            1080.0 * deg,
+            1080.0 * deg,
+            1080.0 * deg,
+        ];
+        for (got, want) in psm.joints().max_velocities().iter().zip(expected) {
+            assert!((got - want).abs() < 1e-12, "{got} vs {want}");
+        }
+        assert!((psm.jaw().max_velocities()[0] - 720.0 * deg).abs() < 1e-12);
+    }
+
+    #[test]
+    fn link_frames_cover_every_link_with_the_arm_prefix() {
+        let psm = psm();
+        let q = [0.2, -0.3, 0.12, 0.5, 0.1, -0.2];
+        let frames = psm.link_frames(&q, 0.6).unwrap();
+        let names: Vec<&str> = frames.iter().map(|f| f.link.as_str()).collect();
+        let robot = urdf::parse_urdf(CLASSIC_PSM_URDF).unwrap();
+        assert_eq!(names.len(), robot.links.len());
+        for link in &robot.links {
+            let renamed = link.name.replacen("PSM1", "PSM2", 1);
+            assert!(names.contains(&renamed.as_str()), "{renamed} missing");
+        }
+        let find = |name: &str| frames.iter().find(|f| f.link == name).unwrap().pose;
+        let tool = psm.forward(&q).unwrap();
+        assert_eq!(find("PSM2"), tool);
+        // The tool tip is 10.2 mm along the tool z axis.
+        let tip = find("PSM2_tool_tip").translation.vector;
+        let expected = tool * nalgebra::Point3::new(0.0, 0.0, 0.0102);
+        assert!((tip - expected.coords).norm() < 1e-12);
+        // The jaws open symmetrically by half the jaw angle each.
+        let jaw_1 = find("PSM2_jaw_1").rotation;
+        let jaw_2 = find("PSM2_jaw_2").rotation;
+        assert!((jaw_1.angle_to(&tool.rotation) - 0.3).abs() < 1e-12);
+        assert!((jaw_2.angle_to(&tool.rotation) - 0.3).abs() < 1e-12);
+        assert!((jaw_1.angle_to(&jaw_2) - 0.6).abs() < 1e-12);
+        assert!(psm.link_frames(&q[..5], 0.0).is_err());
+    }
+
+    #[test]
+    fn rcm_distance_rejects_close_targets() {
+        let psm = psm();
+        for distance in [0.0, 0.01, 0.03, 0.0449] {
+            let pose = Isometry3::translation(0.0, 0.0, -distance);
+            match psm.enforce_rcm_distance(&pose, RcmPolicy::Reject) {
+                Err(PsmError::TooCloseToRcm { distance: d, min }) => {
+                    assert!((d - distance).abs() < 1e-15);
+                    assert_eq!(min, RCM_MIN_DISTANCE);
+                }
+                other => panic!("{distance}: {other:?}"),
+            }
+        }
+        let far = Isometry3::translation(0.03, 0.0, -0.04);
+        let safe = psm.enforce_rcm_distance(&far, RcmPolicy::Reject).unwrap();
+        assert_eq!((safe.pose, safe.clamped_from), (far, None));
+    }
+
+    #[test]
+    fn rcm_distance_clamps_radially() {
+        let psm = psm();
+        let pose = Isometry3::translation(0.0, 0.01, -0.02);
+        let safe = psm.enforce_rcm_distance(&pose, RcmPolicy::Clamp).unwrap();
+        let p = safe.pose.translation.vector;
+        assert!((p.norm() - RCM_MIN_DISTANCE).abs() < 1e-15);
+        assert!(
+            p.normalize()
+                .cross(&pose.translation.vector.normalize())
+                .norm()
+                < 1e-12
+        );
+        assert!((safe.clamped_from.unwrap() - 0.0005f64.sqrt()).abs() < 1e-15);
+        // At the RCM itself: out along the tool axis.
+        let at_rcm = psm
+            .enforce_rcm_distance(&Isometry3::identity(), RcmPolicy::Clamp)
+            .unwrap();
+        assert_eq!(
+            at_rcm.pose.translation.vector,
+            Vector3::new(0.0, 0.0, RCM_MIN_DISTANCE)
+        );
+    }
+
+    #[test]
+    fn cartesian_commands_too_close_to_the_rcm_are_refused_before_ik() {
+        let psm = psm();
+        let current = [0.0, 0.0, 0.12, 0.0, 0.0, 0.0];
+        let mut target = psm.forward(&[0.0, 0.0, 0.04, 0.0, 0.0, 0.0]).unwrap();
+        assert!(target.translation.vector.norm() < RCM_MIN_DISTANCE);
+        assert!(matches!(
+            psm.solve_cartesian(&target, &current, RcmPolicy::Reject),
+            Err(PsmError::TooCloseToRcm { .. })
+        ));
+        let clamped = psm
+            .solve_cartesian(&target, &current, RcmPolicy::Clamp)
+            .unwrap();
+        let reached = psm.forward(&clamped.ik.q).unwrap();
+        assert!((reached.translation.vector.norm() - RCM_MIN_DISTANCE).abs() < 1e-6);
+        target.translation.vector.x = f64::NAN;
+        assert!(matches!(
+            psm.solve_cartesian(&target, &current, RcmPolicy::Clamp),
+            Err(PsmError::NonFinitePose)
+        ));
+    }
+
+    #[test]
+    fn move_jp_goal_outside_limits_is_refused() {
+        let psm = psm();
+        let start = [0.0, 0.0, 0.1, 0.0, 0.0, 0.0];
+        assert!(matches!(
+            psm.plan_move_jp(&start, &[0.0, 0.0, 0.3, 0.0, 0.0, 0.0]),
+            Err(PsmError::Joint(JointCommandError::OutOfLimits { .. }))
+        ));
+        assert!(matches!(
+            psm.plan_move_jaw(0.0, 2.0),
+            Err(PsmError::Joint(JointCommandError::OutOfLimits { .. }))
+        ));
+    }
+
+    #[test]
+    fn move_jp_respects_each_joint_speed_limit() {
+        let psm = psm();
+        let start = [-1.0, 0.5, 0.02, -3.0, 1.0, -1.0];
+        let goal = [1.0, -0.5, 0.22, 3.0, -1.0, 1.0];
+        let traj = psm.plan_move_jp(&start, &goal).unwrap();
+        let limits = psm.joints().max_velocities();
+        // Yaw (2 rad at 90°/s) is the slowest: T = 15/8 · 2 / (π/2).
+        assert!((traj.duration() - 15.0 / 8.0 * 2.0 / (PI / 2.0)).abs() < 1e-12);
+        let dt = 1e-3;
+        let mut previous = traj.setpoint(0.0);
+        let mut t = 0.0;
+        while !traj.is_done(t) {
+            t += dt;
+            let q = traj.setpoint(t);
+            for i in 0..6 {
+                assert!((q[i] - previous[i]).abs() / dt <= limits[i] * (1.0 + 1e-9));
+            }
+            previous = q;
+        }
+        assert_eq!(previous, goal);
+        let jaw = psm.plan_move_jaw(0.0, 1.2).unwrap();
+        assert!((jaw.duration() - 15.0 / 8.0 * 1.2 / (4.0 * PI)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn urdf_without_the_psm_joints_is_not_a_psm() {
+        let renamed = CLASSIC_PSM_URDF.replace("name=\"roll\"", "name=\"spin\"");
+        assert!(matches!(
+            Psm::from_urdf(urdf::parse_urdf(&renamed).unwrap(), "PSM1"),
+            Err(PsmError::NotAPsm(_))
+        ));
+        let jaws_mimic_wrist = CLASSIC_PSM_URDF.replace("joint=\"jaw\"", "joint=\"wrist_yaw\"");
+        assert!(matches!(
+            Psm::from_urdf(urdf::parse_urdf(&jaws_mimic_wrist).unwrap(), "PSM1"),
+            Err(PsmError::NotAPsm(_))
+        ));
+        assert!(matches!(
+            Psm::classic("PSM 1"),
+            Err(PsmError::Urdf(UrdfError::InvalidArmName(_)))
+        ));
+        assert!(matches!(
+            Psm::from_urdf_file(Path::new("/nonexistent.urdf"), "PSM1"),
+            Err(PsmError::Urdf(UrdfError::Read { .. }))
+        ));
+    }
+}

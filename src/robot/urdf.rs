@@ -1,0 +1,161 @@
+//! Reading URDF files and giving a model's links the arm's name.
+//!
+//! Our URDFs are plain files for one arm (`PSM1`): links are prefixed (`PSM1_base`, `PSM1`,
+//! `PSM1_tool_tip`), joints are not (`yaw`, `jaw`), as in dVRK. Rather than a placeholder that
+//! would make the file unusable as-is in RViz or `check_urdf`, the loader renames the prefix for
+//! another arm ([`rename_arm_prefix`]).
+
+use std::path::{Path, PathBuf};
+
+/// The classic PSM with the Large Needle Driver, as shipped in `urdf/psm.urdf`.
+pub const CLASSIC_PSM_URDF: &str = include_str!("../../urdf/psm.urdf");
+
+/// The arm name our URDF files are written for; [`rename_arm_prefix`] replaces it.
+pub const URDF_ARM_PREFIX: &str = "PSM1";
+
+#[derive(Debug, thiserror::Error)]
+pub enum UrdfError {
+    #[error("cannot read URDF file {path}: {source}")]
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("malformed URDF{}: {source}", .path.as_ref().map(|p| format!(" {}", p.display())).unwrap_or_default())]
+    Parse {
+        path: Option<PathBuf>,
+        source: urdf_rs::UrdfError,
+    },
+    #[error(
+        "arm name `{0}` is not usable as a frame prefix: use letters, digits and `_`, \
+         starting with a letter (e.g. `PSM2`)"
+    )]
+    InvalidArmName(String),
+}
+
+/// Parses URDF text.
+pub fn parse_urdf(text: &str) -> Result<urdf_rs::Robot, UrdfError> {
+    urdf_rs::read_from_string(text).map_err(|source| UrdfError::Parse { path: None, source })
+}
+
+/// Reads and parses a URDF file (read and parse failures are told apart, with the path).
+pub fn load_urdf_file(path: &Path) -> Result<urdf_rs::Robot, UrdfError> {
+    let text = std::fs::read_to_string(path).map_err(|source| UrdfError::Read {
+        path: path.to_owned(),
+        source,
+    })?;
+    urdf_rs::read_from_string(&text).map_err(|source| UrdfError::Parse {
+        path: Some(path.to_owned()),
+        source,
+    })
+}
+
+/// Checks that `name` can prefix ROS frame names.
+pub fn check_arm_name(name: &str) -> Result<(), UrdfError> {
+    let mut chars = name.chars();
+    let starts_with_letter = chars.next().is_some_and(|c| c.is_ascii_alphabetic());
+    if starts_with_letter && chars.all(|c| c.is_ascii_alphanumeric() || c == '_') {
+        Ok(())
+    } else {
+        Err(UrdfError::InvalidArmName(name.to_owned()))
+    }
+}
+
+/// Renames every link `from` or `from_*` to `to` / `to_*`, in links and in the joints that name
+/// them. Links without the prefix and joint names are left alone.
+pub fn rename_arm_prefix(
+    robot: &mut urdf_rs::Robot,
+    from: &str,
+    to: &str,
+) -> Result<(), UrdfError> {
+    check_arm_name(to)?;
+    let rename = |name: &mut String| {
+        let renamed = if name == from {
+            Some(to.to_owned())
+        } else {
+            name.strip_prefix(from)
+                .and_then(|rest| rest.strip_prefix('_'))
+                .map(|rest| format!("{to}_{rest}"))
+        };
+        if let Some(renamed) = renamed {
+            *name = renamed;
+        }
+    };
+    for link in &mut robot.links {
+        rename(&mut link.name);
+    }
+    for joint in &mut robot.joints {
+        rename(&mut joint.parent.link);
+        rename(&mut joint.child.link);
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn classic_psm_parses_with_expected_links() {
+        let robot = parse_urdf(CLASSIC_PSM_URDF).unwrap();
+        let links: Vec<&str> = robot.links.iter().map(|l| l.name.as_str()).collect();
+        for expected in [
+            "PSM1_base",
+            "PSM1",
+            "PSM1_tool_tip",
+            "PSM1_jaw_1",
+            "PSM1_jaw_2",
+        ] {
+            assert!(
+                links.contains(&expected),
+                "{expected} missing from {links:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn rename_changes_prefixed_links_only() {
+        let mut robot = parse_urdf(CLASSIC_PSM_URDF).unwrap();
+        rename_arm_prefix(&mut robot, URDF_ARM_PREFIX, "PSM2").unwrap();
+        assert!(robot.links.iter().all(|l| l.name.starts_with("PSM2")));
+        assert!(robot.links.iter().any(|l| l.name == "PSM2"));
+        assert!(robot.links.iter().any(|l| l.name == "PSM2_base"));
+        let yaw = robot.joints.iter().find(|j| j.name == "yaw").unwrap();
+        assert_eq!(yaw.parent.link, "PSM2_base");
+        assert_eq!(yaw.child.link, "PSM2_yaw_link");
+    }
+
+    #[test]
+    fn rename_leaves_lookalike_names() {
+        let mut robot = parse_urdf(
+            r#"<robot name="r"><link name="PSM1"/><link name="PSM10_x"/><link name="PSM1_y"/></robot>"#,
+        )
+        .unwrap();
+        rename_arm_prefix(&mut robot, "PSM1", "PSM3").unwrap();
+        let names: Vec<&str> = robot.links.iter().map(|l| l.name.as_str()).collect();
+        assert_eq!(names, ["PSM3", "PSM10_x", "PSM3_y"]);
+    }
+
+    #[test]
+    fn bad_arm_names_are_rejected() {
+        for bad in ["", "2PSM", "PSM 1", "PSM/1"] {
+            assert!(
+                matches!(check_arm_name(bad), Err(UrdfError::InvalidArmName(_))),
+                "{bad:?}"
+            );
+        }
+        check_arm_name("PSM2").unwrap();
+    }
+
+    #[test]
+    fn malformed_and_missing_files_are_told_apart() {
+        assert!(matches!(
+            parse_urdf("<robot><link"),
+            Err(UrdfError::Parse { .. })
+        ));
+        let missing = Path::new("/nonexistent/psm.urdf");
+        assert!(matches!(
+            load_urdf_file(missing),
+            Err(UrdfError::Read { .. })
+        ));
+    }
+}

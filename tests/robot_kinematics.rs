@@ -1,0 +1,230 @@
+//! The PSM URDF against the dVRK modified-DH table, the Jacobian against finite differences, and
+//! IK∘FK round trips, at pseudo-random joint vectors inside the limits.
+
+use dvrk_tissue_sim::robot::dh;
+use dvrk_tissue_sim::robot::psm::RCM_MIN_DISTANCE;
+use dvrk_tissue_sim::robot::{IkError, Psm, RcmPolicy};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+
+/// SplitMix64: deterministic, so a failure reproduces.
+struct Rng(u64);
+
+impl Rng {
+    fn next_f64(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        (z >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    fn uniform(&mut self, lower: f64, upper: f64) -> f64 {
+        lower + (upper - lower) * self.next_f64()
+    }
+
+    /// A joint vector inside the PSM limits, shrunk by `margin` of each range at both ends.
+    fn joints(&mut self, psm: &Psm, margin: f64) -> [f64; 6] {
+        let joints = psm.joints().joints();
+        std::array::from_fn(|i| {
+            let (lower, upper) = (joints[i].lower, joints[i].upper);
+            let pad = margin * (upper - lower);
+            self.uniform(lower + pad, upper - pad)
+        })
+    }
+}
+
+fn assert_same_pose(a: &Isometry3<f64>, b: &Isometry3<f64>, tolerance: f64, context: &str) {
+    let dp = (a.translation.vector - b.translation.vector).norm();
+    let dr = a.rotation.angle_to(&b.rotation);
+    assert!(
+        dp <= tolerance && dr <= tolerance,
+        "{context}: {dp:e} m, {dr:e} rad apart"
+    );
+}
+
+#[test]
+fn urdf_chain_matches_modified_dh_at_random_joints() {
+    let psm = Psm::classic("PSM1").unwrap();
+    let mut rng = Rng(1);
+    for sample in 0..2000 {
+        let q = rng.joints(&psm, 0.0);
+        let dh_frames = dh::forward(&dh::PSM_LARGE_NEEDLE_DRIVER, &q);
+        // Link poses: base, the six DH frames, then the tool frame.
+        let poses = psm.chain().link_poses(&q).unwrap();
+        assert_eq!(poses.len(), 8);
+        for (i, dh_frame) in dh_frames.iter().enumerate() {
+            assert_same_pose(
+                &poses[i + 1],
+                dh_frame,
+                1e-9,
+                &format!("sample {sample} frame {}", i + 1),
+            );
+        }
+        let tool = psm.forward(&q).unwrap();
+        assert_same_pose(
+            &tool,
+            &dh::psm_tool_pose(&q),
+            1e-9,
+            &format!("sample {sample} tool"),
+        );
+        assert_eq!(poses[7], tool);
+    }
+}
+
+#[test]
+fn urdf_chain_matches_dh_at_the_joint_limits() {
+    let psm = Psm::classic("PSM1").unwrap();
+    let joints = psm.joints().joints().to_vec();
+    for corner in 0..64u32 {
+        let q: [f64; 6] = std::array::from_fn(|i| {
+            if corner & (1 << i) == 0 {
+                joints[i].lower
+            } else {
+                joints[i].upper
+            }
+        });
+        assert_same_pose(
+            &psm.forward(&q).unwrap(),
+            &dh::psm_tool_pose(&q),
+            1e-9,
+            &format!("corner {q:?}"),
+        );
+    }
+}
+
+#[test]
+fn jacobian_matches_finite_differences_of_forward_kinematics() {
+    let psm = Psm::classic("PSM1").unwrap();
+    let mut rng = Rng(2);
+    let h = 1e-6;
+    for sample in 0..200 {
+        let q = rng.joints(&psm, 0.01);
+        let jacobian = psm.jacobian(&q).unwrap();
+        let pose = psm.forward(&q).unwrap();
+        for j in 0..6 {
+            let mut plus = q;
+            let mut minus = q;
+            plus[j] += h;
+            minus[j] -= h;
+            let (p_plus, p_minus) = (psm.forward(&plus).unwrap(), psm.forward(&minus).unwrap());
+            let linear = (p_plus.translation.vector - p_minus.translation.vector) / (2.0 * h);
+            // Angular velocity: the rotation vector of R(q+h)·R(q−h)ᵀ over 2h, in the base frame.
+            let angular = (p_plus.rotation * p_minus.rotation.inverse()).scaled_axis() / (2.0 * h);
+            let column = jacobian.column(j);
+            let linear_error = (column.fixed_rows::<3>(0) - linear).norm();
+            let angular_error = (column.fixed_rows::<3>(3) - angular).norm();
+            assert!(
+                linear_error < 1e-8 && angular_error < 1e-8,
+                "sample {sample} joint {j}: {linear_error:e} m/unit, {angular_error:e} rad/unit \
+                 at {q:?} (tool at {:?})",
+                pose.translation.vector
+            );
+        }
+    }
+}
+
+#[test]
+fn ik_recovers_random_reachable_poses_from_a_nearby_start() {
+    let psm = Psm::classic("PSM1").unwrap();
+    let options = *psm.ik_options();
+    let mut rng = Rng(3);
+    let mut solved = 0;
+    for sample in 0..500 {
+        let q = rng.joints(&psm, 0.02);
+        let target = psm.forward(&q).unwrap();
+        if target.translation.vector.norm() < RCM_MIN_DISTANCE {
+            continue;
+        }
+        // Warm start as a servo loop would: the arm is near, not at, the answer.
+        let mut start: [f64; 6] = std::array::from_fn(|i| {
+            let reach = if i == 2 { 0.01 } else { 0.2 };
+            q[i] + rng.uniform(-reach, reach)
+        });
+        psm.joints().clamp(&mut start);
+        let solution = psm
+            .solve_cartesian(&target, &start, RcmPolicy::Reject)
+            .unwrap_or_else(|e| panic!("sample {sample}: {e} (q {q:?}, start {start:?})"));
+        assert!(solution.target.clamped_from.is_none());
+        let reached = psm.forward(&solution.ik.q).unwrap();
+        assert_same_pose(
+            &reached,
+            &target,
+            options.position_tolerance,
+            &format!("sample {sample}"),
+        );
+        assert!(solution.ik.position_error <= options.position_tolerance);
+        assert!(solution.ik.orientation_error <= options.orientation_tolerance);
+        psm.joints()
+            .validate::<&str>(&[], &solution.ik.q, None)
+            .unwrap();
+        solved += 1;
+    }
+    assert!(solved > 400, "only {solved} reachable samples");
+}
+
+#[test]
+fn ik_recovers_random_poses_from_the_home_pose() {
+    // Far starts: IK from dVRK simulators' start pose (insertion 0.12 m, everything else 0) to
+    // poses in the middle of the workspace.
+    let psm = Psm::classic("PSM1").unwrap();
+    let home = [0.0, 0.0, 0.12, 0.0, 0.0, 0.0];
+    let mut rng = Rng(4);
+    for sample in 0..200 {
+        let q = [
+            rng.uniform(-0.8, 0.8),
+            rng.uniform(-0.6, 0.6),
+            rng.uniform(0.06, 0.22),
+            rng.uniform(-1.5, 1.5),
+            rng.uniform(-0.8, 0.8),
+            rng.uniform(-0.8, 0.8),
+        ];
+        let target = psm.forward(&q).unwrap();
+        let solution = psm
+            .solve_cartesian(&target, &home, RcmPolicy::Reject)
+            .unwrap_or_else(|e| panic!("sample {sample}: {e} (q {q:?})"));
+        let reached = psm.forward(&solution.ik.q).unwrap();
+        assert_same_pose(&reached, &target, 1e-6, &format!("sample {sample}"));
+    }
+}
+
+#[test]
+fn ik_reports_unreachable_targets_with_the_best_effort() {
+    let psm = Psm::classic("PSM1").unwrap();
+    let home = [0.0, 0.0, 0.12, 0.0, 0.0, 0.0];
+    // 0.5 m from the RCM: past the 0.24 m insertion travel.
+    let far = Isometry3::from_parts(
+        Translation3::new(0.0, 0.0, -0.5),
+        psm.forward(&home).unwrap().rotation,
+    );
+    match psm.solve_cartesian(&far, &home, RcmPolicy::Reject) {
+        Err(dvrk_tissue_sim::robot::PsmError::Ik(IkError::NotConverged {
+            position_error,
+            best,
+            ..
+        })) => {
+            // The best effort is full insertion, straight down: 0.5 − (0.24 − 0.0065) m short.
+            assert!(
+                (position_error - (0.5 - 0.2335)).abs() < 1e-3,
+                "{position_error}"
+            );
+            assert!((best[2] - 0.24).abs() < 1e-9);
+        }
+        other => panic!("expected NotConverged, got {other:?}"),
+    }
+    let start_nan = [f64::NAN, 0.0, 0.12, 0.0, 0.0, 0.0];
+    assert!(matches!(
+        psm.solve_cartesian(&psm.forward(&home).unwrap(), &start_nan, RcmPolicy::Reject),
+        Err(dvrk_tissue_sim::robot::PsmError::Ik(
+            IkError::NonFiniteStart
+        ))
+    ));
+    let tilted = Isometry3::from_parts(
+        Translation3::from(Vector3::new(0.0, 0.0, -0.1)),
+        UnitQuaternion::identity(),
+    );
+    // Tool z along +z while the tool sits below the RCM: the wrist cannot turn that far back.
+    assert!(psm
+        .solve_cartesian(&tilted, &home, RcmPolicy::Reject)
+        .is_err());
+}
