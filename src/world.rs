@@ -47,6 +47,14 @@ pub struct FrameReport {
     pub tissue_reset: Option<GuardEvent>,
 }
 
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum CommandError {
+    #[error("no tool with index {0}")]
+    NoSuchTool(usize),
+    #[error("tool {0}: commanded pose is not finite; keeping the last valid one")]
+    NonFinitePose(String),
+}
+
 #[derive(Debug, thiserror::Error)]
 pub enum StepError {
     #[error(
@@ -55,17 +63,42 @@ pub enum StepError {
     Guard { time: f64, event: GuardEvent },
 }
 
+/// What moves a tool.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ToolDriver {
+    /// The scene's keyframes (headless runs).
+    Scripted(Trajectory),
+    /// Poses commanded from outside (an arm's kinematics): the tool moves from `from` at
+    /// `t0` to `to` at `t1` (one frame), linearly, so contact sees a smooth velocity.
+    Commanded {
+        from: ToolPose,
+        to: ToolPose,
+        t0: f64,
+        t1: f64,
+    },
+}
+
 /// A tool in the world and what drives it.
 pub struct WorldTool {
     pub name: String,
     pub shape: Shape,
     pub contact: ContactModel,
-    pub trajectory: Trajectory,
+    pub driver: ToolDriver,
 }
 
 impl WorldTool {
     pub fn pose_at(&self, t: f64) -> ToolPose {
-        self.trajectory.sample(t)
+        match &self.driver {
+            ToolDriver::Scripted(trajectory) => trajectory.sample(t),
+            ToolDriver::Commanded { from, to, t0, t1 } => {
+                let s = if t1 > t0 {
+                    ((t - t0) / (t1 - t0)).clamp(0.0, 1.0)
+                } else {
+                    1.0
+                };
+                from.lerp(to, s)
+            }
+        }
     }
 }
 
@@ -137,7 +170,7 @@ impl World {
                 name: t.name.clone(),
                 shape: t.shape,
                 contact: t.contact,
-                trajectory: Trajectory::new(
+                driver: ToolDriver::Scripted(Trajectory::new(
                     t.keyframes
                         .iter()
                         .map(|k| {
@@ -150,7 +183,7 @@ impl World {
                             (k.t, pose)
                         })
                         .collect(),
-                ),
+                )),
             })
             .collect();
         let solver = CpuSolver::new(
@@ -193,6 +226,27 @@ impl World {
             self.wave_speed,
             speed,
         )
+    }
+
+    /// Makes tool `index` follow commanded poses: it reaches `pose` at the end of the next
+    /// frame, moving smoothly from where it is now. Non-finite poses are refused.
+    pub fn command_tool_pose(&mut self, index: usize, pose: ToolPose) -> Result<(), CommandError> {
+        let frame_dt = self.frame_dt();
+        let tool = self
+            .tools
+            .get_mut(index)
+            .ok_or(CommandError::NoSuchTool(index))?;
+        if !pose.is_finite() {
+            return Err(CommandError::NonFinitePose(tool.name.clone()));
+        }
+        let now = tool.pose_at(self.time);
+        tool.driver = ToolDriver::Commanded {
+            from: now,
+            to: pose,
+            t0: self.time,
+            t1: self.time + frame_dt,
+        };
+        Ok(())
     }
 
     /// Advances one frame. With guard policy `stop`, a guard event restores the state at the

@@ -309,3 +309,30 @@ fn too_large_fixed_dt_is_subdivided_never_run_as_given() {
         "{report:?}"
     );
 }
+
+#[test]
+fn commanded_tool_poses_move_the_tool_smoothly_and_refuse_nan() {
+    use dvrk_tissue_sim::world::CommandError;
+    let mut world = World::new(&grasp_scene());
+    let start = world.tools[0].pose_at(0.0);
+    let mut target = start;
+    target.position.z += 0.006;
+    world.command_tool_pose(0, target).unwrap();
+    let mid = world.tools[0].pose_at(0.5 * world.frame_dt());
+    assert!((mid.position.z - (start.position.z + 0.003)).abs() < 1e-12);
+    world.step_frame().unwrap();
+    assert!((world.tools[0].pose_at(world.time).position - target.position).norm() < 1e-12);
+    // A NaN command is refused and the last valid target holds.
+    let mut bad = target;
+    bad.position.x = f64::NAN;
+    assert!(matches!(
+        world.command_tool_pose(0, bad),
+        Err(CommandError::NonFinitePose(_))
+    ));
+    assert_eq!(
+        world.command_tool_pose(7, target),
+        Err(CommandError::NoSuchTool(7))
+    );
+    world.step_frame().unwrap();
+    assert!((world.tools[0].pose_at(world.time).position - target.position).norm() < 1e-12);
+}
