@@ -253,6 +253,13 @@ impl World {
     /// start of the frame and returns the error; with `reset_tissue` the tissue goes back to
     /// rest and the frame ends early.
     pub fn step_frame(&mut self) -> Result<FrameReport, StepError> {
+        // Run the frame on a pool thread: parallel loops started there queue their tasks on
+        // the worker's own deque instead of the pool's global injector, whose queue grows
+        // in heap blocks (an allocation every few dozen calls from outside the pool).
+        rayon::scope(|_| self.step_frame_on_pool())
+    }
+
+    fn step_frame_on_pool(&mut self) -> Result<FrameReport, StepError> {
         let frame_dt = self.frame_dt();
         let t_end = self.time + frame_dt;
         let t_start = self.time;

@@ -19,10 +19,13 @@ pub struct Stencil {
 }
 
 impl Stencil {
-    /// `grid_pos` is the particle position in grid units (`(x - origin) / dx`).
+    /// `grid_pos` is the particle position in grid units (`(x - origin) / dx`), at least
+    /// 0.5 on every axis (solvers keep particles inside `GridLayout::particle_bounds`).
     #[inline(always)]
     pub fn new(grid_pos: Vec3) -> Self {
-        let base_f = (grid_pos - Vec3::repeat(0.5)).map(f32::floor);
+        // Truncation equals floor for the non-negative values the solver passes, and avoids
+        // a libm call on CPUs without SSE4.1 rounding.
+        let base_f = (grid_pos - Vec3::repeat(0.5)).map(|g| g as i32 as f32);
         let fx = grid_pos - base_f;
         let w0 = (Vec3::repeat(1.5) - fx).map(|t| 0.5 * t * t);
         let w1 = (fx - Vec3::repeat(1.0)).map(|t| 0.75 - t * t);

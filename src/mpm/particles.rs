@@ -8,7 +8,8 @@ pub struct MaterialParams {
     pub model: MaterialModel,
     pub lame: Lame,
     pub density: f32,
-    /// Mass-proportional (Rayleigh α) velocity damping, 1/s: v ← v·exp(−α·dt).
+    /// Mass-proportional (Rayleigh α) velocity damping, 1/s, integrated implicitly:
+    /// v ← v / (1 + α·dt), stable for any α·dt.
     pub damping: f32,
 }
 

@@ -38,7 +38,10 @@ impl Binning {
         Binning {
             key: vec![0; particles],
             order: vec![0; particles],
-            by_color: std::array::from_fn(|_| Vec::with_capacity(blocks.div_ceil(8) + 8)),
+            // The largest colour holds ⌈bx/2⌉·⌈by/2⌉·⌈bz/2⌉ blocks.
+            by_color: std::array::from_fn(|_| {
+                Vec::with_capacity(layout.blocks.iter().map(|b| b.div_ceil(2)).product())
+            }),
             touched: Vec::with_capacity(blocks),
             count: vec![0; blocks],
             cursor: vec![0; blocks],

@@ -171,25 +171,38 @@ impl CpuSolver {
                     // eq. 10), scaled by dx because stencil offsets are in grid units.
                     let q: Mat3 =
                         (tau * (stress_scale * parts.volume0[p]) + parts.c[p] * m) * layout.dx;
+                    // Node momentum is w·(m v + Q (i − fx)); Q·i = a·Q₀ + b·Q₁ + c·Q₂ is built up
+                    // axis by axis so that the inner loop only adds.
                     let momentum = parts.v[p] * m - q * s.fx;
+                    let (q0, q1, q2) = (
+                        q.column(0).into_owned(),
+                        q.column(1).into_owned(),
+                        q.column(2).into_owned(),
+                    );
                     let offs = axis_offsets(&layout, s.base);
+                    let mut qa = momentum;
                     for a in 0..3 {
+                        let mut qab = qa;
                         for b in 0..3 {
+                            let wab = s.w[a].x * s.w[b].y;
+                            let mut qabc = qab;
                             for c in 0..3 {
-                                let w = s.weight(a, b, c);
-                                let contrib =
-                                    (momentum + q * Vec3::new(a as f32, b as f32, c as f32)) * w;
+                                let w = wab * s.w[c].z;
+                                let contrib = qabc * w;
                                 let idx = offs[0][a] + offs[1][b] + offs[2][c];
-                                // SAFETY: blocks of one colour write disjoint node sets (see
-                                // `binning`), and `idx` is inside the grid because particles
-                                // are kept within `particle_bounds`.
+                                // SAFETY: blocks of one colour write disjoint node sets (see `binning`),
+                                // and `idx` is inside the grid because particles are kept within
+                                // `particle_bounds`.
                                 let node = unsafe { &mut *grid.0.add(idx) };
                                 node[0] += contrib.x;
                                 node[1] += contrib.y;
                                 node[2] += contrib.z;
                                 node[3] += w * m;
+                                qabc += q2;
                             }
+                            qab += q1;
                         }
+                        qa += q0;
                     }
                 }
             });
@@ -268,19 +281,30 @@ impl CpuSolver {
                         let g = (x0 - layout.origin) * layout.inv_dx;
                         let s = Stencil::new(g);
                         let offs = axis_offsets(&layout, s.base);
+                        // B = Σ w v (i − fx)ᵀ = [Σ a·wv, Σ b·wv, Σ c·wv] − v fxᵀ: the per-node work
+                        // is a few adds instead of an outer product.
                         let mut v = Vec3::zeros();
-                        let mut b = Mat3::zeros();
+                        let (mut b0, mut b1, mut b2) =
+                            (Vec3::zeros(), Vec3::zeros(), Vec3::zeros());
                         for a in 0..3 {
+                            let mut sum_a = Vec3::zeros();
                             for bb in 0..3 {
+                                let wab = s.w[a].x * s.w[bb].y;
+                                let mut sum_b = Vec3::zeros();
                                 for c in 0..3 {
-                                    let w = s.weight(a, bb, c);
                                     let node = grid[offs[0][a] + offs[1][bb] + offs[2][c]];
-                                    let vi = Vec3::new(node[0], node[1], node[2]);
-                                    v += vi * w;
-                                    b += (vi * w) * s.offset(a, bb, c).transpose();
+                                    let wv =
+                                        Vec3::new(node[0], node[1], node[2]) * (wab * s.w[c].z);
+                                    sum_b += wv;
+                                    b2 += wv * c as f32;
                                 }
+                                sum_a += sum_b;
+                                b1 += sum_b * bb as f32;
                             }
+                            v += sum_a;
+                            b0 += sum_a * a as f32;
                         }
+                        let b = Mat3::from_columns(&[b0, b1, b2]) - v * s.fx.transpose();
                         // APIC: C = B·D⁻¹ with D = dx²/4·I; offsets are in grid units.
                         let c_new = b * (4.0 * layout.inv_dx);
                         let mut g_new = g + v * (dt * layout.inv_dx);
@@ -292,7 +316,7 @@ impl CpuSolver {
                         let f_new = (Mat3::identity() + c_new * dt) * fs[i];
                         let damping = materials[mats[i] as usize].damping;
                         if damping > 0.0 {
-                            v *= (-damping * dt).exp();
+                            v /= 1.0 + damping * dt;
                         }
                         let speed = v.norm();
                         let finite = speed.is_finite()

@@ -1,0 +1,60 @@
+//! A substep allocates nothing: buffers are sized when the solver is built.
+
+use dvrk_tissue_sim::bench::throughput::seed000_scene;
+use dvrk_tissue_sim::mpm::cpu::SubstepInput;
+use dvrk_tissue_sim::tools::{ToolKinematics, ToolVelocity};
+use dvrk_tissue_sim::world::World;
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+struct CountingAllocator;
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+
+unsafe impl GlobalAlloc for CountingAllocator {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: CountingAllocator = CountingAllocator;
+
+#[test]
+fn substeps_do_not_allocate() {
+    let scene = seed000_scene();
+    let mut world = World::new(&scene);
+    // Reach a state where the gripper touches the tissue, then step by hand.
+    while world.time < 0.15 {
+        world.step_frame().unwrap();
+    }
+    let tool = &world.tools[0];
+    let pose = tool.pose_at(world.time);
+    let kinematics = [ToolKinematics::new(
+        tool.shape,
+        tool.contact,
+        &pose,
+        &ToolVelocity::default(),
+        scene.domain.dx as f32,
+    )];
+    let input = SubstepInput {
+        dt: 1e-4,
+        gravity: nalgebra::Vector3::new(0.0, 0.0, -9.81),
+        tools: &kinematics,
+    };
+    // As `World::step_frame` does, run the substeps on a pool thread.
+    let (contacts, allocations) = rayon::scope(|_| {
+        world.solver.substep(&input);
+        let before = ALLOCATIONS.load(Ordering::SeqCst);
+        let mut contacts = 0;
+        for _ in 0..50 {
+            contacts += world.solver.substep(&input).tool_impulses[0].contact_nodes;
+        }
+        (contacts, ALLOCATIONS.load(Ordering::SeqCst) - before)
+    });
+    assert!(contacts > 0, "the gripper should be in contact");
+    assert_eq!(allocations, 0, "50 substeps allocated {allocations} times");
+}
