@@ -8,6 +8,7 @@
 pub mod bench;
 pub mod config;
 pub mod mpm;
+pub mod output;
 pub mod robot;
 pub mod tools;
 pub mod world;

@@ -72,3 +72,45 @@ fn run_without_headless_says_what_to_do() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--headless"));
 }
+
+#[test]
+fn snapshot_writes_a_png_of_the_scene() {
+    let path = std::env::temp_dir().join(format!("dts-snapshot-{}.png", std::process::id()));
+    let out = bin()
+        .args([
+            "snapshot",
+            "--scene",
+            "config/default.toml",
+            "--time",
+            "0.02",
+            "--width",
+            "160",
+            "--height",
+            "120",
+            "--out",
+        ])
+        .arg(&path)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&path).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut pixels = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut pixels).unwrap();
+    assert_eq!((info.width, info.height), (160, 120));
+    // The tissue shows in the colour map's dark purple end (unstrained), the tool in grey.
+    let rgb: Vec<[u8; 3]> = pixels[..info.buffer_size()]
+        .chunks(3)
+        .map(|c| [c[0], c[1], c[2]])
+        .collect();
+    let tissue = rgb
+        .iter()
+        .filter(|c| c[2] > c[1] + 40 && c[0] < 120)
+        .count();
+    assert!(tissue > 500, "only {tissue} tissue-coloured pixels");
+    std::fs::remove_file(&path).ok();
+}

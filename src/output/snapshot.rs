@@ -1,0 +1,348 @@
+//! Headless pictures of a scene: tissue particles shaded as small spheres and coloured by
+//! strain, tools ray-marched from their own signed distance functions, the table as a
+//! checkerboard. A CPU renderer, so it works on any machine (no display, no GPU).
+
+use super::strain::StrainMeasure;
+use crate::mpm::Vec3;
+use crate::tools::Shape;
+use crate::world::World;
+use std::io::BufWriter;
+use std::path::Path;
+
+#[derive(Clone, Debug)]
+pub struct SnapshotOptions {
+    pub width: u32,
+    pub height: u32,
+    /// Camera direction about the scene centre: azimuth from +x towards +y, elevation
+    /// above the xy plane (degrees).
+    pub azimuth_deg: f32,
+    pub elevation_deg: f32,
+    pub measure: StrainMeasure,
+    /// Strain at the top of the colour scale; by default the 98th percentile of |strain|.
+    pub strain_range: Option<f32>,
+}
+
+impl Default for SnapshotOptions {
+    fn default() -> Self {
+        SnapshotOptions {
+            width: 960,
+            height: 640,
+            azimuth_deg: -60.0,
+            elevation_deg: 35.0,
+            measure: StrainMeasure::Equivalent,
+            strain_range: None,
+        }
+    }
+}
+
+/// An RGB picture and the strain range its colours span.
+pub struct Snapshot {
+    pub width: u32,
+    pub height: u32,
+    pub rgb: Vec<u8>,
+    pub strain_range: f32,
+}
+
+impl Snapshot {
+    pub fn write_png(&self, path: &Path) -> std::io::Result<()> {
+        let file = std::fs::File::create(path)?;
+        let mut encoder = png::Encoder::new(BufWriter::new(file), self.width, self.height);
+        encoder.set_color(png::ColorType::Rgb);
+        encoder.set_depth(png::BitDepth::Eight);
+        let mut writer = encoder.write_header().map_err(std::io::Error::other)?;
+        writer
+            .write_image_data(&self.rgb)
+            .map_err(std::io::Error::other)
+    }
+}
+
+struct Camera {
+    eye: Vec3,
+    right: Vec3,
+    up: Vec3,
+    forward: Vec3,
+    focal: f32,
+    cx: f32,
+    cy: f32,
+}
+
+impl Camera {
+    /// Screen position and depth of a world point; `None` behind the camera.
+    fn project(&self, p: Vec3) -> Option<(f32, f32, f32)> {
+        let d = p - self.eye;
+        let z = d.dot(&self.forward);
+        (z > 1e-6).then(|| {
+            (
+                self.cx + d.dot(&self.right) / z * self.focal,
+                self.cy - d.dot(&self.up) / z * self.focal,
+                z,
+            )
+        })
+    }
+
+    fn ray(&self, px: f32, py: f32) -> Vec3 {
+        (self.forward * self.focal + self.right * (px - self.cx) - self.up * (py - self.cy))
+            .normalize()
+    }
+}
+
+/// Tool geometry in world space for ray marching.
+struct DrawnTool {
+    shape: Shape,
+    rotation: nalgebra::Matrix3<f32>,
+    translation: Vec3,
+    jaw: f32,
+    bound: f32,
+}
+
+impl DrawnTool {
+    fn distance(&self, p: Vec3) -> f32 {
+        let local = self.rotation.tr_mul(&(p - self.translation));
+        match self.shape {
+            // A wire thinner than a pixel would vanish: draw it at least 0.6 mm thick.
+            Shape::Needle {
+                radius,
+                arc_angle,
+                wire_radius,
+            } => {
+                crate::tools::sdf::needle(local, radius, arc_angle, wire_radius.max(6e-4)).distance
+            }
+            shape => shape.query(local, self.jaw).distance,
+        }
+    }
+}
+
+fn scene_distance(tools: &[DrawnTool], p: Vec3) -> f32 {
+    tools
+        .iter()
+        .map(|t| t.distance(p))
+        .fold(f32::INFINITY, f32::min)
+}
+
+/// Colour of a normalised strain value `s` (0..1, or −1..1 for signed measures).
+fn colour(s: f32, signed: bool) -> Vec3 {
+    if signed {
+        // Diverging: blue (compressed) – light grey – red (expanded).
+        let t = s.clamp(-1.0, 1.0);
+        let mid = Vec3::new(0.86, 0.86, 0.86);
+        if t < 0.0 {
+            mid.lerp(&Vec3::new(0.15, 0.3, 0.85), -t)
+        } else {
+            mid.lerp(&Vec3::new(0.85, 0.15, 0.12), t)
+        }
+    } else {
+        // Sequential, viridis-like stops.
+        let stops = [
+            Vec3::new(0.27, 0.00, 0.33),
+            Vec3::new(0.23, 0.32, 0.55),
+            Vec3::new(0.13, 0.57, 0.55),
+            Vec3::new(0.37, 0.79, 0.38),
+            Vec3::new(0.99, 0.91, 0.14),
+        ];
+        let t = s.clamp(0.0, 1.0) * (stops.len() - 1) as f32;
+        let i = (t as usize).min(stops.len() - 2);
+        stops[i].lerp(&stops[i + 1], t - i as f32)
+    }
+}
+
+/// Renders the world's current state.
+pub fn render(world: &World, opts: &SnapshotOptions) -> Snapshot {
+    let (w, h) = (opts.width as usize, opts.height as usize);
+    let particles = world.particles();
+    let tools: Vec<DrawnTool> = world
+        .tools
+        .iter()
+        .map(|t| {
+            let pose = t.pose_at(world.time);
+            DrawnTool {
+                shape: t.shape,
+                rotation: pose.rotation.to_rotation_matrix().into_inner().cast(),
+                translation: pose.position.cast(),
+                jaw: pose.jaw as f32,
+                bound: t.shape.bounding_radius(),
+            }
+        })
+        .collect();
+
+    // Frame the tissue (and the tools near it).
+    let mut lo = Vec3::repeat(f32::INFINITY);
+    let mut hi = Vec3::repeat(f32::NEG_INFINITY);
+    for x in &particles.x {
+        lo = lo.inf(x);
+        hi = hi.sup(x);
+    }
+    for t in &tools {
+        lo = lo.inf(&(t.translation - Vec3::repeat(t.bound)));
+        hi = hi.sup(&(t.translation + Vec3::repeat(t.bound)));
+    }
+    let centre = (lo + hi) * 0.5;
+    let radius = ((hi - lo) * 0.5).norm().max(1e-3);
+    let fov = 30f32.to_radians();
+    let (az, el) = (
+        opts.azimuth_deg.to_radians(),
+        opts.elevation_deg.to_radians(),
+    );
+    let dir = Vec3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
+    let eye = centre + dir * (radius / (0.5 * fov).sin() * 1.05);
+    let forward = (centre - eye).normalize();
+    let right = forward.cross(&Vec3::z()).normalize();
+    let up = right.cross(&forward);
+    let cam = Camera {
+        eye,
+        right,
+        up,
+        forward,
+        focal: 0.5 * h as f32 / (0.5 * fov).tan(),
+        cx: 0.5 * w as f32,
+        cy: 0.5 * h as f32,
+    };
+    let light = (Vec3::new(0.3, -0.5, 1.0) - forward * 0.5).normalize();
+
+    let mut depth = vec![f32::INFINITY; w * h];
+    let mut rgb = vec![Vec3::zeros(); w * h];
+    for y in 0..h {
+        let shade = 0.97 - 0.25 * y as f32 / h as f32;
+        for x in 0..w {
+            rgb[y * w + x] = Vec3::new(shade, shade, shade + 0.02);
+        }
+    }
+
+    // Table: checkerboard of 5 mm squares at the table height.
+    if let Some(table) = &world.scene.table {
+        let z0 = table.height as f32;
+        for y in 0..h {
+            for x in 0..w {
+                let ray = cam.ray(x as f32 + 0.5, y as f32 + 0.5);
+                if ray.z.abs() < 1e-6 {
+                    continue;
+                }
+                let t = (z0 - eye.z) / ray.z;
+                if t <= 0.0 {
+                    continue;
+                }
+                let p = eye + ray * t;
+                let extent = 3.0 * radius;
+                if (p.x - centre.x).abs() > extent || (p.y - centre.y).abs() > extent {
+                    continue;
+                }
+                let checker =
+                    ((p.x / 0.005).floor() as i64 + (p.y / 0.005).floor() as i64).rem_euclid(2);
+                let c = if checker == 0 { 0.80 } else { 0.70 };
+                depth[y * w + x] = t * ray.dot(&forward);
+                rgb[y * w + x] = Vec3::new(c, c * 0.98, c * 0.94);
+            }
+        }
+    }
+
+    // Tissue: one shaded sphere per particle, coloured by strain.
+    let strains: Vec<f32> = particles.f.iter().map(|f| opts.measure.of(f)).collect();
+    let strain_range = opts.strain_range.unwrap_or_else(|| {
+        let mut mags: Vec<f32> = strains.iter().map(|s| s.abs()).collect();
+        mags.sort_by(f32::total_cmp);
+        mags.get(mags.len() * 98 / 100)
+            .copied()
+            .unwrap_or(0.0)
+            .max(0.01)
+    });
+    let spacing = particles
+        .volume0
+        .first()
+        .map_or(world.scene.domain.dx as f32, |v| v.cbrt());
+    let r_world = 0.65 * spacing;
+    for (x, strain) in particles.x.iter().zip(&strains) {
+        let Some((sx, sy, z)) = cam.project(*x) else {
+            continue;
+        };
+        let r_px = (r_world * cam.focal / z).max(0.7);
+        let base = colour(strain / strain_range, opts.measure.is_signed());
+        let (x0, x1) = (
+            (sx - r_px).floor().max(0.0) as usize,
+            (sx + r_px).ceil().min(w as f32 - 1.0) as usize,
+        );
+        let (y0, y1) = (
+            (sy - r_px).floor().max(0.0) as usize,
+            (sy + r_px).ceil().min(h as f32 - 1.0) as usize,
+        );
+        for py in y0..=y1.min(h - 1) {
+            for px in x0..=x1.min(w - 1) {
+                let (dx, dy) = ((px as f32 + 0.5 - sx) / r_px, (py as f32 + 0.5 - sy) / r_px);
+                let q = dx * dx + dy * dy;
+                if q > 1.0 {
+                    continue;
+                }
+                let nz = (1.0 - q).sqrt();
+                let d = z - nz * r_world;
+                let i = py * w + px;
+                if d < depth[i] {
+                    depth[i] = d;
+                    let normal = right * dx - up * dy - forward * nz;
+                    rgb[i] = base * (0.45 + 0.55 * normal.dot(&light).max(0.0));
+                }
+            }
+        }
+    }
+
+    // Tools: sphere tracing of the union of their SDFs, only where their bounds project.
+    for tool in &tools {
+        let Some((sx, sy, z)) = cam.project(tool.translation) else {
+            continue;
+        };
+        let r_px = tool.bound * cam.focal / (z - tool.bound).max(1e-4) + 2.0;
+        let (x0, x1) = (
+            (sx - r_px).max(0.0) as usize,
+            ((sx + r_px).max(0.0) as usize).min(w - 1),
+        );
+        let (y0, y1) = (
+            (sy - r_px).max(0.0) as usize,
+            ((sy + r_px).max(0.0) as usize).min(h - 1),
+        );
+        for py in y0..=y1 {
+            for px in x0..=x1 {
+                let ray = cam.ray(px as f32 + 0.5, py as f32 + 0.5);
+                let mut t = (z - tool.bound).max(0.0) / ray.dot(&forward).max(1e-3);
+                let t_max = (z + tool.bound) / ray.dot(&forward).max(1e-3);
+                let eps = 2e-5 * radius.max(0.01) / 0.01;
+                for _ in 0..96 {
+                    let p = eye + ray * t;
+                    let d = scene_distance(&tools, p);
+                    if d < eps {
+                        let i = py * w + px;
+                        let depth_here = t * ray.dot(&forward);
+                        if depth_here < depth[i] {
+                            depth[i] = depth_here;
+                            let e = 1e-4;
+                            let n = Vec3::new(
+                                scene_distance(&tools, p + Vec3::x() * e)
+                                    - scene_distance(&tools, p - Vec3::x() * e),
+                                scene_distance(&tools, p + Vec3::y() * e)
+                                    - scene_distance(&tools, p - Vec3::y() * e),
+                                scene_distance(&tools, p + Vec3::z() * e)
+                                    - scene_distance(&tools, p - Vec3::z() * e),
+                            )
+                            .normalize();
+                            let diffuse = n.dot(&light).max(0.0);
+                            let spec = (ray - n * 2.0 * ray.dot(&n)).dot(&light).max(0.0).powi(24);
+                            let metal = 0.30 + 0.45 * diffuse + 0.5 * spec;
+                            rgb[i] = Vec3::new(metal, metal * 1.02, metal * 1.06);
+                        }
+                        break;
+                    }
+                    t += d;
+                    if t > t_max {
+                        break;
+                    }
+                }
+            }
+        }
+    }
+
+    Snapshot {
+        width: opts.width,
+        height: opts.height,
+        rgb: rgb
+            .iter()
+            .flat_map(|c| [c.x, c.y, c.z].map(|v| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8))
+            .collect(),
+        strain_range,
+    }
+}
