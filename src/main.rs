@@ -2,6 +2,7 @@
 
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
+use dvrk_tissue_sim::mpm::backend::{BackendChoice, P2gAtomics};
 use dvrk_tissue_sim::output::snapshot::{self, SnapshotOptions};
 use dvrk_tissue_sim::output::strain::StrainMeasure;
 use dvrk_tissue_sim::{bench, config, world::World};
@@ -35,6 +36,14 @@ enum Command {
         /// Print every n-th frame line (the summary is always printed).
         #[arg(long, default_value_t = 1)]
         print_every: u32,
+        /// Solver backend: `auto` (a hardware GPU if there is one, else the CPU), `gpu`
+        /// (software adapters too) or `cpu`. Overrides the scene's `solver.backend`.
+        #[arg(long, value_enum)]
+        backend: Option<BackendChoice>,
+        /// GPU P2G accumulation: `auto`, `float` (f32 atomics) or `fixed` (i32 fixed point).
+        /// Overrides the scene's `solver.p2g_atomics`.
+        #[arg(long, value_enum)]
+        p2g: Option<P2gAtomics>,
     },
     /// Simulate a scene headless to a time and write a PNG picture of it: tissue coloured
     /// by strain, tools drawn, no display or GPU needed.
@@ -105,11 +114,13 @@ fn run(cli: Cli) -> Result<()> {
             headless,
             seconds,
             print_every,
+            backend,
+            p2g,
         } => {
             if !headless {
                 bail!("only headless runs are available in this build: add --headless");
             }
-            run_headless(&scene, seconds, print_every.max(1))
+            run_headless(&scene, seconds, print_every.max(1), backend, p2g)
         }
         Command::Snapshot {
             scene,
@@ -122,7 +133,7 @@ fn run(cli: Cli) -> Result<()> {
             measure,
         } => {
             let loaded = config::load(&scene)?;
-            let mut world = World::new(&loaded);
+            let mut world = World::try_new(&loaded)?;
             while world.time < time - 1e-9 {
                 world
                     .step_frame()
@@ -185,21 +196,34 @@ fn run(cli: Cli) -> Result<()> {
     }
 }
 
-fn run_headless(path: &Path, seconds: f64, print_every: u32) -> Result<()> {
-    let scene = config::load(path)?;
-    let mut world = World::new(&scene);
+fn run_headless(
+    path: &Path,
+    seconds: f64,
+    print_every: u32,
+    backend: Option<BackendChoice>,
+    p2g: Option<P2gAtomics>,
+) -> Result<()> {
+    let mut scene = config::load(path)?;
+    if let Some(b) = backend {
+        scene.solver.backend = b;
+    }
+    if let Some(p) = p2g {
+        scene.solver.p2g_atomics = p;
+    }
+    let mut world = World::try_new(&scene).context("choosing the solver backend")?;
     let frames = (seconds * scene.frame_rate_hz).round().max(1.0) as u32;
     println!(
-        "scene \"{}\": {} particles, grid {}×{}×{} nodes (dx {} m), {} tool(s), {} frames of {:.4} s",
+        "scene \"{}\": {} particles, grid {}×{}×{} nodes (dx {} m), {} tool(s), {} frames of {:.4} s, backend {}",
         scene.name,
         world.particles().len(),
-        world.solver.layout.nodes[0],
-        world.solver.layout.nodes[1],
-        world.solver.layout.nodes[2],
+        world.layout().nodes[0],
+        world.layout().nodes[1],
+        world.layout().nodes[2],
         scene.domain.dx,
         world.tools.len(),
         frames,
-        world.frame_dt()
+        world.frame_dt(),
+        world.backend.name()
     );
     let start = Instant::now();
     let mut total_substeps: u64 = 0;

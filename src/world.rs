@@ -2,10 +2,12 @@
 //! frame in as many CFL-bounded substeps as stability requires.
 
 use crate::config::{Hold, Scene};
-use crate::mpm::cpu::{CpuSolver, SubstepInput};
+use crate::mpm::backend::{Backend, CpuBackend, FramePlan};
+use crate::mpm::cpu::CpuSolver;
+use crate::mpm::gpu::{self, GpuError, GpuSetup, GpuSolver};
 use crate::mpm::grid::{Boundary, GridLayout, TableHold};
 use crate::mpm::guard::{GuardEvent, GuardPolicy};
-use crate::mpm::{timestep, Lame, MaterialParams, Particles, ToolImpulse, Vec3};
+use crate::mpm::{timestep, Lame, MaterialParams, Particles, Vec3};
 use crate::tools::{ContactModel, Shape, ToolKinematics, ToolPose, ToolVelocity, Trajectory};
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -104,7 +106,7 @@ impl WorldTool {
 
 pub struct World {
     pub scene: Scene,
-    pub solver: CpuSolver,
+    pub backend: Backend,
     pub tools: Vec<WorldTool>,
     /// Simulated time (s).
     pub time: f64,
@@ -112,15 +114,34 @@ pub struct World {
     /// Fastest elastic wave of any material (m/s), for the CFL bound.
     wave_speed: f64,
     last_max_speed: f32,
-    rest: Particles,
-    last_good: Particles,
     warned_fixed_dt: bool,
+    /// This frame's tool kinematics, substep-major (capacity reused across frames).
     kinematics: Vec<ToolKinematics>,
 }
 
+/// Why a world could not be built.
+#[derive(Debug, thiserror::Error)]
+pub enum WorldError {
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+}
+
 impl World {
-    /// Builds the world of a validated scene.
+    /// Builds the world of a validated scene on the backend its `solver.backend` asks for.
+    ///
+    /// # Panics
+    /// When the scene asks for `backend = "gpu"` and no GPU adapter can be used; for scenes
+    /// from user input use [`World::try_new`].
     pub fn new(scene: &Scene) -> Self {
+        match Self::try_new(scene) {
+            Ok(w) => w,
+            Err(e) => panic!("{e}"),
+        }
+    }
+
+    /// Builds the world of a validated scene on the backend its `solver.backend` asks for:
+    /// `auto` never fails (it falls back to the CPU), `gpu` fails when no adapter works.
+    pub fn try_new(scene: &Scene) -> Result<Self, WorldError> {
         let d = &scene.domain;
         let dx = d.dx as f32;
         let layout = GridLayout::new(
@@ -163,7 +184,7 @@ impl World {
                 (t.height as f32, hold)
             }),
         };
-        let tools = scene
+        let tools: Vec<WorldTool> = scene
             .tools
             .iter()
             .map(|t| WorldTool {
@@ -186,30 +207,56 @@ impl World {
                 )),
             })
             .collect();
-        let solver = CpuSolver::new(
-            layout,
-            particles.clone(),
-            materials,
-            boundary,
-            scene.solver.max_speed as f32,
-        );
-        World {
+        let max_speed = scene.solver.max_speed as f32;
+        let backend = match gpu::adapter::select(scene.solver.backend)? {
+            Some(ctx) => Backend::Gpu(Box::new(GpuSolver::new(
+                ctx,
+                GpuSetup {
+                    layout,
+                    particles,
+                    materials,
+                    boundary,
+                    max_speed,
+                    max_substeps: scene.solver.max_substeps_per_frame,
+                    tool_count: tools.len(),
+                    p2g: scene.solver.p2g_atomics,
+                },
+            )?)),
+            None => Backend::Cpu(Box::new(CpuBackend::new(CpuSolver::new(
+                layout, particles, materials, boundary, max_speed,
+            )))),
+        };
+        Ok(World {
             scene: scene.clone(),
             gravity: Vector3::from(d.gravity).cast(),
             wave_speed,
             last_max_speed: 0.0,
-            last_good: particles.clone(),
-            rest: particles,
-            solver,
+            backend,
             tools,
             time: 0.0,
             warned_fixed_dt: false,
-            kinematics: Vec::with_capacity(crate::mpm::MAX_TOOLS),
-        }
+            kinematics: Vec::new(),
+        })
     }
 
+    /// Particle state on the host (see [`Backend::particles`] for what is current on the
+    /// GPU; call [`World::sync_particles`] for every field).
     pub fn particles(&self) -> &Particles {
-        &self.solver.particles
+        self.backend.particles()
+    }
+
+    /// Particle state for editing before the next frame.
+    pub fn particles_mut(&mut self) -> &mut Particles {
+        self.backend.particles_mut()
+    }
+
+    /// Downloads every particle field from the GPU (nothing to do on the CPU).
+    pub fn sync_particles(&mut self) {
+        self.backend.sync_particles();
+    }
+
+    pub fn layout(&self) -> &GridLayout {
+        self.backend.layout()
     }
 
     /// Length of one frame (s).
@@ -249,9 +296,12 @@ impl World {
         Ok(())
     }
 
-    /// Advances one frame. With guard policy `stop`, a guard event restores the state at the
-    /// start of the frame and returns the error; with `reset_tissue` the tissue goes back to
-    /// rest and the frame ends early.
+    /// Advances one frame. The frame's schedule is planned up front: dt from CFL with the
+    /// previous frame's largest particle speed and the tools' speeds over the frame, equal
+    /// substeps, and every substep's tool kinematics; the backend then runs it whole. With
+    /// guard policy `stop`, a guard event restores the state at the start of the frame and
+    /// returns the error; with `reset_tissue` the tissue goes back to rest and the frame ends
+    /// early.
     pub fn step_frame(&mut self) -> Result<FrameReport, StepError> {
         // Run the frame on a pool thread: parallel loops started there queue their tasks on
         // the worker's own deque instead of the pool's global injector, whose queue grows
@@ -261,58 +311,42 @@ impl World {
 
     fn step_frame_on_pool(&mut self) -> Result<FrameReport, StepError> {
         let frame_dt = self.frame_dt();
-        let t_end = self.time + frame_dt;
         let t_start = self.time;
-        self.last_good.copy_state_from(&self.solver.particles);
-        let mut impulses = [ToolImpulse::default(); crate::mpm::MAX_TOOLS];
-        let mut report = FrameReport {
-            time: self.time,
-            substeps: 0,
-            dt_min: f64::INFINITY,
-            dt_max: 0.0,
-            wrenches: Vec::new(),
-            contact_nodes: Vec::new(),
-            max_speed: 0.0,
-            clamped_particles: 0,
-            truncated: false,
-            tissue_reset: None,
-        };
-        let dx = self.scene.domain.dx as f32;
-        while t_end - self.time > 1e-9 * frame_dt {
-            if report.substeps >= self.scene.solver.max_substeps_per_frame {
-                report.truncated = true;
-                break;
-            }
-            let remaining = t_end - self.time;
-            // Tool speed over the rest of the frame bounds dt like particle speed does.
-            let tool_speed = self
-                .tools
-                .iter()
-                .map(|t| {
-                    let v =
-                        ToolVelocity::between(&t.pose_at(self.time), &t.pose_at(t_end), remaining);
-                    v.linear.norm() + v.angular.norm() * t.shape.bounding_radius() as f64
-                })
-                .fold(0.0, f64::max);
-            let mut dt_limit = self.stable_dt(tool_speed);
-            if let Some(fixed) = self.scene.solver.dt {
-                if fixed > dt_limit {
-                    if !self.warned_fixed_dt {
-                        tracing::warn!(
-                            "solver.dt = {fixed:.3e} s exceeds the stable bound {dt_limit:.3e} s; subdividing"
-                        );
-                        self.warned_fixed_dt = true;
-                    }
-                } else {
-                    dt_limit = fixed;
+        let t_end = t_start + frame_dt;
+        // Tool speed over the frame bounds dt like particle speed does.
+        let tool_speed = self
+            .tools
+            .iter()
+            .map(|t| {
+                let v = ToolVelocity::between(&t.pose_at(t_start), &t.pose_at(t_end), frame_dt);
+                v.linear.norm() + v.angular.norm() * t.shape.bounding_radius() as f64
+            })
+            .fold(0.0, f64::max);
+        let mut dt_limit = self.stable_dt(tool_speed);
+        if let Some(fixed) = self.scene.solver.dt {
+            if fixed > dt_limit {
+                if !self.warned_fixed_dt {
+                    tracing::warn!(
+                        "solver.dt = {fixed:.3e} s exceeds the stable bound {dt_limit:.3e} s; subdividing"
+                    );
+                    self.warned_fixed_dt = true;
                 }
+            } else {
+                dt_limit = fixed;
             }
-            let dt = timestep::even_substep(remaining, dt_limit);
-            // Reuses the buffer's capacity: no allocation per substep.
-            self.kinematics.clear();
+        }
+        let dt = timestep::even_substep(frame_dt, dt_limit);
+        let needed = (frame_dt / dt).round().max(1.0) as u32;
+        let max_substeps = self.scene.solver.max_substeps_per_frame.max(1);
+        let substeps = needed.min(max_substeps);
+        let truncated = needed > max_substeps;
+        let dx = self.scene.domain.dx as f32;
+        self.kinematics.clear();
+        for s in 0..substeps {
+            let t0 = t_start + s as f64 * dt;
             for tool in &self.tools {
-                let from = tool.pose_at(self.time);
-                let to = tool.pose_at(self.time + dt);
+                let from = tool.pose_at(t0);
+                let to = tool.pose_at(t0 + dt);
                 let velocity = ToolVelocity::between(&from, &to, dt);
                 self.kinematics.push(ToolKinematics::new(
                     tool.shape,
@@ -322,58 +356,67 @@ impl World {
                     dx,
                 ));
             }
-            let stats = self.solver.substep(&SubstepInput {
-                dt: dt as f32,
-                gravity: self.gravity,
-                tools: &self.kinematics,
-            });
-            if let Some(event) = stats.guard {
-                self.solver.particles.copy_state_from(&self.last_good);
-                self.last_max_speed = 0.0;
-                match self.scene.solver.guard_policy {
-                    GuardPolicy::Stop => {
-                        self.time = t_start;
-                        return Err(StepError::Guard {
-                            time: self.time,
-                            event,
-                        });
-                    }
-                    GuardPolicy::ResetTissue => {
-                        tracing::error!(
-                            "t = {:.4} s: {event}; resetting the tissue to rest",
-                            self.time
-                        );
-                        self.solver.particles.copy_state_from(&self.rest);
-                        report.tissue_reset = Some(event);
-                        self.time = t_end;
-                        break;
-                    }
+        }
+        let plan = FramePlan {
+            dt: dt as f32,
+            substeps,
+            gravity: self.gravity,
+            tool_count: self.tools.len(),
+            tools: &self.kinematics,
+        };
+        let stats = self.backend.step_frame(&plan);
+        let mut report = FrameReport {
+            time: t_start,
+            substeps: stats.substeps_done,
+            dt_min: dt,
+            dt_max: dt,
+            wrenches: Vec::new(),
+            contact_nodes: Vec::new(),
+            max_speed: stats.max_speed,
+            clamped_particles: stats.clamped_particles,
+            truncated,
+            tissue_reset: None,
+        };
+        if let Some(event) = stats.guard {
+            self.backend.restore_frame_start();
+            self.last_max_speed = 0.0;
+            match self.scene.solver.guard_policy {
+                GuardPolicy::Stop => {
+                    self.time = t_start;
+                    return Err(StepError::Guard {
+                        time: self.time,
+                        event,
+                    });
+                }
+                GuardPolicy::ResetTissue => {
+                    tracing::error!(
+                        "t = {:.4} s: {event}; resetting the tissue to rest",
+                        t_start + stats.substeps_done as f64 * dt
+                    );
+                    self.backend.reset_to_rest();
+                    report.tissue_reset = Some(event);
+                    self.time = t_end;
                 }
             }
-            for (acc, imp) in impulses.iter_mut().zip(&stats.tool_impulses) {
-                acc.add(imp);
-            }
+        } else {
             self.last_max_speed = stats.max_speed;
-            report.max_speed = report.max_speed.max(stats.max_speed);
-            report.clamped_particles += stats.clamped_particles;
-            report.substeps += 1;
-            report.dt_min = report.dt_min.min(dt);
-            report.dt_max = report.dt_max.max(dt);
-            self.time += dt;
+            self.time = if truncated {
+                t_start + substeps as f64 * dt
+            } else {
+                t_end
+            };
         }
         let elapsed = (self.time - t_start).max(1e-12);
         report.time = self.time;
-        report.wrenches = impulses[..self.tools.len()]
+        let impulses = &stats.tool_impulses[..self.tools.len()];
+        report.wrenches = impulses
             .iter()
             .map(|imp| Wrench {
                 force: imp.linear / elapsed,
                 torque: imp.angular / elapsed,
             })
             .collect();
-        report.contact_nodes = impulses[..self.tools.len()]
-            .iter()
-            .map(|i| i.contact_nodes)
-            .collect();
+        report.contact_nodes = impulses.iter().map(|i| i.contact_nodes).collect();
         Ok(report)
     }
 }

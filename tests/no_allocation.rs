@@ -1,6 +1,7 @@
 //! A substep allocates nothing: buffers are sized when the solver is built.
 
 use dvrk_tissue_sim::bench::throughput::seed000_scene;
+use dvrk_tissue_sim::mpm::backend::{Backend, BackendChoice};
 use dvrk_tissue_sim::mpm::cpu::SubstepInput;
 use dvrk_tissue_sim::tools::{ToolKinematics, ToolVelocity};
 use dvrk_tissue_sim::world::World;
@@ -25,7 +26,8 @@ static GLOBAL: CountingAllocator = CountingAllocator;
 
 #[test]
 fn substeps_do_not_allocate() {
-    let scene = seed000_scene();
+    let mut scene = seed000_scene();
+    scene.solver.backend = BackendChoice::Cpu;
     let mut world = World::new(&scene);
     // Reach a state where the gripper touches the tissue, then step by hand.
     while world.time < 0.15 {
@@ -45,13 +47,17 @@ fn substeps_do_not_allocate() {
         gravity: nalgebra::Vector3::new(0.0, 0.0, -9.81),
         tools: &kinematics,
     };
+    let Backend::Cpu(cpu) = &mut world.backend else {
+        unreachable!("the scene asks for the CPU backend")
+    };
+    let solver = &mut cpu.solver;
     // As `World::step_frame` does, run the substeps on a pool thread.
     let (contacts, allocations) = rayon::scope(|_| {
-        world.solver.substep(&input);
+        solver.substep(&input);
         let before = ALLOCATIONS.load(Ordering::SeqCst);
         let mut contacts = 0;
         for _ in 0..50 {
-            contacts += world.solver.substep(&input).tool_impulses[0].contact_nodes;
+            contacts += solver.substep(&input).tool_impulses[0].contact_nodes;
         }
         (contacts, ALLOCATIONS.load(Ordering::SeqCst) - before)
     });

@@ -26,13 +26,8 @@ fn free_block_scene() -> Scene {
 fn free_flying_block_conserves_momentum() {
     let mut world = World::new(&free_block_scene());
     // Translation, spin and a squeeze: momentum is conserved whatever the internal motion.
-    for (x, v) in world
-        .solver
-        .particles
-        .x
-        .iter()
-        .zip(world.solver.particles.v.iter_mut())
-    {
+    let p = world.particles_mut();
+    for (x, v) in p.x.iter().zip(p.v.iter_mut()) {
         *v = Vec3::new(0.02, -0.01, 0.005)
             + Vec3::new(0.0, 0.0, 3.0).cross(x)
             + Vec3::new(-2.0 * x.x, 0.0, 0.0);
@@ -42,6 +37,7 @@ fn free_flying_block_conserves_momentum() {
     for _ in 0..6 {
         world.step_frame().unwrap();
     }
+    world.sync_particles();
     let p1 = world.particles().momentum();
     let drift = (p1 - p0).norm() / p0.norm();
     assert!(drift < 1e-4, "momentum drift {drift:e}: {p0:?} → {p1:?}");
@@ -246,7 +242,7 @@ fn guard_stops_on_non_finite_state_and_restores_the_last_good_frame() {
     world.step_frame().unwrap();
     let good = world.particles().x.clone();
     let t_good = world.time;
-    world.solver.particles.f[17] = dvrk_tissue_sim::mpm::Mat3::from_element(f32::NAN);
+    world.particles_mut().f[17] = dvrk_tissue_sim::mpm::Mat3::from_element(f32::NAN);
     match world.step_frame() {
         Err(StepError::Guard { event, .. }) => {
             assert!(event.to_string().contains("non-finite"), "{event}")
@@ -273,7 +269,7 @@ fn guard_resets_tissue_on_runaway_speed_when_asked() {
     scene.solver.max_speed = 1.0;
     let mut world = World::new(&scene);
     let rest = world.particles().x.clone();
-    world.solver.particles.v[5] = Vec3::new(50.0, 0.0, 0.0);
+    world.particles_mut().v[5] = Vec3::new(50.0, 0.0, 0.0);
     let report = world.step_frame().unwrap();
     let event = report.tissue_reset.expect("guard event reported");
     assert!(event.to_string().contains("runaway"), "{event}");

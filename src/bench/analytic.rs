@@ -127,7 +127,23 @@ pub fn hertz_scene(cells_per_radius: f64) -> (Scene, f64, f64) {
 /// Runs the Hertz scene; force from the indenter's contact wrench, indentation from the
 /// sphere's lowest point below the undeformed surface.
 pub fn hertz(cells_per_radius: f64) -> HertzResult {
-    let (scene, top, duration) = hertz_scene(cells_per_radius);
+    let (scene, _, _) = hertz_scene(cells_per_radius);
+    hertz_on(
+        cells_per_radius,
+        scene.solver.backend,
+        scene.solver.p2g_atomics,
+    )
+}
+
+/// [`hertz`] on a chosen backend and P2G variant.
+pub fn hertz_on(
+    cells_per_radius: f64,
+    backend: crate::mpm::backend::BackendChoice,
+    p2g: crate::mpm::backend::P2gAtomics,
+) -> HertzResult {
+    let (mut scene, top, duration) = hertz_scene(cells_per_radius);
+    scene.solver.backend = backend;
+    scene.solver.p2g_atomics = p2g;
     let mut world = World::new(&scene);
     let mut samples = Vec::new();
     while world.time < duration - 1e-9 {
@@ -230,18 +246,14 @@ pub fn vibrating_bar(cells_across: u32) -> BarResult {
     let c_bar = (BAR_E / BAR_DENSITY).sqrt();
     let analytic_period = 4.0 * length / c_bar;
     let v0 = 1e-3 * c_bar; // strain amplitude 1e-3: linear regime
-    for (x, v) in world
-        .solver
-        .particles
-        .x
-        .iter()
-        .zip(world.solver.particles.v.iter_mut())
-    {
+    let p = world.particles_mut();
+    for (x, v) in p.x.iter().zip(p.v.iter_mut()) {
         let s = ((x.x as f64 - x0) / length).clamp(0.0, 1.0);
         v.x = (v0 * (std::f64::consts::FRAC_PI_2 * s).sin()) as f32;
     }
-    let probe_velocity = |w: &World| -> f64 {
-        let p = &w.solver.particles;
+    let probe_velocity = |w: &mut World| -> f64 {
+        w.sync_particles();
+        let p = w.particles();
         let (sum, n) =
             p.x.iter()
                 .zip(&p.v)
@@ -251,10 +263,10 @@ pub fn vibrating_bar(cells_across: u32) -> BarResult {
     };
     // Downward zero crossings of the velocity, interpolated linearly in time.
     let mut crossings = Vec::new();
-    let mut prev = (world.time, probe_velocity(&world));
+    let mut prev = (world.time, probe_velocity(&mut world));
     while world.time < 2.6 * analytic_period && crossings.len() < 3 {
         world.step_frame().expect("bar scene is stable");
-        let now = (world.time, probe_velocity(&world));
+        let now = (world.time, probe_velocity(&mut world));
         if prev.1 > 0.0 && now.1 <= 0.0 {
             crossings.push(prev.0 + (now.0 - prev.0) * prev.1 / (prev.1 - now.1));
         }

@@ -102,7 +102,7 @@ pub fn run_seed000(frames: u32) -> ThroughputResult {
     ThroughputResult {
         backend: "cpu",
         particles: world.particles().len(),
-        grid: world.solver.layout.nodes,
+        grid: world.layout().nodes,
         frames,
         substeps,
         wall_s: start.elapsed().as_secs_f64(),
@@ -125,7 +125,7 @@ mod tests {
         let world = World::new(&scene);
         assert_eq!(world.particles().len(), 24_000);
         assert_eq!(
-            world.solver.layout.nodes,
+            world.layout().nodes,
             [68, 68, 68],
             "64 cells (+1 node, rounded to blocks)"
         );

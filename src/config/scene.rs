@@ -2,6 +2,7 @@
 //!
 //! Units are SI (m, kg, s, Pa) unless a name says otherwise (`rpy_deg`, `jaw_deg`).
 
+use crate::mpm::backend::{BackendChoice, P2gAtomics};
 use crate::mpm::guard::GuardPolicy;
 use crate::mpm::material::MaterialModel;
 use crate::tools::{ContactModel, Shape};
@@ -69,6 +70,14 @@ pub struct Solver {
     pub max_speed: f64,
     #[serde(default)]
     pub guard_policy: GuardPolicy,
+    /// Which solver backend runs the scene: `auto` (a hardware GPU when there is one, the
+    /// CPU otherwise), `gpu` (any GPU adapter, software rasterisers included) or `cpu`.
+    #[serde(default)]
+    pub backend: BackendChoice,
+    /// How the GPU backend accumulates P2G: `auto` (f32 atomics where the adapter has them),
+    /// `float` or `fixed` (i32 fixed-point atomics, as WebGPU and DX12 need).
+    #[serde(default)]
+    pub p2g_atomics: P2gAtomics,
 }
 
 fn default_cfl() -> f64 {
@@ -89,6 +98,8 @@ impl Default for Solver {
             max_substeps_per_frame: default_max_substeps(),
             max_speed: default_max_speed(),
             guard_policy: GuardPolicy::default(),
+            backend: BackendChoice::default(),
+            p2g_atomics: P2gAtomics::default(),
         }
     }
 }

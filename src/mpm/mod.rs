@@ -2,7 +2,9 @@
 //!
 //! `cpu` is the reference solver (rayon); every other backend implements the same math.
 
+pub mod backend;
 pub mod cpu;
+pub mod gpu;
 pub mod grid;
 pub mod guard;
 pub mod kernel;

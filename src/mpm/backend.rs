@@ -1,0 +1,182 @@
+//! Solver backends behind one frame-level interface.
+//!
+//! `World` plans a whole frame up front (equal substeps, every substep's tool kinematics)
+//! and hands the plan to a backend, which runs all substeps and reports frame-level
+//! statistics. The CPU backend loops its `substep`; the GPU backend records every substep
+//! into one submission and reads back only what the frame's outputs need.
+
+use super::cpu::{CpuSolver, SubstepInput};
+use super::gpu::GpuSolver;
+use super::guard::GuardEvent;
+use super::{GridLayout, Particles, ToolImpulse, Vec3, MAX_TOOLS};
+use crate::tools::ToolKinematics;
+use serde::{Deserialize, Serialize};
+
+/// Which backend a scene asks for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum BackendChoice {
+    /// A hardware GPU adapter when one exists, the CPU backend otherwise.
+    #[default]
+    Auto,
+    /// A GPU adapter, a software one (llvmpipe) if no hardware adapter exists.
+    Gpu,
+    /// The CPU reference solver.
+    Cpu,
+}
+
+/// How the GPU's P2G scatter accumulates into the grid.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum P2gAtomics {
+    /// f32 atomics where the adapter has `SHADER_FLOAT32_ATOMIC`, fixed point otherwise.
+    #[default]
+    Auto,
+    /// f32 atomic add (Vulkan with VK_EXT_shader_atomic_float, Metal Apple7+).
+    Float,
+    /// i32 fixed-point atomic add (core WGSL: WebGPU, DX12, everywhere).
+    Fixed,
+}
+
+/// Everything one frame's substeps need, decided before the first of them runs.
+#[derive(Clone, Copy, Debug)]
+pub struct FramePlan<'a> {
+    pub dt: f32,
+    pub substeps: u32,
+    pub gravity: Vec3,
+    /// Tools per substep.
+    pub tool_count: usize,
+    /// `substeps × tool_count` entries, substep-major.
+    pub tools: &'a [ToolKinematics],
+}
+
+impl FramePlan<'_> {
+    pub fn substep_tools(&self, s: usize) -> &[ToolKinematics] {
+        &self.tools[s * self.tool_count..(s + 1) * self.tool_count]
+    }
+}
+
+/// What a frame reports back.
+#[derive(Clone, Debug, Default)]
+pub struct FrameStats {
+    /// Impulse on each tool summed over the completed substeps.
+    pub tool_impulses: [ToolImpulse; MAX_TOOLS],
+    /// Largest particle speed over the frame (m/s).
+    pub max_speed: f32,
+    pub clamped_particles: u32,
+    /// Substeps completed before the guard tripped (all of them when it did not).
+    pub substeps_done: u32,
+    /// The guard event of the first substep that tripped; the state is unusable then and
+    /// must be restored (`restore_frame_start` or `reset_to_rest`).
+    pub guard: Option<GuardEvent>,
+}
+
+/// A solver backend.
+pub enum Backend {
+    Cpu(Box<CpuBackend>),
+    Gpu(Box<GpuSolver>),
+}
+
+/// The CPU solver plus the copies the guard policy restores from.
+pub struct CpuBackend {
+    pub solver: CpuSolver,
+    frame_start: Particles,
+    rest: Particles,
+}
+
+impl CpuBackend {
+    pub fn new(solver: CpuSolver) -> Self {
+        CpuBackend {
+            frame_start: solver.particles.clone(),
+            rest: solver.particles.clone(),
+            solver,
+        }
+    }
+}
+
+impl Backend {
+    pub fn name(&self) -> &'static str {
+        match self {
+            Backend::Cpu(_) => "cpu",
+            Backend::Gpu(g) => g.variant_name(),
+        }
+    }
+
+    pub fn layout(&self) -> &GridLayout {
+        match self {
+            Backend::Cpu(c) => &c.solver.layout,
+            Backend::Gpu(g) => g.layout(),
+        }
+    }
+
+    /// Runs a planned frame. The state at the frame start is kept for `restore_frame_start`.
+    pub fn step_frame(&mut self, plan: &FramePlan) -> FrameStats {
+        match self {
+            Backend::Cpu(c) => {
+                c.frame_start.copy_state_from(&c.solver.particles);
+                let mut out = FrameStats::default();
+                for s in 0..plan.substeps as usize {
+                    let stats = c.solver.substep(&SubstepInput {
+                        dt: plan.dt,
+                        gravity: plan.gravity,
+                        tools: plan.substep_tools(s),
+                    });
+                    if stats.guard.is_some() {
+                        out.guard = stats.guard;
+                        break;
+                    }
+                    for (acc, imp) in out.tool_impulses.iter_mut().zip(&stats.tool_impulses) {
+                        acc.add(imp);
+                    }
+                    out.max_speed = out.max_speed.max(stats.max_speed);
+                    out.clamped_particles += stats.clamped_particles;
+                    out.substeps_done += 1;
+                }
+                out
+            }
+            Backend::Gpu(g) => g.step_frame(plan),
+        }
+    }
+
+    /// Puts the particles back to where they were when the last frame started.
+    pub fn restore_frame_start(&mut self) {
+        match self {
+            Backend::Cpu(c) => c.solver.particles.copy_state_from(&c.frame_start),
+            Backend::Gpu(g) => g.restore_frame_start(),
+        }
+    }
+
+    /// Puts the particles back to the scene's rest configuration.
+    pub fn reset_to_rest(&mut self) {
+        match self {
+            Backend::Cpu(c) => c.solver.particles.copy_state_from(&c.rest),
+            Backend::Gpu(g) => g.reset_to_rest(),
+        }
+    }
+
+    /// Particle state on the host. On the GPU: positions as of the last frame; velocity,
+    /// affine velocity and deformation gradient as of the last `sync_particles`.
+    pub fn particles(&self) -> &Particles {
+        match self {
+            Backend::Cpu(c) => &c.solver.particles,
+            Backend::Gpu(g) => g.host_particles(),
+        }
+    }
+
+    /// Full particle state for editing; on the GPU it is downloaded first and uploaded
+    /// again before the next frame.
+    pub fn particles_mut(&mut self) -> &mut Particles {
+        match self {
+            Backend::Cpu(c) => &mut c.solver.particles,
+            Backend::Gpu(g) => g.host_particles_mut(),
+        }
+    }
+
+    /// Brings the host copy of every particle field up to date (a blocking download on the
+    /// GPU; nothing on the CPU).
+    pub fn sync_particles(&mut self) {
+        if let Backend::Gpu(g) = self {
+            g.download_all();
+        }
+    }
+}

@@ -1,0 +1,122 @@
+//! Choosing a GPU adapter, and the device made from it.
+//!
+//! `auto` takes a hardware adapter (discrete, then integrated, then virtual) and otherwise
+//! leaves the scene on the CPU backend, because a software rasteriser (Mesa's llvmpipe) is
+//! slower than the rayon solver on the same cores. `gpu` takes a hardware adapter when
+//! there is one and a software one otherwise: that is how CI tests the GPU path. The choice
+//! and its reason are logged with the adapter's name, API, device type and whether it has
+//! f32 atomics.
+
+use super::GpuError;
+use crate::mpm::backend::BackendChoice;
+use wgpu::{Adapter, DeviceType};
+
+/// A device and queue on the chosen adapter.
+pub struct GpuContext {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub info: wgpu::AdapterInfo,
+    /// The adapter has (and the device enabled) `SHADER_FLOAT32_ATOMIC`.
+    pub float_atomics: bool,
+}
+
+fn is_hardware(t: DeviceType) -> bool {
+    matches!(
+        t,
+        DeviceType::DiscreteGpu | DeviceType::IntegratedGpu | DeviceType::VirtualGpu
+    )
+}
+
+fn preference(t: DeviceType) -> u32 {
+    match t {
+        DeviceType::DiscreteGpu => 0,
+        DeviceType::IntegratedGpu => 1,
+        DeviceType::VirtualGpu => 2,
+        DeviceType::Cpu => 3,
+        DeviceType::Other => 4,
+    }
+}
+
+fn describe(a: &Adapter) -> String {
+    let info = a.get_info();
+    format!(
+        "\"{}\" ({:?}, {:?}, f32 atomics: {})",
+        info.name,
+        info.backend,
+        info.device_type,
+        if a.features().contains(wgpu::Features::SHADER_FLOAT32_ATOMIC) {
+            "yes"
+        } else {
+            "no"
+        }
+    )
+}
+
+/// Every adapter wgpu finds on Vulkan, Metal and DX12 (not GL: it has no compute storage
+/// atomics worth using), best first.
+pub fn adapters() -> Vec<Adapter> {
+    let instance = wgpu::Instance::new(&wgpu::InstanceDescriptor {
+        backends: wgpu::Backends::PRIMARY,
+        ..Default::default()
+    });
+    let mut list = instance.enumerate_adapters(wgpu::Backends::PRIMARY);
+    list.sort_by_key(|a| preference(a.get_info().device_type));
+    list
+}
+
+/// Picks the adapter `choice` asks for: `Ok(None)` means "use the CPU backend".
+pub fn select(choice: BackendChoice) -> Result<Option<GpuContext>, GpuError> {
+    if choice == BackendChoice::Cpu {
+        tracing::info!("backend: cpu (asked for)");
+        return Ok(None);
+    }
+    let list = adapters();
+    let found: Vec<String> = list.iter().map(describe).collect();
+    let hardware = list.iter().find(|a| is_hardware(a.get_info().device_type));
+    let (adapter, why) = match (choice, hardware) {
+        (_, Some(a)) => (a, "hardware GPU adapter"),
+        (BackendChoice::Auto, None) => {
+            tracing::info!(
+                "backend: cpu (auto: no hardware GPU adapter; found {})",
+                if found.is_empty() {
+                    "none".to_string()
+                } else {
+                    found.join(", ")
+                }
+            );
+            return Ok(None);
+        }
+        (_, None) => match list.first() {
+            Some(a) => (a, "gpu asked for and only a software adapter exists"),
+            None => return Err(GpuError::NoAdapter),
+        },
+    };
+    let ctx = open(adapter)?;
+    tracing::info!("backend: gpu on {} ({why})", describe(adapter),);
+    Ok(Some(ctx))
+}
+
+/// Opens a device on `adapter` with its full limits and, where it has them, f32 atomics.
+pub fn open(adapter: &Adapter) -> Result<GpuContext, GpuError> {
+    let float_atomics = adapter
+        .features()
+        .contains(wgpu::Features::SHADER_FLOAT32_ATOMIC);
+    let required_features = if float_atomics {
+        wgpu::Features::SHADER_FLOAT32_ATOMIC
+    } else {
+        wgpu::Features::empty()
+    };
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        label: Some("mpm"),
+        required_features,
+        required_limits: adapter.limits(),
+        ..Default::default()
+    }))
+    .map_err(|e| GpuError::Device(e.to_string()))?;
+    Ok(GpuContext {
+        device,
+        queue,
+        info: adapter.get_info(),
+        float_atomics,
+    })
+}

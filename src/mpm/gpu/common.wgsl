@@ -1,0 +1,403 @@
+// Shared declarations of every MPM stage: bindings, state layout, the B-spline stencil, the
+// constitutive models, tool SDFs and contact, and the grid boundary. Line for line the math
+// of the CPU solver (src/mpm/{kernel,material,grid}.rs, src/tools/{sdf,contact}.rs).
+
+const MAX_TOOLS: u32 = 8u;
+const NO_TOOL: u32 = 0xffffffffu;
+const J_MIN: f32 = 1e-4;
+const ROTATION_ITERATIONS: i32 = 20;
+const TAU: f32 = 6.28318530717958647692;
+
+// Word indices of the per-frame statistics buffer.
+const S_GUARD: u32 = 0u;           // substep + 1 of the first guard event, 0 when none
+const S_GUARD_PARTICLE: u32 = 1u;  // lowest offending particle of that substep
+const S_MAX_SPEED: u32 = 2u;       // f32 bits (non-negative, so u32 order is f32 order)
+const S_CLAMPED: u32 = 3u;
+const S_SUBSTEPS: u32 = 4u;        // substeps started
+const S_CONTACT_BLOCKS: u32 = 5u;  // blocks with tool contact in this substep
+const S_GUARD_KIND: u32 = 6u;      // 0 non-finite, 1 runaway
+const S_GUARD_SPEED: u32 = 7u;
+const S_GUARD_POS: u32 = 8u;       // 3 words
+const S_IMPULSE: u32 = 16u;        // MAX_TOOLS × (linear xyz, angular xyz, contact nodes, 0)
+
+struct Sim {
+    origin_dx: vec4<f32>,
+    inv_dx: f32,
+    n_particles: u32,
+    max_speed: f32,
+    n_tools: u32,
+    nodes: vec4<u32>,   // nodes per axis; w: block count
+    blocks: vec4<u32>,  // blocks per axis; w: table (0 none, 1 bonded, 2 resting)
+    table: vec4<f32>,   // x: height, y: friction
+    fixed: vec4<f32>,   // x: scale, y: 1/scale, z: momentum unit, w: mass unit
+}
+
+struct Step {
+    dt: f32,
+    substep: u32,
+    pad0: u32,
+    pad1: u32,
+    gravity: vec4<f32>,
+}
+
+struct Particle {
+    x: vec4<f32>,
+    v: vec4<f32>,  // w: 0, or what tripped the guard (speed, −1 for non-finite)
+    c: mat3x3<f32>,
+    f: mat3x3<f32>,
+}
+
+struct Material {
+    model: u32,  // 0 Neo-Hookean, 1 fixed-corotated
+    mu: f32,
+    lambda: f32,
+    damping: f32,
+}
+
+struct Tool {
+    rot: mat3x3<f32>,
+    trans: vec4<f32>,     // w: contact threshold
+    lin: vec4<f32>,       // w: jaw opening
+    ang: vec4<f32>,       // w: jaw rate
+    aabb_min: vec4<f32>,  // w: friction
+    aabb_max: vec4<f32>,  // w: drag
+    shape: vec4<f32>,
+    kind: vec4<u32>,      // x: shape (0 sphere, 1 capsule, 2 box, 3 gripper, 4 needle); y: 1 sticky
+}
+
+@group(0) @binding(0) var<uniform> sim: Sim;
+@group(0) @binding(1) var<uniform> st: Step;
+@group(0) @binding(2) var<storage, read_write> particles: array<Particle>;
+@group(0) @binding(3) var<storage, read_write> pconst: array<vec4<f32>>;  // mass, volume0, material
+@group(0) @binding(4) var<storage, read_write> materials: array<Material>;
+@group(0) @binding(5) var<storage, read_write> tools: array<Tool>;
+@group(0) @binding(6) var<storage, read_write> grid_acc: array<ACC_ATOMIC>;
+@group(0) @binding(7) var<storage, read_write> grid_v: array<vec4<f32>>;
+@group(0) @binding(8) var<storage, read_write> block_flags: array<atomic<u32>>;
+@group(0) @binding(9) var<storage, read_write> active_blocks: array<u32>;
+@group(0) @binding(10) var<storage, read_write> stats: array<atomic<u32>>;
+@group(0) @binding(11) var<storage, read_write> partials: array<f32>;
+@group(0) @binding(12) var<storage, read_write> out_pos: array<vec4<f32>>;
+// Indirect dispatch arguments: a group of their own, bound only by the stages that write
+// them, so that the indirect dispatches never see them as storage.
+@group(1) @binding(0) var<storage, read_write> args: array<atomic<u32>>;
+
+// True when a guard event happened in an earlier substep of this frame: the rest of the
+// frame does nothing, and the host restores the state.
+fn guard_before() -> bool {
+    let g = atomicLoad(&stats[S_GUARD]);
+    return g != 0u && g != st.substep + 1u;
+}
+
+fn is_finite(x: f32) -> bool {
+    return (bitcast<u32>(x) & 0x7f800000u) != 0x7f800000u;
+}
+
+fn is_finite3(v: vec3<f32>) -> bool {
+    return is_finite(v.x) && is_finite(v.y) && is_finite(v.z);
+}
+
+fn is_finite_m(m: mat3x3<f32>) -> bool {
+    return is_finite3(m[0]) && is_finite3(m[1]) && is_finite3(m[2]);
+}
+
+// ---- grid layout (4³-node blocks, as GridLayout) ----
+
+fn block_index(b: vec3<u32>) -> u32 {
+    return (b.x * sim.blocks.y + b.y) * sim.blocks.z + b.z;
+}
+
+fn node_coords(b: u32, local: u32) -> vec3<u32> {
+    let bz = b % sim.blocks.z;
+    let rest = b / sim.blocks.z;
+    let bb = vec3<u32>(rest / sim.blocks.y, rest % sim.blocks.y, bz);
+    return bb * 4u + vec3<u32>(local / 16u, (local / 4u) % 4u, local % 4u);
+}
+
+// Storage offsets of the three stencil nodes along each axis: node (a, b, c) is at
+// offs[a].x + offs[b].y + offs[c].z.
+fn node_offsets(base: vec3<i32>) -> array<vec3<u32>, 3> {
+    let stride = vec3<u32>(sim.blocks.y * sim.blocks.z * 64u, sim.blocks.z * 64u, 64u);
+    let local = vec3<u32>(16u, 4u, 1u);
+    var out: array<vec3<u32>, 3>;
+    for (var a = 0u; a < 3u; a++) {
+        let n = vec3<u32>(base) + vec3<u32>(a);
+        out[a] = (n / 4u) * stride + (n % 4u) * local;
+    }
+    return out;
+}
+
+// ---- quadratic B-spline stencil (kernel.rs) ----
+
+struct Stencil {
+    base: vec3<i32>,
+    fx: vec3<f32>,
+    w: array<vec3<f32>, 3>,
+}
+
+fn make_stencil(g: vec3<f32>) -> Stencil {
+    let base_f = floor(g - vec3<f32>(0.5));
+    let fx = g - base_f;
+    let t0 = vec3<f32>(1.5) - fx;
+    let t1 = fx - vec3<f32>(1.0);
+    let t2 = fx - vec3<f32>(0.5);
+    var s: Stencil;
+    s.base = vec3<i32>(base_f);
+    s.fx = fx;
+    s.w[0] = 0.5 * t0 * t0;
+    s.w[1] = vec3<f32>(0.75) - t1 * t1;
+    s.w[2] = 0.5 * t2 * t2;
+    return s;
+}
+
+fn grid_pos(x: vec3<f32>) -> vec3<f32> {
+    return (x - sim.origin_dx.xyz) * sim.inv_dx;
+}
+
+// ---- constitutive models (material.rs) ----
+
+fn quat_mul(a: vec4<f32>, b: vec4<f32>) -> vec4<f32> {
+    return vec4<f32>(a.w * b.xyz + b.w * a.xyz + cross(a.xyz, b.xyz), a.w * b.w - dot(a.xyz, b.xyz));
+}
+
+fn quat_to_mat(q: vec4<f32>) -> mat3x3<f32> {
+    let x = q.x;
+    let y = q.y;
+    let z = q.z;
+    let w = q.w;
+    return mat3x3<f32>(
+        vec3<f32>(1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z), 2.0 * (x * z - w * y)),
+        vec3<f32>(2.0 * (x * y - w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z + w * x)),
+        vec3<f32>(2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y)),
+    );
+}
+
+// Rotation closest to `a` (Müller et al. 2016), as `rotation_of` in material.rs.
+fn rotation_of(a: mat3x3<f32>) -> mat3x3<f32> {
+    var q = vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    for (var i = 0; i < ROTATION_ITERATIONS; i++) {
+        let r = quat_to_mat(q);
+        let num = cross(r[0], a[0]) + cross(r[1], a[1]) + cross(r[2], a[2]);
+        let den = abs(dot(r[0], a[0]) + dot(r[1], a[1]) + dot(r[2], a[2])) + 1e-9;
+        let omega = num / den;
+        let angle = length(omega);
+        if (angle < 1e-9) {
+            break;
+        }
+        let axis = omega / angle;
+        let h = 0.5 * angle;
+        q = quat_mul(vec4<f32>(axis * sin(h), cos(h)), q);
+        q = q / length(q);
+    }
+    return quat_to_mat(q);
+}
+
+fn kirchhoff_stress(mat: Material, f: mat3x3<f32>) -> mat3x3<f32> {
+    let id = mat3x3<f32>(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0));
+    if (mat.model == 0u) {
+        let j = max(determinant(f), J_MIN);
+        let tau = (f * transpose(f)) * mat.mu;
+        return tau + id * (mat.lambda * log(j) - mat.mu);
+    }
+    let j = determinant(f);
+    let r = rotation_of(f);
+    let tau = ((f - r) * transpose(f)) * (2.0 * mat.mu);
+    return tau + id * (mat.lambda * (j - 1.0) * j);
+}
+
+// ---- tool SDFs (sdf.rs), tool frame ----
+
+struct Hit {
+    distance: f32,
+    normal: vec3<f32>,
+    tangent: vec3<f32>,
+    part: u32,
+}
+
+fn solid(distance: f32, normal: vec3<f32>, part: u32) -> Hit {
+    return Hit(distance, normal, vec3<f32>(0.0), part);
+}
+
+fn unit_or(v: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
+    let n = length(v);
+    if (n > 1e-12) {
+        return v / n;
+    }
+    return fallback;
+}
+
+fn jaw_angle(part: u32, opening: f32) -> f32 {
+    if (part == 1u) {
+        return -0.5 * opening;
+    }
+    return 0.5 * opening;
+}
+
+fn rotate_x(p: vec3<f32>, angle: f32) -> vec3<f32> {
+    let s = sin(angle);
+    let c = cos(angle);
+    return vec3<f32>(p.x, c * p.y - s * p.z, s * p.y + c * p.z);
+}
+
+fn sdf_sphere(p: vec3<f32>, radius: f32) -> Hit {
+    return solid(length(p) - radius, unit_or(p, vec3<f32>(0.0, 0.0, 1.0)), 0u);
+}
+
+fn sdf_capsule(p: vec3<f32>, radius: f32, half_length: f32) -> Hit {
+    let d = p - vec3<f32>(0.0, 0.0, clamp(p.z, -half_length, half_length));
+    var fallback = vec3<f32>(0.0, 0.0, -1.0);
+    if (p.z >= 0.0) {
+        fallback = vec3<f32>(0.0, 0.0, 1.0);
+    }
+    return solid(length(d) - radius, unit_or(d, fallback), 0u);
+}
+
+fn sdf_box(p: vec3<f32>, half: vec3<f32>) -> Hit {
+    let q = abs(p) - half;
+    let sign = select(vec3<f32>(1.0), vec3<f32>(-1.0), p < vec3<f32>(0.0));
+    let outside = max(q, vec3<f32>(0.0));
+    if (dot(outside, outside) > 0.0) {
+        let n = outside * sign;
+        return solid(length(outside), n / length(n), 0u);
+    }
+    // Inside: the face with the largest q (the first one on ties, as nalgebra's imax).
+    var axis = 0u;
+    var best = q.x;
+    if (q.y > best) {
+        axis = 1u;
+        best = q.y;
+    }
+    if (q.z > best) {
+        axis = 2u;
+        best = q.z;
+    }
+    var n = vec3<f32>(0.0);
+    n[axis] = sign[axis];
+    return solid(best, n, 0u);
+}
+
+fn sdf_gripper(p: vec3<f32>, opening: f32, len: f32, width: f32, thickness: f32) -> Hit {
+    let half = vec3<f32>(0.5 * width, 0.5 * thickness, 0.5 * len);
+    var best = solid(3.0e38, vec3<f32>(0.0, 0.0, 1.0), 1u);
+    for (var part = 1u; part <= 2u; part++) {
+        let angle = jaw_angle(part, opening);
+        let in_jaw = rotate_x(p, -angle);
+        var side = -1.0;
+        if (part == 1u) {
+            side = 1.0;
+        }
+        let centre = vec3<f32>(0.0, side * 0.5 * thickness, 0.5 * len);
+        let hit = sdf_box(in_jaw - centre, half);
+        if (hit.distance < best.distance) {
+            best = solid(hit.distance, rotate_x(hit.normal, angle), part);
+        }
+    }
+    return best;
+}
+
+fn on_arc(radius: f32, a: f32) -> vec3<f32> {
+    return vec3<f32>(radius * cos(a), radius * sin(a), 0.0);
+}
+
+fn sdf_needle(p: vec3<f32>, radius: f32, arc_angle: f32, wire_radius: f32) -> Hit {
+    var phi = atan2(p.y, p.x);
+    if (phi < 0.0) {
+        phi = phi + TAU;
+    }
+    var angle = phi;
+    if (phi > arc_angle) {
+        let end = on_arc(radius, arc_angle);
+        let start = on_arc(radius, 0.0);
+        let de = p - end;
+        let ds = p - start;
+        if (dot(de, de) < dot(ds, ds)) {
+            angle = arc_angle;
+        } else {
+            angle = 0.0;
+        }
+    }
+    let nearest = on_arc(radius, angle);
+    let tangent = vec3<f32>(-sin(angle), cos(angle), 0.0);
+    let d = p - nearest;
+    let normal = unit_or(d, vec3<f32>(cos(angle), sin(angle), 0.0));
+    return Hit(length(d) - wire_radius, normal, tangent, 0u);
+}
+
+fn tool_query(t: Tool, p: vec3<f32>) -> Hit {
+    let s = t.shape;
+    switch t.kind.x {
+        case 0u: { return sdf_sphere(p, s.x); }
+        case 1u: { return sdf_capsule(p, s.x, s.y); }
+        case 2u: { return sdf_box(p, s.xyz); }
+        case 3u: { return sdf_gripper(p, t.lin.w, s.x, s.y, s.z); }
+        default: { return sdf_needle(p, s.x, s.y, s.z); }
+    }
+}
+
+fn in_aabb(t: Tool, x: vec3<f32>) -> bool {
+    return all(x >= t.aabb_min.xyz) && all(x <= t.aabb_max.xyz);
+}
+
+// Contact query in world frame (ToolKinematics::probe, after the bounding-box test).
+fn tool_probe(t: Tool, x: vec3<f32>) -> Hit {
+    let local = transpose(t.rot) * (x - t.trans.xyz);
+    let h = tool_query(t, local);
+    return Hit(h.distance - t.trans.w, t.rot * h.normal, t.rot * h.tangent, h.part);
+}
+
+fn surface_velocity(t: Tool, x: vec3<f32>, part: u32) -> vec3<f32> {
+    var omega = t.ang.xyz;
+    if (part != 0u) {
+        omega = omega + t.rot[0] * jaw_angle(part, t.ang.w);
+    }
+    return t.lin.xyz + cross(omega, x - t.trans.xyz);
+}
+
+// Coulomb contact (contact.rs `resolve`): `sticky` moves with the tool.
+fn resolve(sticky: bool, friction: f32, drag: f32, v_node: vec3<f32>, v_tool: vec3<f32>,
+           normal: vec3<f32>, tangent: vec3<f32>) -> vec3<f32> {
+    if (sticky) {
+        return v_tool;
+    }
+    let v_rel = v_node - v_tool;
+    let v_n = dot(v_rel, normal);
+    if (v_n >= 0.0) {
+        return v_node;
+    }
+    let is_curve = dot(tangent, tangent) > 0.0;
+    var v_t = v_rel - v_n * normal;
+    if (is_curve) {
+        v_t = tangent * dot(v_rel, tangent);
+    }
+    let v_t_norm = length(v_t);
+    if (v_t_norm <= 1e-12) {
+        return v_tool;
+    }
+    let approach = min(v_n, 0.0);
+    let scale = max(1.0 + friction * approach / v_t_norm, 0.0) * (1.0 - drag);
+    return v_tool + v_t * scale;
+}
+
+// Table plane and slip walls (cpu `apply_boundary`).
+fn apply_boundary(ijk: vec3<u32>, x: vec3<f32>, v_in: vec3<f32>) -> vec3<f32> {
+    var v = v_in;
+    let table = sim.blocks.w;
+    if (table != 0u && x.z <= sim.table.x + 1e-3 * sim.origin_dx.w) {
+        if (table == 1u) {
+            v = vec3<f32>(0.0);
+        } else {
+            v = resolve(false, sim.table.y, 0.0, v, vec3<f32>(0.0), vec3<f32>(0.0, 0.0, 1.0), vec3<f32>(0.0));
+        }
+    }
+    let walls = 2;
+    for (var a = 0u; a < 3u; a++) {
+        let i = i32(ijk[a]);
+        if (i < walls && v[a] < 0.0) {
+            v[a] = 0.0;
+        }
+        if (i >= i32(sim.nodes[a]) - walls && v[a] > 0.0) {
+            v[a] = 0.0;
+        }
+    }
+    return v;
+}

@@ -1,0 +1,99 @@
+// G2P (cpu `grid_to_particle`): velocity and affine velocity from the grid, advection with
+// clamping to the domain, deformation-gradient update, damping, and the guard.
+
+var<workgroup> wg_max: atomic<u32>;
+var<workgroup> wg_clamped: atomic<u32>;
+
+@compute @workgroup_size(64)
+fn g2p(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    if (lid == 0u) {
+        atomicStore(&wg_max, 0u);
+        atomicStore(&wg_clamped, 0u);
+    }
+    workgroupBarrier();
+    let p = gid.x;
+    if (p < sim.n_particles && !guard_before()) {
+        g2p_particle(p);
+    }
+    workgroupBarrier();
+    if (lid == 0u) {
+        atomicMax(&stats[S_MAX_SPEED], atomicLoad(&wg_max));
+        let c = atomicLoad(&wg_clamped);
+        if (c > 0u) {
+            atomicAdd(&stats[S_CLAMPED], c);
+        }
+    }
+}
+
+fn g2p_particle(p: u32) {
+    let part = particles[p];
+    let dt = st.dt;
+    let g = grid_pos(part.x.xyz);
+    let s = make_stencil(g);
+    let offs = node_offsets(s.base);
+    var v = vec3<f32>(0.0);
+    var bm = mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    for (var a = 0u; a < 3u; a++) {
+        for (var b = 0u; b < 3u; b++) {
+            for (var c = 0u; c < 3u; c++) {
+                let w = s.w[a].x * s.w[b].y * s.w[c].z;
+                let vi = grid_v[offs[a].x + offs[b].y + offs[c].z].xyz * w;
+                let o = vec3<f32>(f32(a), f32(b), f32(c)) - s.fx;
+                v += vi;
+                bm += mat3x3<f32>(vi * o.x, vi * o.y, vi * o.z);
+            }
+        }
+    }
+    let c_new = bm * (4.0 * sim.inv_dx);
+    var g_new = g + v * (dt * sim.inv_dx);
+    let lo = vec3<f32>(1.0);
+    let hi = vec3<f32>(sim.nodes.xyz) - vec3<f32>(2.0);
+    let inside = min(max(g_new, lo), hi);
+    if (any(inside != g_new)) {
+        atomicAdd(&wg_clamped, 1u);
+        g_new = inside;
+    }
+    let id = mat3x3<f32>(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0));
+    let f_new = (id + c_new * dt) * part.f;
+    let damping = materials[bitcast<u32>(pconst[p].z)].damping;
+    if (damping > 0.0) {
+        v *= exp(-damping * dt);
+    }
+    let speed = length(v);
+    let finite = is_finite(speed) && is_finite_m(c_new) && is_finite_m(f_new) && is_finite3(g_new);
+    if (!finite || speed > sim.max_speed) {
+        // Leave the particle as it was; note what tripped in v.w for the frame's report.
+        particles[p].v.w = select(-1.0, speed, finite);
+        atomicMax(&stats[S_GUARD], st.substep + 1u);
+        atomicMin(&stats[S_GUARD_PARTICLE], p);
+        return;
+    }
+    atomicMax(&wg_max, bitcast<u32>(speed));
+    particles[p].x = vec4<f32>(sim.origin_dx.xyz + g_new * sim.origin_dx.w, 0.0);
+    particles[p].v = vec4<f32>(v, 0.0);
+    particles[p].c = c_new;
+    particles[p].f = f_new;
+}
+
+// One invocation at the end of a frame: fills in the guard event's details.
+@compute @workgroup_size(1)
+fn finalize_guard() {
+    if (atomicLoad(&stats[S_GUARD]) == 0u) {
+        return;
+    }
+    let part = particles[atomicLoad(&stats[S_GUARD_PARTICLE])];
+    atomicStore(&stats[S_GUARD_KIND], select(1u, 0u, part.v.w < 0.0));
+    atomicStore(&stats[S_GUARD_SPEED], bitcast<u32>(part.v.w));
+    atomicStore(&stats[S_GUARD_POS], bitcast<u32>(part.x.x));
+    atomicStore(&stats[S_GUARD_POS + 1u], bitcast<u32>(part.x.y));
+    atomicStore(&stats[S_GUARD_POS + 2u], bitcast<u32>(part.x.z));
+}
+
+// One invocation per particle at the end of a frame: positions for the readback.
+@compute @workgroup_size(64)
+fn extract_positions(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let p = gid.x;
+    if (p < sim.n_particles) {
+        out_pos[p] = particles[p].x;
+    }
+}

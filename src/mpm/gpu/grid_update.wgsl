@@ -1,0 +1,108 @@
+// Grid update (cpu `update_grid`): velocity from momentum, gravity, contact with the
+// nearest tool the node is inside of (only tools whose bounding box holds the node are
+// evaluated), momentum exchange into per-tool impulses, table and walls. One workgroup per
+// active block; each block with contact leaves its per-tool sums in `partials`.
+
+var<workgroup> wg_guard: u32;
+var<workgroup> wg_contacts: atomic<u32>;
+var<workgroup> wg_any: u32;
+var<workgroup> wg_slot: u32;
+var<workgroup> wg_tool: array<u32, 64>;
+var<workgroup> wg_val: array<f32, 512>;
+
+@compute @workgroup_size(64)
+fn grid_update(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    if (lid == 0u) {
+        wg_guard = atomicLoad(&stats[S_GUARD]);
+        atomicStore(&wg_contacts, 0u);
+    }
+    if (workgroupUniformLoad(&wg_guard) != 0u) {
+        return;
+    }
+    let b = active_blocks[wid.x];
+    let node = b * 64u + lid;
+    let m = acc_load_m(4u * node + 3u);
+    var out = vec4<f32>(0.0);
+    var hit_tool = NO_TOOL;
+    var dp = vec3<f32>(0.0);
+    var dl = vec3<f32>(0.0);
+    if (m > 0.0) {
+        let ijk = node_coords(b, lid);
+        let x = sim.origin_dx.xyz + vec3<f32>(ijk) * sim.origin_dx.w;
+        let p = vec3<f32>(acc_load_p(4u * node), acc_load_p(4u * node + 1u), acc_load_p(4u * node + 2u));
+        var v = p / m + st.gravity.xyz * st.dt;
+        // Nearest tool the node is inside of.
+        var best_depth = 0.0;
+        var best_hit: Hit;
+        for (var t = 0u; t < sim.n_tools; t++) {
+            let tool = tools[st.substep * sim.n_tools + t];
+            if (!in_aabb(tool, x)) {
+                continue;
+            }
+            let hit = tool_probe(tool, x);
+            if (hit.distance < 0.0 && (hit_tool == NO_TOOL || hit.distance < best_depth)) {
+                hit_tool = t;
+                best_depth = hit.distance;
+                best_hit = hit;
+            }
+        }
+        if (hit_tool != NO_TOOL) {
+            let tool = tools[st.substep * sim.n_tools + hit_tool];
+            let v_tool = surface_velocity(tool, x, best_hit.part);
+            let v_new = resolve(tool.kind.y == 1u, tool.aabb_min.w, tool.aabb_max.w, v, v_tool,
+                                best_hit.normal, best_hit.tangent);
+            dp = (v - v_new) * m;
+            dl = cross(x - tool.trans.xyz, dp);
+            v = v_new;
+            atomicAdd(&wg_contacts, 1u);
+        }
+        v = apply_boundary(ijk, x, v);
+        out = vec4<f32>(v, m);
+    }
+    grid_v[node] = out;
+    wg_tool[lid] = hit_tool;
+    wg_val[lid * 8u] = dp.x;
+    wg_val[lid * 8u + 1u] = dp.y;
+    wg_val[lid * 8u + 2u] = dp.z;
+    wg_val[lid * 8u + 3u] = dl.x;
+    wg_val[lid * 8u + 4u] = dl.y;
+    wg_val[lid * 8u + 5u] = dl.z;
+    wg_val[lid * 8u + 6u] = select(0.0, 1.0, hit_tool != NO_TOOL);
+    wg_val[lid * 8u + 7u] = 0.0;
+    workgroupBarrier();
+    if (lid == 0u) {
+        wg_any = atomicLoad(&wg_contacts);
+        if (wg_any > 0u) {
+            wg_slot = atomicAdd(&stats[S_CONTACT_BLOCKS], 1u);
+        }
+    }
+    if (workgroupUniformLoad(&wg_any) == 0u) {
+        return;
+    }
+    // Thread (tool t, component k) sums its component over the block's nodes.
+    let t = lid / 8u;
+    let k = lid % 8u;
+    var sum = 0.0;
+    for (var n = 0u; n < 64u; n++) {
+        if (wg_tool[n] == t) {
+            sum += wg_val[n * 8u + k];
+        }
+    }
+    partials[wg_slot * 64u + lid] = sum;
+}
+
+// One workgroup: adds this substep's per-block contact sums to the frame's tool impulses.
+// Runs after G2P so that a substep the guard rejects contributes nothing, as on the CPU.
+@compute @workgroup_size(64)
+fn reduce_impulses(@builtin(local_invocation_index) lid: u32) {
+    if (atomicLoad(&stats[S_GUARD]) != 0u) {
+        return;
+    }
+    let n = atomicLoad(&stats[S_CONTACT_BLOCKS]);
+    var sum = 0.0;
+    for (var i = 0u; i < n; i++) {
+        sum += partials[i * 64u + lid];
+    }
+    let w = S_IMPULSE + lid;
+    atomicStore(&stats[w], bitcast<u32>(bitcast<f32>(atomicLoad(&stats[w])) + sum));
+}
