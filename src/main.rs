@@ -92,6 +92,16 @@ enum BenchCommand {
     },
     /// Error of the scenes with analytic answers at a few resolutions.
     Accuracy,
+    /// Particle-substeps per second against particle count (10k–1M) and on the seed-000
+    /// scene, for the CPU backend and each GPU P2G variant the adapter can run.
+    Scaling {
+        /// Particle counts to time (default 10000,30000,100000,300000,1000000).
+        #[arg(long, value_delimiter = ',')]
+        counts: Option<Vec<usize>>,
+        /// Least wall time per measurement (s).
+        #[arg(long, default_value_t = 2.0)]
+        min_seconds: f64,
+    },
 }
 
 fn main() {
@@ -186,6 +196,22 @@ fn run(cli: Cli) -> Result<()> {
             BenchCommand::Throughput { frames } => {
                 let result = bench::throughput::run_seed000(frames);
                 print!("{}", result.table());
+                Ok(())
+            }
+            BenchCommand::Scaling {
+                counts,
+                min_seconds,
+            } => {
+                let counts = counts.unwrap_or_else(|| bench::scaling::COUNTS.to_vec());
+                let adapter = dvrk_tissue_sim::mpm::gpu::adapter::adapters()
+                    .first()
+                    .map(|a| {
+                        let i = a.get_info();
+                        format!("{} ({:?}, {:?})", i.name, i.backend, i.device_type)
+                    })
+                    .unwrap_or_else(|| "none".into());
+                let rows = bench::scaling::run(&counts, min_seconds);
+                print!("{}", bench::scaling::table(&rows, &adapter));
                 Ok(())
             }
             BenchCommand::Accuracy => {
