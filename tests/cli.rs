@@ -30,7 +30,7 @@ fn headless_run_prints_frame_lines_and_a_summary() {
     let frames: Vec<&str> = stdout.lines().filter(|l| l.starts_with("t=")).collect();
     assert_eq!(frames.len(), 3, "{stdout}");
     for line in &frames {
-        for field in ["substeps=", "probe F=(", "vmax=", "rtf="] {
+        for field in ["substeps=", "gripper F=(", "vmax=", "rtf="] {
             assert!(line.contains(field), "{line} lacks {field}");
         }
     }
