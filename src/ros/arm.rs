@@ -611,3 +611,155 @@ fn isometry(position: &[f64; 3], quaternion: &[f64; 4]) -> Result<Isometry3<f64>
         UnitQuaternion::from_quaternion(q),
     ))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const HOME: [f64; 6] = [0.0, 0.0, 0.12, 0.0, 0.0, 0.0];
+
+    fn arm(mode: ArmMode) -> ArmSim {
+        ArmSim::new(
+            Psm::classic("PSM1").unwrap(),
+            mode,
+            Isometry3::identity(),
+            &HOME,
+            0.0,
+        )
+        .unwrap()
+    }
+
+    fn command(topic: &'static str, input: ArmInput) -> ArmCommand {
+        ArmCommand { topic, input }
+    }
+
+    fn servo(q: &[f64]) -> ArmCommand {
+        command(
+            "servo_jp",
+            ArmInput::ServoJp {
+                names: vec![],
+                positions: q.to_vec(),
+            },
+        )
+    }
+
+    #[test]
+    fn starts_enabled_and_homed_and_reports_it() {
+        let mut a = arm(ArmMode::Simulated);
+        let events = a.take_events();
+        assert_eq!(
+            events,
+            [ArmEvent::State {
+                time: 0.0,
+                state: OperatingState::Enabled,
+                homed: true,
+                busy: false
+            }]
+        );
+        assert_eq!(a.q(), HOME);
+    }
+
+    #[test]
+    fn rejected_commands_keep_the_last_valid_one() {
+        let mut a = arm(ArmMode::Simulated);
+        let good = [0.05, 0.0, 0.125, 0.0, 0.0, 0.0];
+        a.apply(&servo(&good), 0.0).unwrap();
+        for bad in [
+            vec![f64::NAN, 0.0, 0.12, 0.0, 0.0, 0.0],
+            vec![0.0, 0.0, 0.12],
+            vec![0.0, 0.0, 0.5, 0.0, 0.0, 0.0],
+            vec![1.0, 0.0, 0.125, 0.0, 0.0, 0.0],
+        ] {
+            let r = a.apply(&servo(&bad), 0.0).unwrap_err();
+            assert_eq!(r.topic, "servo_jp");
+            assert_eq!(a.q(), good);
+        }
+        let cp = command(
+            "servo_cp",
+            ArmInput::ServoCp {
+                position: [0.0, 0.0, -0.01],
+                quaternion: [0.0, 0.0, 0.0, 1.0],
+            },
+        );
+        assert!(a.apply(&cp, 0.0).unwrap_err().reason.contains("RCM"));
+        assert_eq!(a.q(), good);
+    }
+
+    #[test]
+    fn move_jp_is_busy_until_the_goal_at_dvrk_speed() {
+        let mut a = arm(ArmMode::Simulated);
+        a.take_events();
+        let goal = [0.3, 0.0, 0.12, 0.0, 0.0, 0.0];
+        a.apply(
+            &command(
+                "move_jp",
+                ArmInput::MoveJp {
+                    names: vec![],
+                    positions: goal.to_vec(),
+                },
+            ),
+            0.0,
+        )
+        .unwrap();
+        assert!(a.is_busy());
+        // 0.3 rad at 90°/s with the quintic profile: 15/8 · 0.3 / (π/2) s.
+        let duration = 15.0 / 8.0 * 0.3 / std::f64::consts::FRAC_PI_2;
+        let mut t = 0.0;
+        while t < duration - 0.02 {
+            t += 0.01;
+            a.advance(t);
+            assert!(a.is_busy());
+        }
+        a.advance(duration + 0.01);
+        assert!(!a.is_busy());
+        assert_eq!(a.q(), goal);
+        let busy: Vec<bool> = a
+            .take_events()
+            .iter()
+            .filter_map(|e| match e {
+                ArmEvent::State { busy, .. } => Some(*busy),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(busy, [true, false]);
+    }
+
+    #[test]
+    fn disabled_arms_refuse_motion_and_mirrors_follow_the_real_arm() {
+        let mut a = arm(ArmMode::Simulated);
+        a.apply(
+            &command("state_command", ArmInput::StateCommand("disable".into())),
+            0.0,
+        )
+        .unwrap();
+        assert_eq!(a.operating_state(), OperatingState::Disabled);
+        assert!(a
+            .apply(&servo(&HOME), 0.0)
+            .unwrap_err()
+            .reason
+            .contains("DISABLED"));
+        assert!(a
+            .apply(
+                &command("state_command", ArmInput::StateCommand("fly".into())),
+                0.0
+            )
+            .is_err());
+
+        let mut m = arm(ArmMode::Mirror);
+        assert!(m.take_events().is_empty());
+        let real = [0.1, 0.2, 0.15, 0.3, 0.0, 0.0];
+        m.apply(
+            &command(
+                "measured_js",
+                ArmInput::MirrorJs {
+                    names: vec![],
+                    positions: real.to_vec(),
+                },
+            ),
+            0.0,
+        )
+        .unwrap();
+        assert_eq!(m.q(), real);
+        assert!(m.apply(&servo(&HOME), 0.0).is_err());
+    }
+}

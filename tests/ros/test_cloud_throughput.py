@@ -21,5 +21,5 @@ points_per_s = sum(m.width for m in whole) / elapsed
 print(f"RESULT clouds={len(msgs)} whole={len(whole)} rate_hz={rate:.1f} "
       f"points_per_s={points_per_s:.0f} bytes_per_s={points_per_s * 16:.0f}")
 check(len(msgs) == len(whole), f"every cloud whole ({EXPECTED_POINTS} points, 16 bytes each)")
-check(rate >= 27.0, f"clouds arrive at {rate:.1f} Hz (30 Hz published)")
+check(rate >= 25.0, f"clouds arrive at {rate:.1f} Hz (30 Hz published)")
 rec.close()
