@@ -2,13 +2,14 @@
 //!
 //! Module map (see DESIGN.md): `config` (scene files), `tools` (rigid tool SDFs and
 //! contact), `mpm` (particles, grid, materials, solvers), `world` (one scene's simulation),
-//! `robot` (PSM URDF, kinematics, teleoperation mapping), `bench` (scenes with analytic
-//! answers, throughput).
+//! `robot` (PSM URDF, kinematics, teleoperation mapping), `output` (point cloud, surface),
+//! `ros` (the ROS 2 node), `bench` (scenes with analytic answers, throughput).
 
 pub mod bench;
 pub mod config;
 pub mod mpm;
 pub mod output;
 pub mod robot;
+pub mod ros;
 pub mod tools;
 pub mod world;

@@ -5,7 +5,7 @@ use clap::{Parser, Subcommand};
 use dvrk_tissue_sim::mpm::backend::{BackendChoice, P2gAtomics};
 use dvrk_tissue_sim::output::snapshot::{self, SnapshotOptions};
 use dvrk_tissue_sim::output::strain::StrainMeasure;
-use dvrk_tissue_sim::{bench, config, world::World};
+use dvrk_tissue_sim::{bench, config, ros, world::World};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -22,7 +22,8 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Simulate a scene. `--headless` runs its scripted tools with no network at all.
+    /// Start the ROS 2 node on a scene; `--headless` instead runs its scripted tools with no
+    /// network at all.
     Run {
         /// Scene file (TOML).
         #[arg(long, default_value = "config/default.toml")]
@@ -30,9 +31,15 @@ enum Command {
         /// Scripted run: no ROS, no network socket; prints a line per frame and a summary.
         #[arg(long)]
         headless: bool,
-        /// Simulated seconds to run.
-        #[arg(long, default_value_t = 2.0)]
-        seconds: f64,
+        /// Simulated seconds to run (headless default 2; the node runs until Ctrl-C).
+        #[arg(long)]
+        seconds: Option<f64>,
+        /// ROS node name.
+        #[arg(long, default_value = "dvrk_tissue_sim")]
+        node_name: String,
+        /// ROS namespace of the node and all its topics except /tf.
+        #[arg(long, default_value = "/")]
+        namespace: String,
         /// Print every n-th frame line (the summary is always printed).
         #[arg(long, default_value_t = 1)]
         print_every: u32,
@@ -107,7 +114,8 @@ enum BenchCommand {
 fn main() {
     tracing_subscriber::fmt()
         .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()),
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| "info,rustdds=error,ros2_client=warn".into()),
         )
         .with_writer(std::io::stderr)
         .init();
@@ -126,11 +134,33 @@ fn run(cli: Cli) -> Result<()> {
             print_every,
             backend,
             p2g,
+            node_name,
+            namespace,
         } => {
-            if !headless {
-                bail!("only headless runs are available in this build: add --headless");
+            if headless {
+                return run_headless(
+                    &scene,
+                    seconds.unwrap_or(2.0),
+                    print_every.max(1),
+                    backend,
+                    p2g,
+                );
             }
-            run_headless(&scene, seconds, print_every.max(1), backend, p2g)
+            let path = scene;
+            let mut scene = config::load(&path)?;
+            if let Some(backend) = backend {
+                scene.solver.backend = backend;
+            }
+            if let Some(p2g) = p2g {
+                scene.solver.p2g_atomics = p2g;
+            }
+            let settings = ros::NodeSettings {
+                name: node_name,
+                namespace,
+                seconds,
+            };
+            ros::run_node(&scene, &settings)
+                .with_context(|| format!("node on scene {}", path.display()))
         }
         Command::Snapshot {
             scene,

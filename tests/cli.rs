@@ -30,7 +30,7 @@ fn headless_run_prints_frame_lines_and_a_summary() {
     let frames: Vec<&str> = stdout.lines().filter(|l| l.starts_with("t=")).collect();
     assert_eq!(frames.len(), 3, "{stdout}");
     for line in &frames {
-        for field in ["substeps=", "probe F=(", "vmax=", "rtf="] {
+        for field in ["substeps=", "gripper F=(", "vmax=", "rtf="] {
             assert!(line.contains(field), "{line} lacks {field}");
         }
     }
@@ -64,13 +64,20 @@ fn check_reports_bad_scene_with_key_value_and_range() {
 }
 
 #[test]
-fn run_without_headless_says_what_to_do() {
+fn node_with_a_bad_namespace_fails_before_touching_the_network() {
     let out = bin()
-        .args(["run", "--scene", "config/default.toml"])
+        .args([
+            "run",
+            "--scene",
+            "config/default.toml",
+            "--namespace",
+            "not a namespace",
+        ])
         .output()
         .unwrap();
     assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("--headless"));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("node name / namespace"), "{stderr}");
 }
 
 #[test]

@@ -171,3 +171,44 @@ fn tool_thinner_than_two_cells_is_rejected() {
     let p = problems_with("radius = 0.005", "radius = 0.0015");
     assert_single(&p, "tool[0] (probe).shape", "at least 2 grid cells thick");
 }
+
+#[test]
+fn arms_teleop_and_outputs_are_validated() {
+    let arm = r#"
+[[arm]]
+name = "PSM1"
+base_xyz = [0.0, 0.0, 0.14]
+home_joints = [0.0, 0.0, 0.12, 0.0, 0.0, 0.0]
+tool = "probe"
+"#;
+    let good = format!("{GOOD}{arm}");
+    let scene = config::from_str(&good, Path::new("arm.toml")).unwrap();
+    assert_eq!(scene.arms[0].urdf, "urdf/psm.urdf");
+    assert_eq!(scene.arms[0].mode, config::ArmMode::Simulated);
+    assert_eq!(scene.outputs.points_rate_hz, 30.0);
+
+    let bad = format!(
+        "{GOOD}{}\n[teleop]\narm = \"PSM9\"\nscale = -1.0\n[outputs]\npoints_rate_hz = -3.0\npoints_downsample = 0\n",
+        arm.replace("\"probe\"", "\"scalpel\"")
+            .replace("name = \"PSM1\"", "name = \"PSM 1\"")
+            .replace("0.12, 0.0", "nan, 0.0")
+    );
+    let problems = problems_of(&bad);
+    let keys: Vec<&str> = problems.iter().map(|p| p.key.as_str()).collect();
+    for key in [
+        "arm[0] (PSM 1).name",
+        "arm[0] (PSM 1).tool",
+        "arm[0] (PSM 1).home_joints",
+        "teleop.arm",
+        "teleop.scale",
+        "outputs.points_rate_hz",
+        "outputs.points_downsample",
+    ] {
+        assert!(keys.contains(&key), "{key} not reported: {keys:?}");
+    }
+    let mirror = arm.replace("tool = \"probe\"", "tool = \"probe\"\nmirror_of = \"PSM1\"");
+    let problems = problems_of(&format!("{GOOD}{mirror}"));
+    assert!(problems
+        .iter()
+        .any(|p| p.key.ends_with("mirror_of") && p.allowed.contains("mode = \"mirror\"")));
+}

@@ -77,5 +77,8 @@ pub fn scene(
         table,
         tissues,
         tools,
+        arms: Vec::new(),
+        teleop: None,
+        outputs: Default::default(),
     }
 }

@@ -3,7 +3,10 @@
 mod scene;
 mod validate;
 
-pub use scene::{Domain, Hold, Keyframe, Material, Scene, Solver, Table, Tissue, Tool};
+pub use scene::{
+    Arm, ArmMode, Domain, Hold, Keyframe, Material, Outputs, Scene, Solver, Table, TeleopSettings,
+    Tissue, Tool,
+};
 pub use validate::{validate, Problem};
 
 use std::path::{Path, PathBuf};

@@ -25,6 +25,15 @@ pub struct Scene {
     pub tissues: Vec<Tissue>,
     #[serde(default, rename = "tool")]
     pub tools: Vec<Tool>,
+    /// PSM arms driving tools (ROS node runs; headless runs ignore them).
+    #[serde(default, rename = "arm")]
+    pub arms: Vec<Arm>,
+    /// MTM → PSM teleoperation (optional).
+    #[serde(default)]
+    pub teleop: Option<TeleopSettings>,
+    /// What the ROS node publishes and how often.
+    #[serde(default)]
+    pub outputs: Outputs,
 }
 
 fn default_name() -> String {
@@ -195,4 +204,149 @@ pub struct Keyframe {
     /// Gripper opening (degrees).
     #[serde(default)]
     pub jaw_deg: f64,
+}
+
+/// A PSM whose tool frame (FK ∘ base) drives one of the scene's tools in node runs.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Arm {
+    /// dVRK arm name, also its topic namespace and frame prefix (`PSM1`).
+    #[serde(default = "default_arm_name")]
+    pub name: String,
+    /// URDF written for `PSM1` (links renamed for `name`); relative paths are relative to the
+    /// working directory.
+    #[serde(default = "default_arm_urdf")]
+    pub urdf: String,
+    /// World position of the arm base `<name>_base`, the remote centre of motion (m).
+    pub base_xyz: [f64; 3],
+    /// World orientation of the base as roll, pitch, yaw about fixed x, y, z (degrees).
+    #[serde(default)]
+    pub base_rpy_deg: [f64; 3],
+    /// Joint values at start: yaw, pitch (rad), insertion (m), roll, wrist_pitch, wrist_yaw (rad).
+    pub home_joints: [f64; 6],
+    /// Jaw opening at start (degrees).
+    #[serde(default)]
+    pub home_jaw_deg: f64,
+    /// Name of the `[[tool]]` this arm holds.
+    pub tool: String,
+    #[serde(default)]
+    pub mode: ArmMode,
+    /// Mirror mode: namespace of the real arm whose `measured_js` and `jaw/measured_js` are
+    /// followed (default `/<name>`).
+    #[serde(default)]
+    pub mirror_of: Option<String>,
+}
+
+fn default_arm_name() -> String {
+    "PSM1".into()
+}
+fn default_arm_urdf() -> String {
+    "urdf/psm.urdf".into()
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ArmMode {
+    /// The node is the arm (dVRK's `dvrk_arm_from_ros` contract).
+    #[default]
+    Simulated,
+    /// The tool follows a real arm's `measured_js`; nothing is published for the arm.
+    Mirror,
+}
+
+/// MTM → PSM teleoperation without a dVRK console.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TeleopSettings {
+    /// The simulated PSM that follows.
+    #[serde(default = "default_arm_name")]
+    pub arm: String,
+    /// Namespace of the MTM's `measured_cp` and `gripper/measured_js`.
+    #[serde(default = "default_mtm")]
+    pub mtm: String,
+    /// Namespace of the `clutch` and `operator_present` pedals (sensor_msgs/Joy).
+    #[serde(default = "default_console")]
+    pub console: String,
+    /// PSM displacement per MTM displacement.
+    #[serde(default = "default_teleop_scale")]
+    pub scale: f64,
+    /// Start with the operator present (no `operator_present` pedal needed).
+    #[serde(default)]
+    pub operator_present: bool,
+    /// Publish the tool's contact wrench, scaled, on `<mtm>/body/servo_cf`.
+    #[serde(default)]
+    pub force_feedback: bool,
+    /// MTM force per tool contact force.
+    #[serde(default = "default_force_scale")]
+    pub force_feedback_scale: f64,
+}
+
+fn default_mtm() -> String {
+    "MTMR".into()
+}
+fn default_console() -> String {
+    "console".into()
+}
+fn default_teleop_scale() -> f64 {
+    0.2
+}
+fn default_force_scale() -> f64 {
+    0.2
+}
+
+/// Rates (Hz) of the node's outputs; 0 turns one off. Outputs are only computed while
+/// someone subscribes.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Outputs {
+    /// `tissue/points` (sensor_msgs/PointCloud2).
+    #[serde(default = "default_points_rate")]
+    pub points_rate_hz: f64,
+    /// Publish every n-th particle only (1: all).
+    #[serde(default = "default_downsample")]
+    pub points_downsample: u32,
+    /// `tissue/surface` (visualization_msgs/Marker).
+    #[serde(default = "default_surface_rate")]
+    pub surface_rate_hz: f64,
+    /// `tools/<tool>/wrench` (geometry_msgs/WrenchStamped).
+    #[serde(default = "default_wrench_rate")]
+    pub wrench_rate_hz: f64,
+    /// `/tf` for arm links.
+    #[serde(default = "default_tf_rate")]
+    pub tf_rate_hz: f64,
+    /// Arm state topics (`measured_js`, ...): every frame up to this rate.
+    #[serde(default = "default_arm_rate")]
+    pub arm_rate_hz: f64,
+}
+
+fn default_points_rate() -> f64 {
+    30.0
+}
+fn default_downsample() -> u32 {
+    1
+}
+fn default_surface_rate() -> f64 {
+    10.0
+}
+fn default_wrench_rate() -> f64 {
+    60.0
+}
+fn default_tf_rate() -> f64 {
+    50.0
+}
+fn default_arm_rate() -> f64 {
+    100.0
+}
+
+impl Default for Outputs {
+    fn default() -> Self {
+        Outputs {
+            points_rate_hz: default_points_rate(),
+            points_downsample: default_downsample(),
+            surface_rate_hz: default_surface_rate(),
+            wrench_rate_hz: default_wrench_rate(),
+            tf_rate_hz: default_tf_rate(),
+            arm_rate_hz: default_arm_rate(),
+        }
+    }
 }

@@ -1,7 +1,7 @@
 //! Semantic checks of a parsed scene: every problem is reported (not just the first), each
 //! naming the key, the value and what is allowed.
 
-use super::scene::{Hold, Scene};
+use super::scene::{ArmMode, Hold, Scene};
 use crate::mpm::grid::WALL_NODES;
 use crate::mpm::MAX_TOOLS;
 use crate::tools::{ContactModel, Shape};
@@ -339,5 +339,146 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
             );
         }
     }
+
+    validate_arms(&mut c, scene);
+    validate_outputs(&mut c, scene);
     c.problems
+}
+
+/// Arm names are used as topic namespaces and frame prefixes.
+fn is_ros_name(name: &str) -> bool {
+    let mut chars = name.chars();
+    matches!(chars.next(), Some(c) if c.is_ascii_alphabetic())
+        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
+}
+
+fn validate_arms(c: &mut Checker, scene: &Scene) {
+    c.require(
+        scene.arms.len() <= 2,
+        "arm",
+        scene.arms.len(),
+        "one or two [[arm]] tables",
+    );
+    for (i, arm) in scene.arms.iter().enumerate() {
+        let key = |k: &str| format!("arm[{i}] ({}).{k}", arm.name);
+        c.require(
+            is_ros_name(&arm.name),
+            key("name"),
+            &arm.name,
+            "a ROS name: a letter, then letters, digits or _ (e.g. PSM1)",
+        );
+        if scene.arms[..i].iter().any(|o| o.name == arm.name) {
+            c.require(false, key("name"), &arm.name, "unique among arms");
+        }
+        c.require(
+            !arm.urdf.is_empty(),
+            key("urdf"),
+            &arm.urdf,
+            "a URDF file path",
+        );
+        c.require(
+            arm.base_xyz.iter().all(|v| v.is_finite()),
+            key("base_xyz"),
+            arm.base_xyz,
+            "finite coordinates (m)",
+        );
+        c.require(
+            arm.base_rpy_deg.iter().all(|v| v.is_finite()),
+            key("base_rpy_deg"),
+            arm.base_rpy_deg,
+            "finite angles (deg)",
+        );
+        c.require(
+            arm.home_joints.iter().all(|v| v.is_finite()),
+            key("home_joints"),
+            arm.home_joints,
+            "finite joint values (rad, insertion in m), inside the URDF's limits",
+        );
+        c.require(
+            arm.home_jaw_deg.is_finite(),
+            key("home_jaw_deg"),
+            arm.home_jaw_deg,
+            "a finite angle (deg) inside the jaw limits",
+        );
+        let tool = scene.tools.iter().position(|t| t.name == arm.tool);
+        c.require(
+            tool.is_some(),
+            key("tool"),
+            &arm.tool,
+            format!(
+                "the name of a [[tool]] ({})",
+                scene
+                    .tools
+                    .iter()
+                    .map(|t| t.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        );
+        if scene.arms[..i].iter().any(|o| o.tool == arm.tool) {
+            c.require(false, key("tool"), &arm.tool, "a tool no other arm drives");
+        }
+        if let Some(ns) = &arm.mirror_of {
+            c.require(
+                arm.mode == ArmMode::Mirror,
+                key("mirror_of"),
+                ns,
+                "only with mode = \"mirror\"",
+            );
+            c.require(
+                ns.starts_with('/') && ns[1..].split('/').all(is_ros_name),
+                key("mirror_of"),
+                ns,
+                "an absolute ROS namespace such as /PSM1",
+            );
+        }
+    }
+    if let Some(t) = &scene.teleop {
+        let arm = scene.arms.iter().find(|a| a.name == t.arm);
+        c.require(
+            arm.is_some_and(|a| a.mode == ArmMode::Simulated),
+            "teleop.arm",
+            &t.arm,
+            "the name of an [[arm]] with mode = \"simulated\"",
+        );
+        for (k, v) in [("teleop.mtm", &t.mtm), ("teleop.console", &t.console)] {
+            c.require(
+                v.split('/').filter(|s| !s.is_empty()).all(is_ros_name) && !v.is_empty(),
+                k,
+                v,
+                "a ROS namespace (letters, digits, _ and /)",
+            );
+        }
+        c.positive("teleop.scale", t.scale);
+        c.require(
+            t.force_feedback_scale.is_finite() && t.force_feedback_scale >= 0.0,
+            "teleop.force_feedback_scale",
+            t.force_feedback_scale,
+            "≥ 0",
+        );
+    }
+}
+
+fn validate_outputs(c: &mut Checker, scene: &Scene) {
+    let o = &scene.outputs;
+    for (k, v) in [
+        ("outputs.points_rate_hz", o.points_rate_hz),
+        ("outputs.surface_rate_hz", o.surface_rate_hz),
+        ("outputs.wrench_rate_hz", o.wrench_rate_hz),
+        ("outputs.tf_rate_hz", o.tf_rate_hz),
+        ("outputs.arm_rate_hz", o.arm_rate_hz),
+    ] {
+        c.require(
+            v.is_finite() && (0.0..=1000.0).contains(&v),
+            k,
+            v,
+            "0 (off) to 1000 Hz",
+        );
+    }
+    c.require(
+        o.points_downsample >= 1,
+        "outputs.points_downsample",
+        o.points_downsample,
+        "≥ 1 (1 publishes every particle)",
+    );
 }

@@ -174,6 +174,30 @@ impl JointGroup {
         Ok(q)
     }
 
+    /// Checks names, length and finiteness only (no limits, no jump): for measured values of a
+    /// real arm, which may sit a hair outside the model's limits.
+    pub fn validate_shape<S: AsRef<str>>(
+        &self,
+        names: &[S],
+        positions: &[f64],
+    ) -> Result<Vec<f64>, JointCommandError> {
+        let q = if names.is_empty() {
+            self.check_len(positions.len())?;
+            positions.to_vec()
+        } else {
+            self.reorder(names, positions)?
+        };
+        for (joint, &value) in self.joints.iter().zip(&q) {
+            if !value.is_finite() {
+                return Err(JointCommandError::NotFinite {
+                    name: joint.name.clone(),
+                    value,
+                });
+            }
+        }
+        Ok(q)
+    }
+
     fn reorder<S: AsRef<str>>(
         &self,
         names: &[S],

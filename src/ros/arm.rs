@@ -1,0 +1,765 @@
+//! A simulated or mirrored PSM on top of [`crate::robot::Psm`]: the CRTK operating state,
+//! servo / move commands with validation, and the joint state the ROS side publishes.
+//!
+//! No ROS types here: the node turns messages into [`ArmInput`]s, the simulation thread feeds
+//! them in at frame boundaries ([`ArmSim::apply`]) and advances the arm in simulated time
+//! ([`ArmSim::advance`]). Kinematic simulation, as dVRK's `KIN_SIMULATED`: measured = setpoint.
+
+use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
+
+use crate::config::ArmMode;
+use crate::robot::{Psm, RcmPolicy, Trajectory};
+use crate::tools::ToolPose;
+
+/// What a topic asked for, before validation.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ArmInput {
+    ServoJp {
+        names: Vec<String>,
+        positions: Vec<f64>,
+    },
+    MoveJp {
+        names: Vec<String>,
+        positions: Vec<f64>,
+    },
+    JawServoJp {
+        names: Vec<String>,
+        positions: Vec<f64>,
+    },
+    JawMoveJp {
+        names: Vec<String>,
+        positions: Vec<f64>,
+    },
+    /// Position (m) and quaternion x, y, z, w, in the arm's base frame.
+    ServoCp {
+        position: [f64; 3],
+        quaternion: [f64; 4],
+    },
+    MoveCp {
+        position: [f64; 3],
+        quaternion: [f64; 4],
+    },
+    Hold,
+    Free,
+    StateCommand(String),
+    /// Force command (N, N·m): accepted when finite; a kinematic arm cannot apply it.
+    ServoCf([f64; 6]),
+    /// A real arm's `measured_js` (mirror mode).
+    MirrorJs {
+        names: Vec<String>,
+        positions: Vec<f64>,
+    },
+    MirrorJaw {
+        names: Vec<String>,
+        positions: Vec<f64>,
+    },
+}
+
+/// A command from a topic.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ArmCommand {
+    /// Topic relative to the arm (`servo_jp`, `jaw/servo_jp`, ...), for messages.
+    pub topic: &'static str,
+    pub input: ArmInput,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OperatingState {
+    Disabled,
+    Enabled,
+    Paused,
+    Fault,
+}
+
+impl OperatingState {
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            OperatingState::Disabled => "DISABLED",
+            OperatingState::Enabled => "ENABLED",
+            OperatingState::Paused => "PAUSED",
+            OperatingState::Fault => "FAULT",
+        }
+    }
+}
+
+/// Something the ROS side publishes once (latched event topics), at simulated `time`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ArmEvent {
+    State {
+        time: f64,
+        state: OperatingState,
+        homed: bool,
+        busy: bool,
+    },
+    Error(String),
+    Warning(String),
+    Status(String),
+}
+
+/// A rejected command: the topic and why.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Rejection {
+    pub topic: &'static str,
+    pub reason: String,
+}
+
+impl std::fmt::Display for Rejection {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}: {}", self.topic, self.reason)
+    }
+}
+
+/// The arm's state at the end of a frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ArmStatus {
+    pub q: Vec<f64>,
+    pub qdot: Vec<f64>,
+    pub jaw: f64,
+    pub jaw_rate: f64,
+    /// Tool frame in the base frame (`measured_cp`; equals `setpoint_cp`).
+    pub cp: Isometry3<f64>,
+    /// Tool twist in the base frame: linear (m/s), angular (rad/s).
+    pub linear_velocity: Vector3<f64>,
+    pub angular_velocity: Vector3<f64>,
+}
+
+enum Motion {
+    Hold,
+    Move { trajectory: Trajectory, start: f64 },
+}
+
+pub struct ArmSim {
+    psm: Psm,
+    mode: ArmMode,
+    /// World from `<name>_base`.
+    base: Isometry3<f64>,
+    home: Vec<f64>,
+    state: OperatingState,
+    homed: bool,
+    q: Vec<f64>,
+    qdot: Vec<f64>,
+    jaw: f64,
+    jaw_rate: f64,
+    motion: Motion,
+    jaw_motion: Option<(Trajectory, f64)>,
+    /// Time of the last `advance`.
+    time: f64,
+    events: Vec<ArmEvent>,
+    warned_cf: bool,
+}
+
+impl ArmSim {
+    /// An arm at `home` (validated against the joint limits), ENABLED and homed.
+    pub fn new(
+        psm: Psm,
+        mode: ArmMode,
+        base: Isometry3<f64>,
+        home: &[f64],
+        home_jaw: f64,
+    ) -> Result<ArmSim, String> {
+        let q = psm
+            .joints()
+            .validate::<&str>(&[], home, None)
+            .map_err(|e| format!("home_joints: {e}"))?;
+        let jaw = psm
+            .jaw()
+            .validate::<&str>(&[], &[home_jaw], None)
+            .map_err(|e| format!("home_jaw_deg: {e}"))?[0];
+        let n = q.len();
+        let mut arm = ArmSim {
+            psm,
+            mode,
+            base,
+            home: q.clone(),
+            state: OperatingState::Enabled,
+            homed: true,
+            qdot: vec![0.0; n],
+            q,
+            jaw,
+            jaw_rate: 0.0,
+            motion: Motion::Hold,
+            jaw_motion: None,
+            time: 0.0,
+            events: Vec::new(),
+            warned_cf: false,
+        };
+        if mode == ArmMode::Simulated {
+            arm.push_state();
+        }
+        Ok(arm)
+    }
+
+    pub fn psm(&self) -> &Psm {
+        &self.psm
+    }
+
+    pub fn name(&self) -> &str {
+        self.psm.name()
+    }
+
+    pub fn mode(&self) -> ArmMode {
+        self.mode
+    }
+
+    pub fn base(&self) -> &Isometry3<f64> {
+        &self.base
+    }
+
+    pub fn operating_state(&self) -> OperatingState {
+        self.state
+    }
+
+    pub fn is_homed(&self) -> bool {
+        self.homed
+    }
+
+    pub fn is_busy(&self) -> bool {
+        matches!(self.motion, Motion::Move { .. }) || self.jaw_motion.is_some()
+    }
+
+    pub fn q(&self) -> &[f64] {
+        &self.q
+    }
+
+    pub fn jaw(&self) -> f64 {
+        self.jaw
+    }
+
+    /// Events since the last call (operating state changes, error / warning / status text).
+    pub fn take_events(&mut self) -> Vec<ArmEvent> {
+        std::mem::take(&mut self.events)
+    }
+
+    /// The tool frame in the base frame.
+    pub fn cp(&self) -> Isometry3<f64> {
+        self.psm
+            .forward(&self.q)
+            .expect("arm joint vector has the chain's length")
+    }
+
+    /// The tool pose in the world, jaw included: what drives the scene's tool.
+    pub fn tool_pose(&self) -> ToolPose {
+        let world = self.base * self.cp();
+        ToolPose {
+            position: world.translation.vector,
+            rotation: world.rotation,
+            jaw: self.jaw,
+        }
+    }
+
+    pub fn status(&self) -> ArmStatus {
+        let cp = self.cp();
+        let j = self
+            .psm
+            .jacobian(&self.q)
+            .expect("arm joint vector has the chain's length");
+        let twist = j * nalgebra::DVector::from_column_slice(&self.qdot);
+        ArmStatus {
+            q: self.q.clone(),
+            qdot: self.qdot.clone(),
+            jaw: self.jaw,
+            jaw_rate: self.jaw_rate,
+            cp,
+            linear_velocity: Vector3::new(twist[0], twist[1], twist[2]),
+            angular_velocity: Vector3::new(twist[3], twist[4], twist[5]),
+        }
+    }
+
+    fn push_state(&mut self) {
+        self.events.push(ArmEvent::State {
+            time: self.time,
+            state: self.state,
+            homed: self.homed,
+            busy: self.is_busy(),
+        });
+    }
+
+    fn set_state(&mut self, state: OperatingState) {
+        if self.state != state {
+            self.state = state;
+            self.push_state();
+        }
+    }
+
+    fn stop_motion(&mut self) {
+        let was_busy = self.is_busy();
+        self.motion = Motion::Hold;
+        self.jaw_motion = None;
+        if was_busy {
+            self.push_state();
+        }
+    }
+
+    /// Ok when the arm accepts motion commands (ENABLED and homed).
+    pub fn ready(&self) -> Result<(), String> {
+        if self.state != OperatingState::Enabled {
+            return Err(format!("arm is {}, not ENABLED", self.state.as_str()));
+        }
+        if !self.homed {
+            return Err("arm is not homed".into());
+        }
+        Ok(())
+    }
+
+    /// Applies one command at simulated time `now`. A rejected command changes nothing: the
+    /// last valid command holds.
+    pub fn apply(&mut self, command: &ArmCommand, now: f64) -> Result<(), Rejection> {
+        self.time = now;
+        let reject = |reason: String| Rejection {
+            topic: command.topic,
+            reason,
+        };
+        match (&command.input, self.mode) {
+            (ArmInput::MirrorJs { names, positions }, ArmMode::Mirror) => {
+                let mut q = self
+                    .psm
+                    .joints()
+                    .validate_shape(names, positions)
+                    .map_err(|e| reject(e.to_string()))?;
+                self.psm.joints().clamp(&mut q);
+                self.q = q;
+                Ok(())
+            }
+            (ArmInput::MirrorJaw { names, positions }, ArmMode::Mirror) => {
+                let mut q = self
+                    .psm
+                    .jaw()
+                    .validate_shape(names, positions)
+                    .map_err(|e| reject(e.to_string()))?;
+                self.psm.jaw().clamp(&mut q);
+                self.jaw = q[0];
+                Ok(())
+            }
+            (_, ArmMode::Mirror) => Err(reject("the arm mirrors a real arm".into())),
+            (ArmInput::MirrorJs { .. } | ArmInput::MirrorJaw { .. }, _) => {
+                Err(reject("the arm is simulated, not mirrored".into()))
+            }
+            (input, ArmMode::Simulated) => self.apply_simulated(input, now).map_err(reject),
+        }
+    }
+
+    fn apply_simulated(&mut self, input: &ArmInput, now: f64) -> Result<(), String> {
+        match input {
+            ArmInput::StateCommand(command) => self.state_command(command),
+            ArmInput::Hold => {
+                self.stop_motion();
+                Ok(())
+            }
+            ArmInput::Free => {
+                self.stop_motion();
+                self.events.push(ArmEvent::Status(format!(
+                    "{}: free is not simulated (kinematic arm); holding",
+                    self.name()
+                )));
+                Ok(())
+            }
+            ArmInput::ServoCf(w) => {
+                if !w.iter().all(|v| v.is_finite()) {
+                    return Err("wrench has NaN or infinite values".into());
+                }
+                if !self.warned_cf {
+                    self.warned_cf = true;
+                    self.events.push(ArmEvent::Warning(format!(
+                        "{}: body/servo_cf is accepted but has no effect on a kinematic arm",
+                        self.name()
+                    )));
+                }
+                Ok(())
+            }
+            ArmInput::ServoJp { names, positions } => {
+                self.ready()?;
+                let q = self
+                    .psm
+                    .joints()
+                    .validate(names, positions, Some(&self.q))
+                    .map_err(|e| e.to_string())?;
+                if let Motion::Move { .. } = self.motion {
+                    self.motion = Motion::Hold;
+                    self.push_state();
+                }
+                self.set_q(q);
+                Ok(())
+            }
+            ArmInput::JawServoJp { names, positions } => {
+                self.ready()?;
+                let jaw = self
+                    .psm
+                    .jaw()
+                    .validate(names, positions, Some(&[self.jaw]))
+                    .map_err(|e| e.to_string())?;
+                if self.jaw_motion.take().is_some() {
+                    self.push_state();
+                }
+                self.jaw = jaw[0];
+                Ok(())
+            }
+            ArmInput::MoveJp { names, positions } => {
+                self.ready()?;
+                let goal = self
+                    .psm
+                    .joints()
+                    .validate(names, positions, None)
+                    .map_err(|e| e.to_string())?;
+                self.start_move(goal, now)
+            }
+            ArmInput::JawMoveJp { names, positions } => {
+                self.ready()?;
+                let goal = self
+                    .psm
+                    .jaw()
+                    .validate(names, positions, None)
+                    .map_err(|e| e.to_string())?;
+                let trajectory = self
+                    .psm
+                    .plan_move_jaw(self.jaw, goal[0])
+                    .map_err(|e| e.to_string())?;
+                let was_busy = self.is_busy();
+                self.jaw_motion = Some((trajectory, now));
+                if !was_busy {
+                    self.push_state();
+                }
+                Ok(())
+            }
+            ArmInput::ServoCp {
+                position,
+                quaternion,
+            } => {
+                self.ready()?;
+                let target = isometry(position, quaternion)?;
+                self.servo_cp(&target, RcmPolicy::Reject)
+            }
+            ArmInput::MoveCp {
+                position,
+                quaternion,
+            } => {
+                self.ready()?;
+                let target = isometry(position, quaternion)?;
+                let solution = self
+                    .psm
+                    .solve_cartesian(&target, &self.q, RcmPolicy::Reject)
+                    .map_err(|e| e.to_string())?;
+                self.start_move(solution.ik.q, now)
+            }
+            ArmInput::MirrorJs { .. } | ArmInput::MirrorJaw { .. } => unreachable!(),
+        }
+    }
+
+    /// A Cartesian servo target in the base frame (also teleop's): IK from the current joints,
+    /// then the servo jump check, so a far target is refused rather than teleported to.
+    pub fn servo_cp(&mut self, target: &Isometry3<f64>, policy: RcmPolicy) -> Result<(), String> {
+        let solution = self
+            .psm
+            .solve_cartesian(target, &self.q, policy)
+            .map_err(|e| e.to_string())?;
+        let q = self
+            .psm
+            .joints()
+            .validate::<&str>(&[], &solution.ik.q, Some(&self.q))
+            .map_err(|e| e.to_string())?;
+        if let Motion::Move { .. } = self.motion {
+            self.motion = Motion::Hold;
+            self.push_state();
+        }
+        self.set_q(q);
+        Ok(())
+    }
+
+    /// Teleop's jaw target (already rate-limited and clamped by the mapping).
+    pub fn servo_jaw_clamped(&mut self, jaw: f64) {
+        if jaw.is_finite() && self.jaw_motion.is_none() {
+            let mut v = [jaw];
+            self.psm.jaw().clamp(&mut v);
+            self.jaw = v[0];
+        }
+    }
+
+    fn set_q(&mut self, q: Vec<f64>) {
+        self.q = q;
+    }
+
+    fn start_move(&mut self, goal: Vec<f64>, now: f64) -> Result<(), String> {
+        let trajectory = self
+            .psm
+            .plan_move_jp(&self.q, &goal)
+            .map_err(|e| e.to_string())?;
+        let was_busy = self.is_busy();
+        self.motion = Motion::Move {
+            trajectory,
+            start: now,
+        };
+        if !was_busy {
+            self.push_state();
+        }
+        self.events.push(ArmEvent::Status(format!(
+            "{}: moving to {:?}",
+            self.name(),
+            goal.iter()
+                .map(|v| (v * 1e4).round() / 1e4)
+                .collect::<Vec<_>>()
+        )));
+        Ok(())
+    }
+
+    fn state_command(&mut self, command: &str) -> Result<(), String> {
+        match command {
+            "enable" => match self.state {
+                OperatingState::Fault | OperatingState::Disabled | OperatingState::Enabled => {
+                    self.set_state(OperatingState::Enabled);
+                    Ok(())
+                }
+                OperatingState::Paused => Err("arm is PAUSED: send resume".into()),
+            },
+            "disable" => {
+                self.stop_motion();
+                self.set_state(OperatingState::Disabled);
+                Ok(())
+            }
+            "pause" => {
+                if self.state != OperatingState::Enabled {
+                    return Err(format!("cannot pause from {}", self.state.as_str()));
+                }
+                self.stop_motion();
+                self.set_state(OperatingState::Paused);
+                Ok(())
+            }
+            "resume" => {
+                if self.state != OperatingState::Paused {
+                    return Err(format!("cannot resume from {}", self.state.as_str()));
+                }
+                self.set_state(OperatingState::Enabled);
+                Ok(())
+            }
+            "home" => {
+                if self.state != OperatingState::Enabled {
+                    return Err(format!("cannot home from {}", self.state.as_str()));
+                }
+                if !self.homed {
+                    self.homed = true;
+                    self.push_state();
+                }
+                let home = self.home.clone();
+                self.start_move(home, self.time)
+            }
+            "unhome" => {
+                self.stop_motion();
+                if self.homed {
+                    self.homed = false;
+                    self.push_state();
+                }
+                Ok(())
+            }
+            other => Err(format!(
+                "unknown state command `{other}` (enable, disable, home, unhome, pause, resume)"
+            )),
+        }
+    }
+
+    /// Moves the setpoint to simulated time `t` (the end of the coming frame).
+    pub fn advance(&mut self, t: f64) {
+        let dt = t - self.time;
+        self.time = t;
+        let previous = self.q.clone();
+        let previous_jaw = self.jaw;
+        let mut finished = false;
+        if let Motion::Move { trajectory, start } = &self.motion {
+            self.q = trajectory.setpoint(t - start);
+            if trajectory.is_done(t - start) {
+                self.q = trajectory.goal().to_vec();
+                finished = true;
+            }
+        }
+        if finished {
+            self.motion = Motion::Hold;
+        }
+        let mut jaw_finished = false;
+        if let Some((trajectory, start)) = &self.jaw_motion {
+            self.jaw = trajectory.setpoint(t - start)[0];
+            if trajectory.is_done(t - start) {
+                self.jaw = trajectory.goal()[0];
+                jaw_finished = true;
+            }
+        }
+        if jaw_finished {
+            self.jaw_motion = None;
+        }
+        if (finished || jaw_finished) && !self.is_busy() {
+            self.push_state();
+        }
+        if dt > 0.0 {
+            for ((v, a), b) in self.qdot.iter_mut().zip(&self.q).zip(&previous) {
+                *v = (a - b) / dt;
+            }
+            self.jaw_rate = (self.jaw - previous_jaw) / dt;
+        }
+    }
+}
+
+fn isometry(position: &[f64; 3], quaternion: &[f64; 4]) -> Result<Isometry3<f64>, String> {
+    if !position.iter().chain(quaternion).all(|v| v.is_finite()) {
+        return Err("pose has NaN or infinite values".into());
+    }
+    let [x, y, z, w] = *quaternion;
+    let q = Quaternion::new(w, x, y, z);
+    if (q.norm() - 1.0).abs() > 0.01 {
+        return Err(format!(
+            "orientation quaternion has length {:.4}, not 1",
+            q.norm()
+        ));
+    }
+    Ok(Isometry3::from_parts(
+        Translation3::new(position[0], position[1], position[2]),
+        UnitQuaternion::from_quaternion(q),
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const HOME: [f64; 6] = [0.0, 0.0, 0.12, 0.0, 0.0, 0.0];
+
+    fn arm(mode: ArmMode) -> ArmSim {
+        ArmSim::new(
+            Psm::classic("PSM1").unwrap(),
+            mode,
+            Isometry3::identity(),
+            &HOME,
+            0.0,
+        )
+        .unwrap()
+    }
+
+    fn command(topic: &'static str, input: ArmInput) -> ArmCommand {
+        ArmCommand { topic, input }
+    }
+
+    fn servo(q: &[f64]) -> ArmCommand {
+        command(
+            "servo_jp",
+            ArmInput::ServoJp {
+                names: vec![],
+                positions: q.to_vec(),
+            },
+        )
+    }
+
+    #[test]
+    fn starts_enabled_and_homed_and_reports_it() {
+        let mut a = arm(ArmMode::Simulated);
+        let events = a.take_events();
+        assert_eq!(
+            events,
+            [ArmEvent::State {
+                time: 0.0,
+                state: OperatingState::Enabled,
+                homed: true,
+                busy: false
+            }]
+        );
+        assert_eq!(a.q(), HOME);
+    }
+
+    #[test]
+    fn rejected_commands_keep_the_last_valid_one() {
+        let mut a = arm(ArmMode::Simulated);
+        let good = [0.05, 0.0, 0.125, 0.0, 0.0, 0.0];
+        a.apply(&servo(&good), 0.0).unwrap();
+        for bad in [
+            vec![f64::NAN, 0.0, 0.12, 0.0, 0.0, 0.0],
+            vec![0.0, 0.0, 0.12],
+            vec![0.0, 0.0, 0.5, 0.0, 0.0, 0.0],
+            vec![1.0, 0.0, 0.125, 0.0, 0.0, 0.0],
+        ] {
+            let r = a.apply(&servo(&bad), 0.0).unwrap_err();
+            assert_eq!(r.topic, "servo_jp");
+            assert_eq!(a.q(), good);
+        }
+        let cp = command(
+            "servo_cp",
+            ArmInput::ServoCp {
+                position: [0.0, 0.0, -0.01],
+                quaternion: [0.0, 0.0, 0.0, 1.0],
+            },
+        );
+        assert!(a.apply(&cp, 0.0).unwrap_err().reason.contains("RCM"));
+        assert_eq!(a.q(), good);
+    }
+
+    #[test]
+    fn move_jp_is_busy_until_the_goal_at_dvrk_speed() {
+        let mut a = arm(ArmMode::Simulated);
+        a.take_events();
+        let goal = [0.3, 0.0, 0.12, 0.0, 0.0, 0.0];
+        a.apply(
+            &command(
+                "move_jp",
+                ArmInput::MoveJp {
+                    names: vec![],
+                    positions: goal.to_vec(),
+                },
+            ),
+            0.0,
+        )
+        .unwrap();
+        assert!(a.is_busy());
+        // 0.3 rad at 90°/s with the quintic profile: 15/8 · 0.3 / (π/2) s.
+        let duration = 15.0 / 8.0 * 0.3 / std::f64::consts::FRAC_PI_2;
+        let mut t = 0.0;
+        while t < duration - 0.02 {
+            t += 0.01;
+            a.advance(t);
+            assert!(a.is_busy());
+        }
+        a.advance(duration + 0.01);
+        assert!(!a.is_busy());
+        assert_eq!(a.q(), goal);
+        let busy: Vec<bool> = a
+            .take_events()
+            .iter()
+            .filter_map(|e| match e {
+                ArmEvent::State { busy, .. } => Some(*busy),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(busy, [true, false]);
+    }
+
+    #[test]
+    fn disabled_arms_refuse_motion_and_mirrors_follow_the_real_arm() {
+        let mut a = arm(ArmMode::Simulated);
+        a.apply(
+            &command("state_command", ArmInput::StateCommand("disable".into())),
+            0.0,
+        )
+        .unwrap();
+        assert_eq!(a.operating_state(), OperatingState::Disabled);
+        assert!(a
+            .apply(&servo(&HOME), 0.0)
+            .unwrap_err()
+            .reason
+            .contains("DISABLED"));
+        assert!(a
+            .apply(
+                &command("state_command", ArmInput::StateCommand("fly".into())),
+                0.0
+            )
+            .is_err());
+
+        let mut m = arm(ArmMode::Mirror);
+        assert!(m.take_events().is_empty());
+        let real = [0.1, 0.2, 0.15, 0.3, 0.0, 0.0];
+        m.apply(
+            &command(
+                "measured_js",
+                ArmInput::MirrorJs {
+                    names: vec![],
+                    positions: real.to_vec(),
+                },
+            ),
+            0.0,
+        )
+        .unwrap();
+        assert_eq!(m.q(), real);
+        assert!(m.apply(&servo(&HOME), 0.0).is_err());
+    }
+}
