@@ -4,6 +4,7 @@ import struct
 
 from sensor_msgs.msg import JointState, PointCloud2
 from geometry_msgs.msg import WrenchStamped
+from visualization_msgs.msg import Marker
 
 from common import Recorder, check
 
@@ -11,6 +12,7 @@ rec = Recorder("push_probe")
 rec.subscribe(JointState, "/PSM1/measured_js")
 rec.subscribe(PointCloud2, "/tissue/points")
 rec.subscribe(WrenchStamped, "/tools/probe/wrench")
+rec.subscribe(Marker, "/tissue/surface")
 servo = rec.publisher(JointState, "/PSM1/servo_jp")
 rec.wait_for(lambda: rec.latest("/tissue/points") is not None
              and rec.latest("/PSM1/measured_js") is not None, 10.0, "a point cloud")
@@ -51,4 +53,9 @@ check(compressed < -0.05, "deformation scalar shows compression")
 check(wrenches[-1].header.frame_id == "PSM1", "wrench in the tool frame PSM1")
 # Tool z points along the push (down): the tissue pushes back along -z of the tool frame.
 check(fz < -0.005, f"contact force opposes the push ({fz:.4f} N along the tool's z)")
+rec.wait_for(lambda: rec.latest("/tissue/surface") is not None, 5.0, "the surface marker")
+surface = rec.latest("/tissue/surface")
+check(surface.type == Marker.TRIANGLE_LIST and surface.header.frame_id == "world"
+      and len(surface.points) > 0 and len(surface.points) % 3 == 0,
+      f"tissue surface: TRIANGLE_LIST of {len(surface.points) // 3} triangles in world")
 rec.close()
