@@ -6,12 +6,11 @@
 
 use dvrk_tissue_sim::bench::analytic;
 use dvrk_tissue_sim::bench::scenes::*;
-use dvrk_tissue_sim::config::{Hold, Scene, Table};
+use dvrk_tissue_sim::config::Scene;
 use dvrk_tissue_sim::mpm::backend::{BackendChoice, P2gAtomics};
 use dvrk_tissue_sim::mpm::gpu::adapter;
 use dvrk_tissue_sim::mpm::guard::GuardPolicy;
 use dvrk_tissue_sim::mpm::{Mat3, Vec3};
-use dvrk_tissue_sim::tools::{ContactModel, Shape};
 use dvrk_tissue_sim::world::{StepError, World};
 
 /// Whether the P2G variant can run here; panics under CI when there is no adapter at all.
@@ -138,50 +137,9 @@ fn gpu_free_block_agrees_with_cpu_fixed_point() {
     free_block_agrees(P2gAtomics::Fixed, 5e-6, 1e-3);
 }
 
-/// The CPU solver test's grasp: jaws close on a block resting on the table, then lift.
+/// The CPU solver test's grasp, faster: jaws close on a block resting on the table, then lift.
 fn grasp_scene() -> Scene {
-    let gripper = Shape::Gripper {
-        jaw_length: 0.01,
-        jaw_width: 0.006,
-        jaw_thickness: 0.0015,
-    };
-    let rpy = [180.0, 0.0, 90.0];
-    let mut s = scene(
-        "grasp",
-        60.0,
-        domain(
-            [-0.016, -0.016, 0.0],
-            [0.032, 0.032, 0.048],
-            0.001,
-            [0.0, 0.0, -9.81],
-        ),
-        Some(Table {
-            height: 0.002,
-            hold: Hold::Resting,
-            friction: 0.3,
-        }),
-        vec![tissue(
-            [0.0, 0.0, 0.005],
-            [0.006, 0.006, 0.006],
-            material(5000.0, 0.4, 1000.0, 2.0),
-        )],
-        vec![tool(
-            "gripper",
-            gripper,
-            ContactModel::Coulomb {
-                friction: 2.0,
-                drag: 0.0,
-            },
-            vec![
-                key(0.0, [0.0, 0.0, 0.0135], rpy, 70.0),
-                key(0.1, [0.0, 0.0, 0.0135], rpy, 70.0),
-                key(0.3, [0.0, 0.0, 0.0135], rpy, 25.0),
-                key(0.6, [0.0, 0.0, 0.0185], rpy, 25.0),
-            ],
-        )],
-    );
-    s.solver.max_substeps_per_frame = 400;
-    s
+    dvrk_tissue_sim::bench::scenes::grasp_scene(0.1, 0.3, 0.6, 0.005)
 }
 
 /// Jaws closing (jaw velocity), friction, resting table, lifting: positions and the

@@ -1,7 +1,7 @@
 //! Whole-solver behaviour: conservation, grasping, needle contact, guard, time step.
 
 use dvrk_tissue_sim::bench::scenes::*;
-use dvrk_tissue_sim::config::{Hold, Scene, Table};
+use dvrk_tissue_sim::config::Scene;
 use dvrk_tissue_sim::mpm::guard::GuardPolicy;
 use dvrk_tissue_sim::mpm::{timestep, Lame, Vec3};
 use dvrk_tissue_sim::tools::{ContactModel, Shape};
@@ -55,48 +55,7 @@ fn free_flying_block_conserves_momentum() {
 }
 
 fn grasp_scene() -> Scene {
-    let gripper = Shape::Gripper {
-        jaw_length: 0.01,
-        jaw_width: 0.006,
-        jaw_thickness: 0.002,
-    };
-    let rpy = [180.0, 0.0, 90.0];
-    let mut s = scene(
-        "grasp",
-        60.0,
-        domain(
-            [-0.016, -0.016, 0.0],
-            [0.032, 0.032, 0.048],
-            0.001,
-            [0.0, 0.0, -9.81],
-        ),
-        Some(Table {
-            height: 0.002,
-            hold: Hold::Resting,
-            friction: 0.3,
-        }),
-        vec![tissue(
-            [0.0, 0.0, 0.005],
-            [0.006, 0.006, 0.006],
-            material(5000.0, 0.4, 1000.0, 2.0),
-        )],
-        vec![tool(
-            "gripper",
-            gripper,
-            ContactModel::Coulomb {
-                friction: 2.0,
-                drag: 0.0,
-            },
-            vec![
-                key(0.0, [0.0, 0.0, 0.0135], rpy, 70.0),
-                key(0.2, [0.0, 0.0, 0.0135], rpy, 70.0),
-                key(0.5, [0.0, 0.0, 0.0135], rpy, 25.0),
-                key(1.0, [0.0, 0.0, 0.0235], rpy, 25.0),
-            ],
-        )],
-    );
-    s.solver.max_substeps_per_frame = 400;
-    s
+    dvrk_tissue_sim::bench::scenes::grasp_scene(0.2, 0.5, 1.0, 0.010)
 }
 
 #[test]

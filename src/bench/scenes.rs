@@ -82,3 +82,53 @@ pub fn scene(
         outputs: Default::default(),
     }
 }
+
+/// Grasp and lift: a 6 mm block resting on a table with friction, a gripper pointing down
+/// whose 2 mm jaws (two cells at dx = 1 mm) open at 70°, stay open until `open_until`, close
+/// to 25° by `closed_at`, then lift by `lift` metres by `lifted_at` (seconds).
+pub fn grasp_scene(open_until: f64, closed_at: f64, lifted_at: f64, lift: f64) -> Scene {
+    let gripper = Shape::Gripper {
+        jaw_length: 0.01,
+        jaw_width: 0.006,
+        jaw_thickness: 0.002,
+    };
+    let rpy = [180.0, 0.0, 90.0];
+    let pivot = [0.0, 0.0, 0.0135];
+    let raised = [0.0, 0.0, 0.0135 + lift];
+    let mut s = scene(
+        "grasp",
+        60.0,
+        domain(
+            [-0.016, -0.016, 0.0],
+            [0.032, 0.032, 0.048],
+            0.001,
+            [0.0, 0.0, -9.81],
+        ),
+        Some(Table {
+            height: 0.002,
+            hold: Hold::Resting,
+            friction: 0.3,
+        }),
+        vec![tissue(
+            [0.0, 0.0, 0.005],
+            [0.006, 0.006, 0.006],
+            material(5000.0, 0.4, 1000.0, 2.0),
+        )],
+        vec![tool(
+            "gripper",
+            gripper,
+            ContactModel::Coulomb {
+                friction: 2.0,
+                drag: 0.0,
+            },
+            vec![
+                key(0.0, pivot, rpy, 70.0),
+                key(open_until, pivot, rpy, 70.0),
+                key(closed_at, pivot, rpy, 25.0),
+                key(lifted_at, raised, rpy, 25.0),
+            ],
+        )],
+    );
+    s.solver.max_substeps_per_frame = 400;
+    s
+}
