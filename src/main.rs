@@ -81,10 +81,21 @@ enum Command {
         #[arg(required = true)]
         scenes: Vec<PathBuf>,
     },
-    /// Benchmarks that print a table.
+    /// Benchmarks. Without a subcommand: the runtime-against-error sweep over the analytic
+    /// scenes × solver settings × backends × resolutions, printed as a table and written as
+    /// CSV, Markdown and a PNG plot; exits non-zero if an error exceeds its bound.
     Bench {
         #[command(subcommand)]
-        which: BenchCommand,
+        which: Option<BenchCommand>,
+        /// Coarse resolutions only (under two minutes on two CPU cores).
+        #[arg(long)]
+        quick: bool,
+        /// Folder for bench.csv, bench.md and bench.png.
+        #[arg(long, default_value = "target/bench")]
+        out: PathBuf,
+        /// Backends to sweep (default: cpu, plus gpu when a hardware GPU adapter exists).
+        #[arg(long, value_enum, value_delimiter = ',')]
+        backends: Option<Vec<BackendChoice>>,
     },
 }
 
@@ -222,7 +233,15 @@ fn run(cli: Cli) -> Result<()> {
             }
             Ok(())
         }
-        Command::Bench { which } => match which {
+        Command::Bench {
+            which: None,
+            quick,
+            out,
+            backends,
+        } => run_sweep(quick, &out, backends),
+        Command::Bench {
+            which: Some(which), ..
+        } => match which {
             BenchCommand::Throughput { frames } => {
                 let result = bench::throughput::run_seed000(frames);
                 print!("{}", result.table());
@@ -250,6 +269,71 @@ fn run(cli: Cli) -> Result<()> {
             }
         },
     }
+}
+
+fn run_sweep(quick: bool, out: &Path, backends: Option<Vec<BackendChoice>>) -> Result<()> {
+    use bench::sweep::{self, SweepPlan};
+    let backends = backends.unwrap_or_else(|| {
+        let hardware = dvrk_tissue_sim::mpm::gpu::adapter::adapters()
+            .iter()
+            .any(|a| a.get_info().device_type != wgpu::DeviceType::Cpu);
+        let mut b = vec![BackendChoice::Cpu];
+        if hardware {
+            b.push(BackendChoice::Gpu);
+        }
+        b
+    });
+    let plan = if quick {
+        SweepPlan::quick(backends)
+    } else {
+        SweepPlan::full(backends)
+    };
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let progress = indicatif::ProgressBar::new(plan.len() as u64).with_style(
+        indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} [{elapsed}] {msg}")
+            .expect("valid progress template"),
+    );
+    let rows = sweep::run(&plan, |row| {
+        progress.set_message(format!(
+            "{} {} {} {} {}: {:+.2}%",
+            row.case.scene_name(),
+            row.case.resolution(),
+            row.setting.solver_name(),
+            row.setting.step_label(),
+            row.backend,
+            100.0 * row.error
+        ));
+        progress.inc(1);
+    });
+    progress.finish_and_clear();
+    let table = sweep::markdown(&rows);
+    print!("{table}");
+    let write = |name: &str, text: &str| {
+        let path = out.join(name);
+        std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))
+    };
+    write("bench.csv", &sweep::csv(&rows))?;
+    write("bench.md", &table)?;
+    let png = out.join("bench.png");
+    bench::plot::render(&sweep::panels(&rows), "wall time (s)", "|error| (%)")
+        .write_png(&png)
+        .with_context(|| format!("cannot write {}", png.display()))?;
+    println!(
+        "wrote {}, bench.md and bench.png",
+        out.join("bench.csv").display()
+    );
+    let failures = sweep::failures(&rows);
+    if !failures.is_empty() {
+        for f in &failures {
+            eprintln!("out of bounds: {f}");
+        }
+        bail!(
+            "{} of {} runs outside their error bound",
+            failures.len(),
+            rows.len()
+        );
+    }
+    Ok(())
 }
 
 fn run_headless(

@@ -4,6 +4,7 @@
 //! Each is parameterised by resolution (cells across its characteristic length) so tests
 //! can check error bounds and that errors shrink as dx shrinks.
 
+use super::meter::Meter;
 use super::scenes::*;
 use crate::config::Scene;
 use crate::mpm::Lame;
@@ -141,13 +142,19 @@ pub fn hertz_on(
     backend: crate::mpm::backend::BackendChoice,
     p2g: crate::mpm::backend::P2gAtomics,
 ) -> HertzResult {
-    let (mut scene, top, duration) = hertz_scene(cells_per_radius);
+    let (mut scene, _, _) = hertz_scene(cells_per_radius);
     scene.solver.backend = backend;
     scene.solver.p2g_atomics = p2g;
-    let mut world = World::new(&scene);
+    hertz_run(cells_per_radius, &scene, &mut Meter::default())
+}
+
+/// Runs a Hertz scene from [`hertz_scene`] (its solver settings possibly changed).
+pub fn hertz_run(cells_per_radius: f64, scene: &Scene, meter: &mut Meter) -> HertzResult {
+    let (_, top, duration) = hertz_scene(cells_per_radius);
+    let mut world = World::new(scene);
     let mut samples = Vec::new();
     while world.time < duration - 1e-9 {
-        let report = world.step_frame().expect("Hertz scene is stable");
+        let report = meter.step(&mut world).expect("Hertz scene is stable");
         let pose = world.tools[0].pose_at(world.time);
         let depth = top - (pose.position.z - HERTZ_RADIUS);
         let d_over_r = depth / HERTZ_RADIUS;
@@ -241,8 +248,14 @@ pub fn bar_scene(cells_across: u32) -> (Scene, f64, f64) {
 /// Starts the bar in its first axial mode (v = v₀ sin(π x / 2L)) and measures the period
 /// from the zero crossings of the free half's mean axial velocity.
 pub fn vibrating_bar(cells_across: u32) -> BarResult {
-    let (scene, x0, length) = bar_scene(cells_across);
-    let mut world = World::new(&scene);
+    let (scene, _, _) = bar_scene(cells_across);
+    bar_run(cells_across, &scene, &mut Meter::default())
+}
+
+/// Runs a bar scene from [`bar_scene`] (its solver settings possibly changed).
+pub fn bar_run(cells_across: u32, scene: &Scene, meter: &mut Meter) -> BarResult {
+    let (_, x0, length) = bar_scene(cells_across);
+    let mut world = World::new(scene);
     let c_bar = (BAR_E / BAR_DENSITY).sqrt();
     let analytic_period = 4.0 * length / c_bar;
     let v0 = 1e-3 * c_bar; // strain amplitude 1e-3: linear regime
@@ -265,7 +278,7 @@ pub fn vibrating_bar(cells_across: u32) -> BarResult {
     let mut crossings = Vec::new();
     let mut prev = (world.time, probe_velocity(&mut world));
     while world.time < 2.6 * analytic_period && crossings.len() < 3 {
-        world.step_frame().expect("bar scene is stable");
+        meter.step(&mut world).expect("bar scene is stable");
         let now = (world.time, probe_velocity(&mut world));
         if prev.1 > 0.0 && now.1 <= 0.0 {
             crossings.push(prev.0 + (now.0 - prev.0) * prev.1 / (prev.1 - now.1));
@@ -366,13 +379,24 @@ pub fn stretch_scene(cells_across: u32, stretch: f64) -> (Scene, f64, f64) {
 /// Stretches to `stretch`, lets the block settle, and compares the fixed grip's reaction
 /// force with the analytic uniaxial Neo-Hookean force P(s)·A₀.
 pub fn large_stretch(cells_across: u32, stretch: f64) -> StretchResult {
-    let (scene, _free, duration) = stretch_scene(cells_across, stretch);
+    let (scene, _, _) = stretch_scene(cells_across, stretch);
+    stretch_run(cells_across, stretch, &scene, &mut Meter::default())
+}
+
+/// Runs a stretch scene from [`stretch_scene`] (its solver settings possibly changed).
+pub fn stretch_run(
+    cells_across: u32,
+    stretch: f64,
+    scene: &Scene,
+    meter: &mut Meter,
+) -> StretchResult {
+    let (_, _, duration) = stretch_scene(cells_across, stretch);
     let thickness = 0.004;
-    let mut world = World::new(&scene);
+    let mut world = World::new(scene);
     // Average the reaction over the settled tail of the run.
     let (mut sum, mut n) = (0.0, 0);
     while world.time < duration - 1e-9 {
-        let report = world.step_frame().expect("stretch scene is stable");
+        let report = meter.step(&mut world).expect("stretch scene is stable");
         if world.time > 0.9 * duration {
             // The fixed grip is pulled towards +x by a stretched block.
             sum += report.wrenches[0].force.x;

@@ -1,6 +1,10 @@
-//! Scenes with analytic answers (accuracy) and throughput measurement.
+//! Benchmarks: scenes with analytic answers, the runtime-against-error sweep and its plot,
+//! throughput and scaling.
 
 pub mod analytic;
+pub mod meter;
+pub mod plot;
 pub mod scaling;
 pub mod scenes;
+pub mod sweep;
 pub mod throughput;

@@ -1,0 +1,49 @@
+//! Wall time and work of the frames a benchmark runs, measured around `World::step_frame`
+//! only (probes that read the state between frames are not solver cost).
+
+use crate::world::{FrameReport, StepError, World};
+use std::time::{Duration, Instant};
+
+#[derive(Clone, Debug, Default)]
+pub struct Meter {
+    pub frames: u64,
+    pub substeps: u64,
+    /// Particles and backend of the last world stepped.
+    pub particles: usize,
+    pub backend: &'static str,
+    /// Simulated time advanced (s).
+    pub simulated: f64,
+    pub wall: Duration,
+}
+
+impl Meter {
+    /// Steps `world` one frame and counts it.
+    pub fn step(&mut self, world: &mut World) -> Result<FrameReport, StepError> {
+        let t0 = world.time;
+        let start = Instant::now();
+        let result = world.step_frame();
+        self.wall += start.elapsed();
+        self.frames += 1;
+        self.particles = world.particles().len();
+        self.backend = world.backend.name();
+        if let Ok(report) = &result {
+            self.substeps += report.substeps as u64;
+            self.simulated += world.time - t0;
+        }
+        result
+    }
+
+    pub fn particle_substeps(&self) -> f64 {
+        self.particles as f64 * self.substeps as f64
+    }
+
+    /// Particle-substeps per wall-clock second.
+    pub fn rate(&self) -> f64 {
+        self.particle_substeps() / self.wall.as_secs_f64().max(1e-12)
+    }
+
+    /// Simulated seconds per wall-clock second (1: real time).
+    pub fn realtime_factor(&self) -> f64 {
+        self.simulated / self.wall.as_secs_f64().max(1e-12)
+    }
+}

@@ -1,0 +1,452 @@
+//! The runtime-against-error sweep behind `bench`: every analytic scene × solver setting ×
+//! backend × resolution, each run through the same `World` as a scene file, with its error
+//! against the analytic answer, wall time, particle-substeps per second and real-time
+//! factor. Written as CSV, a Markdown table and a PNG of error against run time with each
+//! solver's Pareto front.
+
+use super::analytic::{bar_run, bar_scene, hertz_run, hertz_scene, stretch_run, stretch_scene};
+use super::meter::Meter;
+use super::plot::{self, Panel, Series};
+use crate::config::Scene;
+use crate::mpm::backend::BackendChoice;
+use std::fmt::Write as _;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+/// Stretch ratio of the large-stretch scene.
+pub const STRETCH: f64 = 1.3;
+
+/// One analytic scene at one resolution.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum AnalyticCase {
+    /// Hertz indentation, resolution in cells per sphere radius.
+    Hertz { cells_per_radius: f64 },
+    /// First axial mode of a clamped bar, resolution in cells across its thickness.
+    Bar { cells_across: u32 },
+    /// 1.3× Neo-Hookean stretch, resolution in cells across its thickness.
+    Stretch { cells_across: u32 },
+}
+
+impl AnalyticCase {
+    pub fn scene_name(&self) -> &'static str {
+        match self {
+            AnalyticCase::Hertz { .. } => "hertz",
+            AnalyticCase::Bar { .. } => "bar",
+            AnalyticCase::Stretch { .. } => "stretch",
+        }
+    }
+
+    /// What the error measures.
+    pub fn error_name(&self) -> &'static str {
+        match self {
+            AnalyticCase::Hertz { .. } => "RMS force error, d/R 0.05-0.3",
+            AnalyticCase::Bar { .. } => "period error",
+            AnalyticCase::Stretch { .. } => "reaction force error",
+        }
+    }
+
+    /// Cells across the scene's characteristic length.
+    pub fn cells(&self) -> f64 {
+        match *self {
+            AnalyticCase::Hertz { cells_per_radius } => cells_per_radius,
+            AnalyticCase::Bar { cells_across } | AnalyticCase::Stretch { cells_across } => {
+                cells_across as f64
+            }
+        }
+    }
+
+    pub fn resolution(&self) -> String {
+        match self {
+            AnalyticCase::Hertz { .. } => format!("R = {} dx", self.cells()),
+            _ => format!("h = {} dx", self.cells()),
+        }
+    }
+
+    pub fn scene(&self) -> Scene {
+        match *self {
+            AnalyticCase::Hertz { cells_per_radius } => hertz_scene(cells_per_radius).0,
+            AnalyticCase::Bar { cells_across } => bar_scene(cells_across).0,
+            AnalyticCase::Stretch { cells_across } => stretch_scene(cells_across, STRETCH).0,
+        }
+    }
+
+    /// Runs `scene` (this case's scene with solver settings changed) and returns the signed
+    /// relative error (RMS, so non-negative, for Hertz).
+    pub fn run(&self, scene: &Scene, meter: &mut Meter) -> f64 {
+        match *self {
+            AnalyticCase::Hertz { cells_per_radius } => {
+                hertz_run(cells_per_radius, scene, meter).rms_relative_error()
+            }
+            AnalyticCase::Bar { cells_across } => {
+                bar_run(cells_across, scene, meter).relative_error()
+            }
+            AnalyticCase::Stretch { cells_across } => {
+                stretch_run(cells_across, STRETCH, scene, meter).relative_error()
+            }
+        }
+    }
+
+    /// The error `bench` accepts for this case with `solver` (set from measured errors with
+    /// margin; a change that exceeds it is a regression).
+    pub fn error_bound(&self, solver: &SolverSetting) -> f64 {
+        let cells = self.cells();
+        match (self, solver) {
+            (AnalyticCase::Hertz { .. }, SolverSetting::MlsMpm { .. }) => {
+                if cells < 4.0 {
+                    0.30
+                } else if cells < 6.0 {
+                    0.20
+                } else {
+                    0.10
+                }
+            }
+            (AnalyticCase::Bar { .. }, SolverSetting::MlsMpm { .. }) => {
+                if cells < 8.0 {
+                    0.05
+                } else {
+                    0.025
+                }
+            }
+            (AnalyticCase::Stretch { .. }, SolverSetting::MlsMpm { .. }) => {
+                if cells < 8.0 {
+                    0.11
+                } else {
+                    0.06
+                }
+            }
+        }
+    }
+}
+
+/// A solver with its time-step setting.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SolverSetting {
+    /// MLS-MPM (APIC) with substeps at the CFL number `cfl`.
+    MlsMpm { cfl: f64 },
+}
+
+impl SolverSetting {
+    pub fn solver_name(&self) -> &'static str {
+        match self {
+            SolverSetting::MlsMpm { .. } => "MLS-MPM",
+        }
+    }
+
+    pub fn step_label(&self) -> String {
+        match self {
+            SolverSetting::MlsMpm { cfl } => format!("CFL {cfl}"),
+        }
+    }
+
+    pub fn apply(&self, scene: &mut Scene) {
+        match *self {
+            SolverSetting::MlsMpm { cfl } => {
+                scene.solver.cfl = cfl;
+                scene.solver.dt = None;
+            }
+        }
+    }
+}
+
+/// What a sweep runs: every case × setting × backend.
+#[derive(Clone, Debug)]
+pub struct SweepPlan {
+    pub cases: Vec<AnalyticCase>,
+    pub settings: Vec<SolverSetting>,
+    pub backends: Vec<BackendChoice>,
+}
+
+impl SweepPlan {
+    /// The coarse resolutions and two step settings: under two minutes on two CPU cores.
+    pub fn quick(backends: Vec<BackendChoice>) -> Self {
+        SweepPlan {
+            cases: vec![
+                AnalyticCase::Hertz {
+                    cells_per_radius: 4.0,
+                },
+                AnalyticCase::Bar { cells_across: 4 },
+                AnalyticCase::Stretch { cells_across: 4 },
+            ],
+            settings: vec![
+                SolverSetting::MlsMpm { cfl: 0.5 },
+                SolverSetting::MlsMpm { cfl: 0.9 },
+            ],
+            backends,
+        }
+    }
+
+    /// Three resolutions per scene and three step settings.
+    pub fn full(backends: Vec<BackendChoice>) -> Self {
+        let mut cases = Vec::new();
+        for c in [3.0, 4.0, 6.0] {
+            cases.push(AnalyticCase::Hertz {
+                cells_per_radius: c,
+            });
+        }
+        for c in [4, 6, 8] {
+            cases.push(AnalyticCase::Bar { cells_across: c });
+        }
+        for c in [4, 6, 8] {
+            cases.push(AnalyticCase::Stretch { cells_across: c });
+        }
+        SweepPlan {
+            cases,
+            settings: vec![
+                SolverSetting::MlsMpm { cfl: 0.25 },
+                SolverSetting::MlsMpm { cfl: 0.5 },
+                SolverSetting::MlsMpm { cfl: 0.9 },
+            ],
+            backends,
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.cases.len() * self.settings.len() * self.backends.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// One run of the sweep.
+#[derive(Clone, Debug)]
+pub struct Row {
+    pub case: AnalyticCase,
+    pub setting: SolverSetting,
+    /// The backend that ran it (`cpu`, `gpu-f32-atomics`, ...).
+    pub backend: String,
+    pub particles: usize,
+    /// Signed relative error (NaN when the run failed).
+    pub error: f64,
+    pub wall_s: f64,
+    pub substeps: u64,
+    pub particle_substeps_per_s: f64,
+    pub realtime_factor: f64,
+    /// Why the run failed, if it did.
+    pub failure: Option<String>,
+}
+
+impl Row {
+    /// Within the case's error bound and not failed.
+    pub fn passes(&self) -> bool {
+        self.failure.is_none() && self.error.abs() <= self.case.error_bound(&self.setting)
+    }
+}
+
+/// Runs one case with one setting on one backend; a run that panics (an unstable setting
+/// tripping the guard) becomes a failed row instead of ending the sweep.
+pub fn run_one(case: AnalyticCase, setting: SolverSetting, backend: BackendChoice) -> Row {
+    let mut scene = case.scene();
+    setting.apply(&mut scene);
+    scene.solver.backend = backend;
+    let mut meter = Meter::default();
+    let outcome = catch_unwind(AssertUnwindSafe(|| case.run(&scene, &mut meter)));
+    let (error, failure) = match outcome {
+        Ok(e) if e.is_finite() => (e, None),
+        Ok(e) => (e, Some("no measurement".to_owned())),
+        Err(panic) => {
+            let message = panic
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_else(|| "panicked".to_owned());
+            (f64::NAN, Some(message))
+        }
+    };
+    Row {
+        case,
+        setting,
+        backend: meter.backend.to_owned(),
+        particles: meter.particles,
+        error,
+        wall_s: meter.wall.as_secs_f64(),
+        substeps: meter.substeps,
+        particle_substeps_per_s: meter.rate(),
+        realtime_factor: meter.realtime_factor(),
+        failure,
+    }
+}
+
+/// Runs the whole plan, calling `on_row` after each run (for progress).
+pub fn run(plan: &SweepPlan, mut on_row: impl FnMut(&Row)) -> Vec<Row> {
+    let mut rows = Vec::with_capacity(plan.len());
+    for &case in &plan.cases {
+        for &setting in &plan.settings {
+            for &backend in &plan.backends {
+                let row = run_one(case, setting, backend);
+                on_row(&row);
+                rows.push(row);
+            }
+        }
+    }
+    rows
+}
+
+pub fn csv(rows: &[Row]) -> String {
+    let mut out = String::from(
+        "scene,resolution_cells,solver,step,backend,particles,relative_error,error_bound,wall_s,substeps,particle_substeps_per_s,realtime_factor,failure\n",
+    );
+    for r in rows {
+        let _ = writeln!(
+            out,
+            "{},{},{},{},{},{},{:.6},{},{:.4},{},{:.0},{:.5},{}",
+            r.case.scene_name(),
+            r.case.cells(),
+            r.setting.solver_name(),
+            r.setting.step_label(),
+            r.backend,
+            r.particles,
+            r.error,
+            r.case.error_bound(&r.setting),
+            r.wall_s,
+            r.substeps,
+            r.particle_substeps_per_s,
+            r.realtime_factor,
+            r.failure.as_deref().unwrap_or("").replace([',', '\n'], ";"),
+        );
+    }
+    out
+}
+
+pub fn markdown(rows: &[Row]) -> String {
+    let mut out = String::from(
+        "| scene | resolution | solver | step | backend | particles | error | bound | wall (s) | substeps | particle-substeps/s | real-time factor |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for r in rows {
+        let error = match &r.failure {
+            Some(f) => format!("failed: {f}"),
+            None => format!("{:+.2}%", 100.0 * r.error),
+        };
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} | {} | {} | {} | {} | {:.0}% | {:.2} | {} | {:.2}M | {:.3} |",
+            r.case.scene_name(),
+            r.case.resolution(),
+            r.setting.solver_name(),
+            r.setting.step_label(),
+            r.backend,
+            r.particles,
+            error,
+            100.0 * r.case.error_bound(&r.setting),
+            r.wall_s,
+            r.substeps,
+            r.particle_substeps_per_s / 1e6,
+            r.realtime_factor,
+        );
+    }
+    out
+}
+
+/// One panel per scene: |error| (%) against wall time, a series per solver × backend.
+pub fn panels(rows: &[Row]) -> Vec<Panel> {
+    let mut scenes: Vec<&'static str> = Vec::new();
+    let mut labels: Vec<String> = Vec::new();
+    for r in rows {
+        if !scenes.contains(&r.case.scene_name()) {
+            scenes.push(r.case.scene_name());
+        }
+        let label = series_label(r);
+        if !labels.contains(&label) {
+            labels.push(label);
+        }
+    }
+    scenes
+        .iter()
+        .map(|&scene| {
+            let in_scene: Vec<&Row> = rows
+                .iter()
+                .filter(|r| r.case.scene_name() == scene)
+                .collect();
+            let title = format!(
+                "{scene}: {}",
+                in_scene.first().map_or("", |r| r.case.error_name())
+            );
+            let series = labels
+                .iter()
+                .enumerate()
+                .map(|(k, label)| Series {
+                    label: label.clone(),
+                    color: plot::PALETTE[k % plot::PALETTE.len()],
+                    points: in_scene
+                        .iter()
+                        .filter(|r| series_label(r) == *label && r.failure.is_none())
+                        .map(|r| (r.wall_s, 100.0 * r.error.abs()))
+                        .collect(),
+                })
+                .collect();
+            Panel { title, series }
+        })
+        .collect()
+}
+
+fn series_label(r: &Row) -> String {
+    format!("{} ({})", r.setting.solver_name(), r.backend)
+}
+
+/// Rows outside their error bound, one line each.
+pub fn failures(rows: &[Row]) -> Vec<String> {
+    rows.iter()
+        .filter(|r| !r.passes())
+        .map(|r| {
+            format!(
+                "{} {} {} {} on {}: {}",
+                r.case.scene_name(),
+                r.case.resolution(),
+                r.setting.solver_name(),
+                r.setting.step_label(),
+                r.backend,
+                match &r.failure {
+                    Some(f) => format!("failed: {f}"),
+                    None => format!(
+                        "error {:+.2}% exceeds ±{:.0}%",
+                        100.0 * r.error,
+                        100.0 * r.case.error_bound(&r.setting)
+                    ),
+                }
+            )
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn plans_cover_every_combination() {
+        let plan = SweepPlan::full(vec![BackendChoice::Cpu, BackendChoice::Gpu]);
+        assert_eq!(plan.len(), 9 * 3 * 2);
+        assert_eq!(SweepPlan::quick(vec![BackendChoice::Cpu]).len(), 6);
+    }
+
+    #[test]
+    fn every_case_scene_is_valid() {
+        for case in SweepPlan::full(vec![]).cases {
+            let mut scene = case.scene();
+            SolverSetting::MlsMpm { cfl: 0.9 }.apply(&mut scene);
+            let problems = crate::config::validate(&scene);
+            assert!(problems.is_empty(), "{case:?}: {problems:?}");
+        }
+    }
+
+    #[test]
+    fn a_failed_run_fails_its_bound_and_is_left_out_of_the_plot() {
+        let row = Row {
+            case: AnalyticCase::Bar { cells_across: 4 },
+            setting: SolverSetting::MlsMpm { cfl: 0.5 },
+            backend: "cpu".into(),
+            particles: 10,
+            error: f64::NAN,
+            wall_s: 1.0,
+            substeps: 1,
+            particle_substeps_per_s: 10.0,
+            realtime_factor: 0.1,
+            failure: Some("guard".into()),
+        };
+        assert!(!row.passes());
+        assert_eq!(failures(std::slice::from_ref(&row)).len(), 1);
+        let panels = panels(&[row]);
+        assert!(panels[0].series[0].points.is_empty());
+        assert!(markdown(&[]).lines().count() == 2);
+    }
+}

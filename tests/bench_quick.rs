@@ -1,0 +1,42 @@
+//! `bench --quick` as CI runs it: every analytic run within its error bound, and the CSV,
+//! Markdown and PNG written. No timing is asserted.
+
+use std::process::Command;
+
+#[test]
+fn quick_bench_meets_error_bounds_and_writes_its_files() {
+    let out_dir = std::env::temp_dir().join(format!("dvrk-bench-quick-{}", std::process::id()));
+    let out = Command::new(env!("CARGO_BIN_EXE_dvrk-tissue-sim"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(["bench", "--quick", "--backends", "cpu", "--out"])
+        .arg(&out_dir)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let csv = std::fs::read_to_string(out_dir.join("bench.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 6, "{csv}");
+    for scene in ["hertz", "bar", "stretch"] {
+        assert!(rows.iter().any(|r| r[column("scene")] == scene), "{csv}");
+    }
+    for r in &rows {
+        let error: f64 = r[column("relative_error")].parse().unwrap();
+        let bound: f64 = r[column("error_bound")].parse().unwrap();
+        assert!(error.is_finite() && error.abs() <= bound, "{r:?}");
+        let substeps: u64 = r[column("substeps")].parse().unwrap();
+        assert!(substeps > 0, "{r:?}");
+    }
+    let md = std::fs::read_to_string(out_dir.join("bench.md")).unwrap();
+    assert_eq!(md.lines().count(), 2 + rows.len());
+    let png = std::fs::read(out_dir.join("bench.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    let _ = std::fs::remove_dir_all(&out_dir);
+}
