@@ -76,6 +76,24 @@ enum Command {
         #[arg(long, value_enum, default_value_t = StrainMeasure::Equivalent)]
         measure: StrainMeasure,
     },
+    /// Stability matrix: stiffness, Poisson ratio, time step, tool speed, jaws closing,
+    /// pulling apart, dropping, and a long soak; a table of stability, energy drift,
+    /// penetration, escaped particles and guard events. Exits non-zero if a case inside the
+    /// safe envelope fails.
+    Stress {
+        /// The CI matrix: a corner of each group and a 10-second soak.
+        #[arg(long)]
+        reduced: bool,
+        /// Solver backend for every case.
+        #[arg(long, value_enum, default_value_t = BackendChoice::Cpu)]
+        backend: BackendChoice,
+        /// Only the cases whose group or name contains this text.
+        #[arg(long)]
+        only: Option<String>,
+        /// Markdown table written here too.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// Validate scene files and report every problem.
     Check {
         #[arg(required = true)]
@@ -211,6 +229,12 @@ fn run(cli: Cli) -> Result<()> {
             );
             Ok(())
         }
+        Command::Stress {
+            reduced,
+            backend,
+            only,
+            out,
+        } => run_stress(reduced, backend, only.as_deref(), out.as_deref()),
         Command::Check { scenes } => {
             let mut failed = 0;
             for path in &scenes {
@@ -331,6 +355,59 @@ fn run_sweep(quick: bool, out: &Path, backends: Option<Vec<BackendChoice>>) -> R
             "{} of {} runs outside their error bound",
             failures.len(),
             rows.len()
+        );
+    }
+    Ok(())
+}
+
+fn run_stress(
+    reduced: bool,
+    backend: BackendChoice,
+    only: Option<&str>,
+    out: Option<&Path>,
+) -> Result<()> {
+    use bench::stress::{self, Matrix};
+    let matrix = if reduced {
+        Matrix::Reduced
+    } else {
+        Matrix::Full
+    };
+    let cases: Vec<_> = stress::with_backend(stress::cases(matrix), backend)
+        .into_iter()
+        .filter(|c| only.is_none_or(|o| c.group.contains(o) || c.name.contains(o)))
+        .collect();
+    if cases.is_empty() {
+        bail!("no stress case matches {:?}", only.unwrap_or_default());
+    }
+    let progress = indicatif::ProgressBar::new(cases.len() as u64).with_style(
+        indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} [{elapsed}] {msg}")
+            .expect("valid progress template"),
+    );
+    progress.set_message(cases[0].name.clone());
+    let results = stress::run(&cases, |r| {
+        progress.println(format!(
+            "{} / {}: {}",
+            r.group,
+            r.name,
+            if r.stable() { "stable" } else { "UNSTABLE" }
+        ));
+        progress.inc(1);
+    });
+    progress.finish_and_clear();
+    let table = stress::markdown(&results);
+    print!("{table}");
+    if let Some(path) = out {
+        std::fs::write(path, &table).with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    let failures = stress::envelope_failures(&results);
+    if !failures.is_empty() {
+        for f in &failures {
+            eprintln!("unstable inside the safe envelope: {f}");
+        }
+        bail!(
+            "{} of {} cases inside the safe envelope failed",
+            failures.len(),
+            results.iter().filter(|r| r.in_envelope).count()
         );
     }
     Ok(())

@@ -6,5 +6,6 @@ pub mod meter;
 pub mod plot;
 pub mod scaling;
 pub mod scenes;
+pub mod stress;
 pub mod sweep;
 pub mod throughput;

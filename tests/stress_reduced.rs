@@ -1,0 +1,51 @@
+//! `stress --reduced` as CI runs it: every case of the reduced matrix (all inside the safe
+//! envelope) stays stable, and the table reports each of them. No timing is asserted.
+
+use std::process::Command;
+
+#[test]
+fn reduced_stress_matrix_is_stable() {
+    let table_path =
+        std::env::temp_dir().join(format!("dvrk-stress-reduced-{}.md", std::process::id()));
+    let out = Command::new(env!("CARGO_BIN_EXE_dvrk-tissue-sim"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(["stress", "--reduced", "--backend", "cpu", "--out"])
+        .arg(&table_path)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let table = std::fs::read_to_string(&table_path).unwrap();
+    let _ = std::fs::remove_file(&table_path);
+    let rows: Vec<Vec<&str>> = table
+        .lines()
+        .skip(2)
+        .map(|l| l.trim_matches('|').split('|').map(str::trim).collect())
+        .collect();
+    assert_eq!(rows.len(), 12, "{table}");
+    for group in ["material", "time step", "tool speed", "scenario", "soak"] {
+        assert!(
+            rows.iter().any(|r| r[0] == group),
+            "{group} missing\n{table}"
+        );
+    }
+    for r in &rows {
+        assert_eq!(r[3], "yes", "{r:?}");
+        let non_finite: usize = r[12].parse().unwrap();
+        assert_eq!(non_finite, 0, "{r:?}");
+        let penetration: f64 = r[10].parse().unwrap();
+        assert!(penetration <= 2.0, "{r:?}");
+    }
+    // The 4× CFL case must show the step being cut; the 0.5× case must not.
+    let subdivided = |name: &str| -> u32 {
+        rows.iter().find(|r| r[1] == name).unwrap()[7]
+            .parse()
+            .unwrap()
+    };
+    assert!(subdivided("dt 4× CFL") > 0, "{table}");
+    assert_eq!(subdivided("dt 0.5× CFL"), 0, "{table}");
+}
