@@ -268,7 +268,7 @@ fn pull_apart_case() -> StressCase {
     let grip = Shape::Box {
         half_extents: [0.002, 0.005, 0.003],
     };
-    let z = 0.006;
+    let z = 0.008;
     let ends = |x: f64, dir: f64| {
         vec![
             key(0.0, [x, 0.0, z], [0.0; 3], 0.0),
@@ -286,12 +286,12 @@ fn pull_apart_case() -> StressCase {
             [0.0, 0.0, -9.81],
         ),
         Some(Table {
-            height: 0.002,
+            height: 0.004,
             hold: Hold::Resting,
             friction: 0.2,
         }),
         vec![tissue(
-            [0.0, 0.0, 0.006],
+            [0.0, 0.0, 0.008],
             [0.016, 0.008, 0.004],
             material(LIVER_E, LIVER_NU, DENSITY, 0.0),
         )],
