@@ -3,7 +3,8 @@
 //! Module map (see DESIGN.md): `config` (scene files), `tools` (rigid tool SDFs and
 //! contact), `mpm` (particles, grid, materials, solvers), `world` (one scene's simulation),
 //! `robot` (PSM URDF, kinematics, teleoperation mapping), `output` (point cloud, surface),
-//! `ros` (the ROS 2 node), `bench` (scenes with analytic answers, throughput).
+//! `ros` (the ROS 2 node), `sleep` (resting tissue skips frames), `bench` (analytic scenes,
+//! runtime-against-error sweep, stability matrix, throughput).
 
 pub mod bench;
 pub mod config;
@@ -11,5 +12,6 @@ pub mod mpm;
 pub mod output;
 pub mod robot;
 pub mod ros;
+pub mod sleep;
 pub mod tools;
 pub mod world;

@@ -472,11 +472,14 @@ fn run_headless(
                     )
                 })
                 .collect();
+            let step = if report.asleep {
+                "asleep (no tool within reach)".to_owned()
+            } else {
+                format!("substeps={} dt={:.2e}s", report.substeps, report.dt_max)
+            };
             println!(
-                "t={:.4}s substeps={} dt={:.2e}s {} vmax={:.4}m/s rtf={:.3}",
+                "t={:.4}s {step} {} vmax={:.4}m/s rtf={:.3}",
                 report.time,
-                report.substeps,
-                report.dt_max,
                 forces.join(" "),
                 report.max_speed,
                 world.frame_dt() / wall

@@ -8,6 +8,7 @@ use crate::mpm::gpu::{self, GpuError, GpuSetup, GpuSolver};
 use crate::mpm::grid::{Boundary, GridLayout, TableHold};
 use crate::mpm::guard::{GuardEvent, GuardPolicy};
 use crate::mpm::{timestep, Lame, MaterialParams, Particles, Vec3};
+use crate::sleep::{Aabb, SleepState};
 use crate::tools::{ContactModel, Shape, ToolKinematics, ToolPose, ToolVelocity, Trajectory};
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -47,6 +48,8 @@ pub struct FrameReport {
     pub truncated: bool,
     /// Guard event that reset the tissue during this frame (policy `reset_tissue`).
     pub tissue_reset: Option<GuardEvent>,
+    /// The tissue was asleep and the frame was skipped (see [`crate::sleep`]).
+    pub asleep: bool,
 }
 
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -89,6 +92,32 @@ pub struct WorldTool {
 }
 
 impl WorldTool {
+    /// Box that every grid node this tool can touch between `t0` and `t1` lies in: its
+    /// contact bounding box at both ends and at every keyframe between them, since it moves
+    /// linearly from one to the next.
+    pub fn reach_between(&self, t0: f64, t1: f64, dx: f32) -> Aabb {
+        let reach_at = |t: f64| {
+            let k = ToolKinematics::new(
+                self.shape,
+                self.contact,
+                &self.pose_at(t),
+                &ToolVelocity::default(),
+                dx,
+            );
+            Aabb {
+                min: k.aabb_min,
+                max: k.aabb_max,
+            }
+        };
+        let mut reach = reach_at(t0).union(&reach_at(t1));
+        if let ToolDriver::Scripted(trajectory) = &self.driver {
+            for t in trajectory.key_times_between(t0, t1) {
+                reach = reach.union(&reach_at(t));
+            }
+        }
+        reach
+    }
+
     pub fn pose_at(&self, t: f64) -> ToolPose {
         match &self.driver {
             ToolDriver::Scripted(trajectory) => trajectory.sample(t),
@@ -117,6 +146,7 @@ pub struct World {
     warned_fixed_dt: bool,
     /// This frame's tool kinematics, substep-major (capacity reused across frames).
     kinematics: Vec<ToolKinematics>,
+    sleep: SleepState,
 }
 
 /// Why a world could not be built.
@@ -236,6 +266,7 @@ impl World {
             time: 0.0,
             warned_fixed_dt: false,
             kinematics: Vec::new(),
+            sleep: SleepState::default(),
         })
     }
 
@@ -245,8 +276,9 @@ impl World {
         self.backend.particles()
     }
 
-    /// Particle state for editing before the next frame.
+    /// Particle state for editing before the next frame (wakes the tissue).
     pub fn particles_mut(&mut self) -> &mut Particles {
+        self.sleep.wake();
         self.backend.particles_mut()
     }
 
@@ -309,10 +341,47 @@ impl World {
         rayon::scope(|_| self.step_frame_on_pool())
     }
 
+    /// Whether the tissue is asleep (frames are skipped until a tool comes near).
+    pub fn is_asleep(&self) -> bool {
+        self.sleep.is_asleep()
+    }
+
+    /// The report of a frame skipped because the tissue sleeps and no tool can reach it,
+    /// or `None` (waking the tissue) when one can.
+    fn skip_sleeping_frame(&mut self, t_start: f64, t_end: f64) -> Option<FrameReport> {
+        let tissue = self.sleep.tissue_box()?;
+        let dx = self.scene.domain.dx as f32;
+        if self
+            .tools
+            .iter()
+            .any(|t| t.reach_between(t_start, t_end, dx).intersects(&tissue))
+        {
+            self.sleep.wake();
+            return None;
+        }
+        self.time = t_end;
+        Some(FrameReport {
+            time: t_end,
+            substeps: 0,
+            dt_min: 0.0,
+            dt_max: 0.0,
+            wrenches: vec![Wrench::default(); self.tools.len()],
+            contact_nodes: vec![0; self.tools.len()],
+            max_speed: 0.0,
+            clamped_particles: 0,
+            truncated: false,
+            tissue_reset: None,
+            asleep: true,
+        })
+    }
+
     fn step_frame_on_pool(&mut self) -> Result<FrameReport, StepError> {
         let frame_dt = self.frame_dt();
         let t_start = self.time;
         let t_end = t_start + frame_dt;
+        if let Some(report) = self.skip_sleeping_frame(t_start, t_end) {
+            return Ok(report);
+        }
         // Tool speed over the frame bounds dt like particle speed does.
         let tool_speed = self
             .tools
@@ -376,8 +445,10 @@ impl World {
             clamped_particles: stats.clamped_particles,
             truncated,
             tissue_reset: None,
+            asleep: false,
         };
         if let Some(event) = stats.guard {
+            self.sleep.wake();
             self.backend.restore_frame_start();
             self.last_max_speed = 0.0;
             match self.scene.solver.guard_policy {
@@ -400,6 +471,16 @@ impl World {
             }
         } else {
             self.last_max_speed = stats.max_speed;
+            let any_contact = stats.tool_impulses[..self.tools.len()]
+                .iter()
+                .any(|i| i.contact_nodes > 0);
+            self.sleep.observe(
+                &self.scene.sleep,
+                stats.max_speed,
+                any_contact,
+                &self.backend.particles().x,
+                dx,
+            );
             self.time = if truncated {
                 t_start + substeps as f64 * dt
             } else {

@@ -80,6 +80,7 @@ pub fn scene(
         arms: Vec::new(),
         teleop: None,
         outputs: Default::default(),
+        sleep: Default::default(),
     }
 }
 

@@ -34,6 +34,9 @@ pub struct Scene {
     /// What the ROS node publishes and how often.
     #[serde(default)]
     pub outputs: Outputs,
+    /// When resting tissue may skip frames.
+    #[serde(default)]
+    pub sleep: crate::sleep::SleepSettings,
 }
 
 fn default_name() -> String {

@@ -127,6 +127,12 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
         "≥ 1",
     );
     c.positive("solver.max_speed", s.max_speed);
+    c.require(
+        scene.sleep.speed.is_finite() && scene.sleep.speed >= 0.0,
+        "sleep.speed",
+        scene.sleep.speed,
+        "≥ 0 m/s",
+    );
 
     if let Some(t) = &scene.table {
         c.require(

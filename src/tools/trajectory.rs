@@ -30,6 +30,14 @@ impl Trajectory {
         p0.lerp(&p1, (t - t0) / (t1 - t0))
     }
 
+    /// Keyframe times strictly between `t0` and `t1`: between them the pose is linear.
+    pub fn key_times_between(&self, t0: f64, t1: f64) -> impl Iterator<Item = f64> + '_ {
+        self.keys
+            .iter()
+            .map(|(t, _)| *t)
+            .filter(move |&t| t > t0 && t < t1)
+    }
+
     /// Time of the last keyframe.
     pub fn end_time(&self) -> f64 {
         self.keys[self.keys.len() - 1].0

@@ -1,0 +1,108 @@
+//! Resting tissue sleeps while no tool can reach it and never misses a contact: a run with
+//! sleep on sees the same contacts at the same frames as a run with sleep off.
+
+use dvrk_tissue_sim::bench::scenes::*;
+use dvrk_tissue_sim::config::Scene;
+use dvrk_tissue_sim::mpm::backend::BackendChoice;
+use dvrk_tissue_sim::tools::{ContactModel, Shape};
+use dvrk_tissue_sim::world::{FrameReport, World};
+
+/// A liver block bonded to the table settles; at 1.0 s a sphere starts down from 14 mm above
+/// it and presses 1 mm in by 1.5 s.
+fn resting_then_probed(sleep: bool) -> Scene {
+    let mut s = scene(
+        "rest then probe",
+        60.0,
+        domain(
+            [-0.016, -0.016, 0.0],
+            [0.032, 0.032, 0.048],
+            0.002,
+            [0.0, 0.0, -9.81],
+        ),
+        Some(bonded_table(0.004)),
+        vec![tissue(
+            [0.0, 0.0, 0.008],
+            [0.016, 0.016, 0.008],
+            material(5400.0, 0.45, 1060.0, 2.0),
+        )],
+        vec![tool(
+            "probe",
+            Shape::Sphere { radius: 0.004 },
+            ContactModel::default(),
+            vec![
+                key(0.0, [0.0, 0.0, 0.03], [0.0; 3], 0.0),
+                key(1.0, [0.0, 0.0, 0.03], [0.0; 3], 0.0),
+                key(1.5, [0.0, 0.0, 0.015], [0.0; 3], 0.0),
+            ],
+        )],
+    );
+    s.solver.backend = BackendChoice::Cpu;
+    s.sleep.enabled = sleep;
+    s.sleep.after_frames = 10;
+    s
+}
+
+fn run(scene: &Scene, seconds: f64) -> (Vec<FrameReport>, World) {
+    let mut world = World::new(scene);
+    let mut reports = Vec::new();
+    while world.time < seconds - 1e-9 {
+        reports.push(world.step_frame().unwrap());
+    }
+    (reports, world)
+}
+
+#[test]
+fn sleeping_tissue_wakes_before_every_contact() {
+    let (awake, _) = run(&resting_then_probed(false), 1.8);
+    let (sleepy, world) = run(&resting_then_probed(true), 1.8);
+    assert_eq!(awake.len(), sleepy.len());
+    assert!(awake.iter().all(|r| !r.asleep));
+    let asleep = sleepy.iter().filter(|r| r.asleep).count();
+    assert!(asleep >= 20, "only {asleep} frames asleep");
+    let first_contact = awake
+        .iter()
+        .position(|r| r.contact_nodes[0] > 0)
+        .expect("the probe touches the tissue");
+    // Every frame with contact in the awake run was stepped, with contact, in the other.
+    for (i, (a, s)) in awake.iter().zip(&sleepy).enumerate() {
+        if a.contact_nodes[0] > 0 {
+            assert!(
+                !s.asleep,
+                "frame {i} skipped while the probe touched the tissue"
+            );
+            assert!(s.contact_nodes[0] > 0, "frame {i}: contact missed");
+        }
+    }
+    // The tissue woke before the probe could touch it, not at the contact itself.
+    assert!(!sleepy[first_contact - 1].asleep);
+    // Force after contact matches the run that never slept (the sleeping tissue was frozen
+    // with particle speeds under 0.1 mm/s).
+    let peak = awake
+        .iter()
+        .map(|r| r.wrenches[0].force.norm())
+        .fold(0.0, f64::max);
+    assert!(peak > 1e-3, "peak force {peak} N");
+    let last = awake.len() - 1;
+    let diff = (awake[last].wrenches[0].force - sleepy[last].wrenches[0].force).norm();
+    assert!(diff < 0.05 * peak, "force differs by {diff} N of {peak} N");
+    assert!(!world.is_asleep());
+}
+
+#[test]
+fn skipped_frames_leave_the_tissue_untouched() {
+    let scene = resting_then_probed(true);
+    let mut world = World::new(&scene);
+    while !world.is_asleep() {
+        world.step_frame().unwrap();
+        assert!(world.time < 1.0, "never fell asleep before the probe moved");
+    }
+    let before = world.particles().x.clone();
+    let report = world.step_frame().unwrap();
+    assert!(report.asleep && report.substeps == 0);
+    assert_eq!(report.wrenches[0].force.norm(), 0.0);
+    assert_eq!(world.particles().x, before);
+    // Editing particles wakes the tissue.
+    world.particles_mut().v[0].z = 0.01;
+    assert!(!world.is_asleep());
+    assert!(!world.step_frame().unwrap().asleep);
+}
