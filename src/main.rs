@@ -128,6 +128,15 @@ enum BenchCommand {
     },
     /// Error of the scenes with analytic answers at a few resolutions.
     Accuracy,
+    /// What a scene does not need costs nothing: resting tissue asleep against stepped, the
+    /// same tissue in a 4× larger domain, tools parked out of reach against none.
+    Skip {
+        /// Timed frames per case.
+        #[arg(long, default_value_t = 10)]
+        frames: u32,
+        #[arg(long, value_enum, default_value_t = BackendChoice::Cpu)]
+        backend: BackendChoice,
+    },
     /// Particle-substeps per second against particle count (10k–1M) and on the seed-000
     /// scene, for the CPU backend and each GPU P2G variant the adapter can run.
     Scaling {
@@ -266,6 +275,15 @@ fn run(cli: Cli) -> Result<()> {
         Command::Bench {
             which: Some(which), ..
         } => match which {
+            BenchCommand::Skip { frames, backend } => {
+                let rows = bench::skip::run(backend, frames.max(1))?;
+                print!("{}", bench::skip::table(&rows));
+                let over = bench::skip::over_target(&rows);
+                if !over.is_empty() {
+                    bail!("over target: {}", over.join("; "));
+                }
+                Ok(())
+            }
             BenchCommand::Throughput { frames } => {
                 let result = bench::throughput::run_seed000(frames);
                 print!("{}", result.table());

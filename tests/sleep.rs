@@ -106,3 +106,31 @@ fn skipped_frames_leave_the_tissue_untouched() {
     assert!(!world.is_asleep());
     assert!(!world.step_frame().unwrap().asleep);
 }
+
+/// Work follows the tissue, not the domain: the same tissue in a domain 4× larger along
+/// each axis touches exactly as many grid blocks per substep.
+#[test]
+fn a_larger_domain_adds_no_grid_work() {
+    let active_blocks = |scale: f64| {
+        let mut scene = resting_then_probed(false);
+        for a in 0..3 {
+            scene.domain.origin[a] *= scale;
+            scene.domain.size[a] *= scale;
+        }
+        let mut world = World::new(&scene);
+        world.step_frame().unwrap();
+        match &world.backend {
+            dvrk_tissue_sim::mpm::backend::Backend::Cpu(c) => {
+                (c.solver.active_blocks(), world.layout().node_count())
+            }
+            _ => unreachable!("the scene asks for the CPU backend"),
+        }
+    };
+    let (small_blocks, small_nodes) = active_blocks(1.0);
+    let (large_blocks, large_nodes) = active_blocks(4.0);
+    assert!(
+        large_nodes > 40 * small_nodes,
+        "{large_nodes} vs {small_nodes}"
+    );
+    assert_eq!(small_blocks, large_blocks);
+}

@@ -6,6 +6,7 @@ pub mod meter;
 pub mod plot;
 pub mod scaling;
 pub mod scenes;
+pub mod skip;
 pub mod stress;
 pub mod sweep;
 pub mod throughput;

@@ -1,0 +1,206 @@
+//! `bench skip`: what work a scene does not need costs nothing, measured on the seed-000
+//! tissue (24,000 particles, 64³ grid):
+//! - tissue at rest with no tool near it, asleep, against the same tissue stepped awake;
+//! - the same tissue in a domain 4× larger along each axis (64× the volume and grid nodes);
+//! - tools parked out of reach (a gripper, a needle, a second probe) against no tools.
+
+use super::throughput::seed000_scene;
+use crate::config::Scene;
+use crate::mpm::backend::BackendChoice;
+use crate::world::World;
+use std::fmt::Write as _;
+use std::time::Instant;
+
+/// One measured configuration.
+#[derive(Clone, Debug)]
+pub struct SkipRow {
+    pub case: &'static str,
+    pub backend: &'static str,
+    pub particles: usize,
+    pub grid_nodes: usize,
+    pub frames: u32,
+    /// Wall time per frame (s).
+    pub frame_s: f64,
+    /// The case this one is compared with, and the largest ratio allowed.
+    pub baseline: Option<(&'static str, f64)>,
+    /// `frame_s` / the baseline's.
+    pub ratio: Option<f64>,
+}
+
+/// The seed-000 tissue with its gripper parked 40 mm above it (out of reach) and sleep off.
+fn resting_scene() -> Scene {
+    let mut s = seed000_scene();
+    for k in &mut s.tools[0].keyframes {
+        k.position[2] += 0.04;
+    }
+    s.sleep.enabled = false;
+    s
+}
+
+fn parked_tools(mut s: Scene) -> Scene {
+    use crate::tools::{ContactModel, Shape};
+    let park = |x: f64| vec![super::scenes::key(0.0, [x, 0.03, 0.07], [0.0; 3], 30.0)];
+    s.tools.push(super::scenes::tool(
+        "needle",
+        Shape::Needle {
+            radius: 0.008,
+            arc_angle: std::f32::consts::PI,
+            wire_radius: 0.0004,
+        },
+        ContactModel::default(),
+        park(-0.02),
+    ));
+    s.tools.push(super::scenes::tool(
+        "second probe",
+        Shape::Sphere { radius: 0.004 },
+        ContactModel::default(),
+        park(0.02),
+    ));
+    s
+}
+
+/// Times `frames` frames after `warmup` untimed ones.
+fn time_frames(world: &mut World, warmup: u32, frames: u32) -> f64 {
+    for _ in 0..warmup {
+        world.step_frame().expect("bench scene is stable");
+    }
+    let start = Instant::now();
+    for _ in 0..frames {
+        world.step_frame().expect("bench scene is stable");
+    }
+    start.elapsed().as_secs_f64() / frames as f64
+}
+
+/// Runs every case on `backend`, `frames` timed frames each.
+pub fn run(backend: BackendChoice, frames: u32) -> anyhow::Result<Vec<SkipRow>> {
+    let mut rows = Vec::new();
+    let mut measure = |case: &'static str,
+                       mut scene: Scene,
+                       baseline: Option<(&'static str, f64)>,
+                       settle: bool|
+     -> anyhow::Result<()> {
+        scene.solver.backend = backend;
+        let mut world = World::try_new(&scene)?;
+        if settle {
+            // Step (untimed) until the tissue has come to rest and fallen asleep.
+            while !world.is_asleep() {
+                world.step_frame().expect("bench scene is stable");
+                anyhow::ensure!(world.time < 10.0, "{case}: tissue never came to rest");
+            }
+        }
+        let frame_s = time_frames(&mut world, 1, frames);
+        eprintln!("{case}: {:.3} ms per frame", 1e3 * frame_s);
+        let ratio = baseline.and_then(|(name, _)| {
+            rows.iter()
+                .find(|r: &&SkipRow| r.case == name)
+                .map(|r| frame_s / r.frame_s)
+        });
+        rows.push(SkipRow {
+            case,
+            backend: world.backend.name(),
+            particles: world.particles().len(),
+            grid_nodes: world.layout().node_count(),
+            frames,
+            frame_s,
+            baseline,
+            ratio,
+        });
+        Ok(())
+    };
+    const AWAKE: &str = "at rest, stepped (sleep off)";
+    measure(AWAKE, resting_scene(), None, false)?;
+    let mut asleep = resting_scene();
+    asleep.sleep.enabled = true;
+    measure("at rest, asleep", asleep, Some((AWAKE, 0.05)), true)?;
+    let mut large = resting_scene();
+    for a in 0..3 {
+        large.domain.origin[a] *= 4.0;
+        large.domain.size[a] *= 4.0;
+    }
+    measure(
+        "domain 4× per axis (64× nodes)",
+        large,
+        Some((AWAKE, 1.2)),
+        false,
+    )?;
+    let mut bare = resting_scene();
+    bare.tools.clear();
+    const BARE: &str = "no tools";
+    measure(BARE, bare, None, false)?;
+    measure(
+        "gripper, needle, probe parked",
+        parked_tools(resting_scene()),
+        Some((BARE, 1.05)),
+        false,
+    )?;
+    Ok(rows)
+}
+
+/// Rows whose ratio exceeds its allowed bound.
+pub fn over_target(rows: &[SkipRow]) -> Vec<String> {
+    rows.iter()
+        .filter_map(|r| match (r.baseline, r.ratio) {
+            (Some((name, bound)), Some(ratio)) if ratio > bound => Some(format!(
+                "{} costs {ratio:.3}× \"{name}\" (target ≤ {bound}×)",
+                r.case
+            )),
+            _ => None,
+        })
+        .collect()
+}
+
+pub fn table(rows: &[SkipRow]) -> String {
+    let mut out = String::from(
+        "| case | backend | particles | grid nodes | frames | ms per frame | compared with | ratio | target |\n|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for r in rows {
+        let (against, ratio, target) = match (r.baseline, r.ratio) {
+            (Some((name, bound)), Some(ratio)) => {
+                let shown = if ratio < 0.01 {
+                    format!("{ratio:.1e}")
+                } else {
+                    format!("{ratio:.3}")
+                };
+                (name.to_owned(), shown, format!("≤ {bound}"))
+            }
+            _ => ("—".into(), "—".into(), "—".into()),
+        };
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} | {} | {} | {:.3} | {} | {} | {} |",
+            r.case,
+            r.backend,
+            r.particles,
+            r.grid_nodes,
+            r.frames,
+            1e3 * r.frame_s,
+            against,
+            ratio,
+            target
+        );
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bench_scenes_are_valid_and_keep_tools_out_of_reach() {
+        for scene in [resting_scene(), parked_tools(resting_scene())] {
+            let problems = crate::config::validate(&scene);
+            assert!(problems.is_empty(), "{problems:?}");
+            let world = World::new(&scene);
+            let dx = scene.domain.dx as f32;
+            let tissue = crate::sleep::Aabb::of_points(&world.particles().x).grown(2.0 * dx);
+            for t in &world.tools {
+                assert!(
+                    !t.reach_between(0.0, 2.0, dx).intersects(&tissue),
+                    "{} within reach",
+                    t.name
+                );
+            }
+        }
+    }
+}
