@@ -403,12 +403,16 @@ fn run_stress(
     );
     progress.set_message(cases[0].name.clone());
     let results = stress::run(&cases, |r| {
-        progress.println(format!(
-            "{} / {}: {}",
-            r.group,
-            r.name,
-            if r.stable() { "stable" } else { "UNSTABLE" }
-        ));
+        // Printed through the bar so it also shows when stderr is not a terminal.
+        progress.suspend(|| {
+            eprintln!(
+                "{} / {}: {} ({:.1} s)",
+                r.group,
+                r.name,
+                if r.stable() { "stable" } else { "UNSTABLE" },
+                r.wall_s
+            )
+        });
         progress.inc(1);
     });
     progress.finish_and_clear();
