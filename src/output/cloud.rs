@@ -70,8 +70,8 @@ impl TissueCloud {
         for (p, s) in self.positions.iter().zip(&self.scalar) {
             let key = p.map(|v| (v / voxel).floor() as i32);
             let e = sums.entry(key).or_insert(([0.0; 3], 0.0, 0));
-            for k in 0..3 {
-                e.0[k] += p[k] as f64;
+            for (sum, v) in e.0.iter_mut().zip(p) {
+                *sum += *v as f64;
             }
             e.1 += *s as f64;
             e.2 += 1;
@@ -192,9 +192,9 @@ mod tests {
             assert_eq!(members.len(), 8);
             let mean = members.iter().map(|&i| all.scalar[i]).sum::<f32>() / 8.0;
             assert!((s - mean).abs() < 1e-5);
-            for k in 0..3 {
+            for (k, v) in p.iter().enumerate() {
                 let c = members.iter().map(|&i| all.positions[i][k]).sum::<f32>() / 8.0;
-                assert!((p[k] - c).abs() < 1e-7);
+                assert!((v - c).abs() < 1e-7);
             }
         }
         let options = CloudOptions {

@@ -157,11 +157,13 @@ impl Builder<'_> {
     /// Triangles of one tetrahedron. Orientation follows from the corners' order alone (the
     /// surface points lie on its edges), so it is right even for a triangle of zero area.
     fn tetrahedron(&mut self, t: [(Node, f32, bool); 4]) {
-        let (ins, outs): (Vec<(Node, f32)>, Vec<(Node, f32)>) = {
-            let ins = t.iter().filter(|c| c.2).map(|c| (c.0, c.1)).collect();
-            let outs = t.iter().filter(|c| !c.2).map(|c| (c.0, c.1)).collect();
-            (ins, outs)
+        let side = |inside: bool| -> Vec<(Node, f32)> {
+            t.iter()
+                .filter(|c| c.2 == inside)
+                .map(|c| (c.0, c.1))
+                .collect()
         };
+        let (ins, outs) = (side(true), side(false));
         let tris = &mut Vec::new();
         match (ins.as_slice(), outs.as_slice()) {
             ([i], [j, k, l]) => {

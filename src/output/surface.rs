@@ -145,7 +145,7 @@ mod tests {
         .unwrap();
         assert!(mesh.needs_deformation());
         let before = mesh.triangles(&particles);
-        assert_eq!(before.corners.len() % 3, 0);
+        assert!(before.corners.len().is_multiple_of(3));
         assert_eq!(before.colours.len(), before.corners.len());
         assert_eq!(before.uvs.len(), before.corners.len());
         // Squash the top: same count, same UVs, the top corners lower, colours by J − 1.
@@ -173,7 +173,7 @@ mod tests {
         .unwrap();
         assert!(!iso.needs_deformation());
         let s = iso.triangles(&block());
-        assert!(!s.corners.is_empty() && s.corners.len() % 3 == 0);
+        assert!(!s.corners.is_empty() && s.corners.len().is_multiple_of(3));
         assert!(s.colours.is_empty() && s.uvs.is_empty());
     }
 
