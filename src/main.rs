@@ -3,7 +3,7 @@
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 use dvrk_tissue_sim::mpm::backend::{BackendChoice, P2gAtomics};
-use dvrk_tissue_sim::output::snapshot::{self, SnapshotOptions};
+use dvrk_tissue_sim::output::snapshot::{self, SnapshotOptions, SnapshotSchedule};
 use dvrk_tissue_sim::output::strain::StrainMeasure;
 use dvrk_tissue_sim::{bench, config, ros, world::World};
 use std::path::{Path, PathBuf};
@@ -51,6 +51,13 @@ enum Command {
         /// Overrides the scene's `solver.p2g_atomics`.
         #[arg(long, value_enum)]
         p2g: Option<P2gAtomics>,
+        /// Write a PNG of the scene (tissue coloured by equivalent strain, tools drawn)
+        /// every S simulated seconds, headless or as a node.
+        #[arg(long, value_name = "S")]
+        snapshot_every: Option<f64>,
+        /// Folder for those pictures (created if missing).
+        #[arg(long, default_value = "snapshots")]
+        snapshot_dir: PathBuf,
     },
     /// Simulate a scene headless to a time and write a PNG picture of it: tissue coloured
     /// by strain, tools drawn, no display or GPU needed.
@@ -147,6 +154,21 @@ enum BenchCommand {
         #[arg(long, default_value_t = 2.0)]
         min_seconds: f64,
     },
+    /// The tissue surface on a scene: the constant-topology mesh's deviation from the
+    /// particles as the tissue deforms, and the per-frame cost of the mesh and isosurface.
+    Surface {
+        #[arg(long, default_value = "config/retraction.toml")]
+        scene: PathBuf,
+        /// Simulated seconds to run.
+        #[arg(long, default_value_t = 1.6)]
+        seconds: f64,
+        /// Simulated seconds between deviation samples.
+        #[arg(long, default_value_t = 0.2)]
+        every: f64,
+        /// Overrides the scene's `solver.backend`.
+        #[arg(long, value_enum)]
+        backend: Option<BackendChoice>,
+    },
 }
 
 fn main() {
@@ -174,7 +196,10 @@ fn run(cli: Cli) -> Result<()> {
             p2g,
             node_name,
             namespace,
+            snapshot_every,
+            snapshot_dir,
         } => {
+            let snapshots = snapshot_schedule(snapshot_every, snapshot_dir)?;
             if headless {
                 return run_headless(
                     &scene,
@@ -182,6 +207,7 @@ fn run(cli: Cli) -> Result<()> {
                     print_every.max(1),
                     backend,
                     p2g,
+                    snapshots,
                 );
             }
             let path = scene;
@@ -196,6 +222,7 @@ fn run(cli: Cli) -> Result<()> {
                 name: node_name,
                 namespace,
                 seconds,
+                snapshots,
             };
             ros::run_node(&scene, &settings)
                 .with_context(|| format!("node on scene {}", path.display()))
@@ -217,6 +244,7 @@ fn run(cli: Cli) -> Result<()> {
                     .step_frame()
                     .context("simulating up to the snapshot time")?;
             }
+            world.sync_particles();
             let options = SnapshotOptions {
                 width,
                 height,
@@ -303,6 +331,24 @@ fn run(cli: Cli) -> Result<()> {
                     .unwrap_or_else(|| "none".into());
                 let rows = bench::scaling::run(&counts, min_seconds);
                 print!("{}", bench::scaling::table(&rows, &adapter));
+                Ok(())
+            }
+            BenchCommand::Surface {
+                scene,
+                seconds,
+                every,
+                backend,
+            } => {
+                if !(every > 0.0 && seconds > 0.0) {
+                    bail!("--seconds ({seconds}) and --every ({every}) must be > 0");
+                }
+                let mut loaded = config::load(&scene)?;
+                if let Some(b) = backend {
+                    loaded.solver.backend = b;
+                }
+                let result = bench::surface::run(&loaded, seconds, every)
+                    .with_context(|| format!("surface bench on {}", scene.display()))?;
+                print!("{}", result.table());
                 Ok(())
             }
             BenchCommand::Accuracy => {
@@ -435,12 +481,30 @@ fn run_stress(
     Ok(())
 }
 
+/// The `--snapshot-every` pictures, with their folder created.
+fn snapshot_schedule(every: Option<f64>, dir: PathBuf) -> Result<Option<SnapshotSchedule>> {
+    let Some(every) = every else {
+        return Ok(None);
+    };
+    if !(every.is_finite() && every > 0.0) {
+        bail!("--snapshot-every {every}: must be a positive number of simulated seconds");
+    }
+    std::fs::create_dir_all(&dir)
+        .with_context(|| format!("--snapshot-dir: cannot create {}", dir.display()))?;
+    Ok(Some(SnapshotSchedule::new(
+        every,
+        dir,
+        SnapshotOptions::default(),
+    )))
+}
+
 fn run_headless(
     path: &Path,
     seconds: f64,
     print_every: u32,
     backend: Option<BackendChoice>,
     p2g: Option<P2gAtomics>,
+    mut snapshots: Option<SnapshotSchedule>,
 ) -> Result<()> {
     let mut scene = config::load(path)?;
     if let Some(b) = backend {
@@ -472,6 +536,14 @@ fn run_headless(
         let t0 = Instant::now();
         let report = world.step_frame().context("headless run")?;
         let wall = t0.elapsed().as_secs_f64();
+        if let Some(schedule) = &mut snapshots {
+            if let Some(path) = schedule
+                .take_if_due(&mut world)
+                .with_context(|| format!("snapshot in {}", schedule.dir.display()))?
+            {
+                println!("snapshot {}", path.display());
+            }
+        }
         total_substeps += report.substeps as u64;
         peak_speed = peak_speed.max(report.max_speed);
         for (p, w) in peak_force.iter_mut().zip(&report.wrenches) {

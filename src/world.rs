@@ -287,6 +287,12 @@ impl World {
         self.backend.sync_particles();
     }
 
+    /// Whether each frame brings the deformation gradients to the host (see
+    /// [`Backend::set_deformation_readback`]); outputs that colour by strain turn it on.
+    pub fn set_deformation_readback(&mut self, on: bool) {
+        self.backend.set_deformation_readback(on);
+    }
+
     pub fn layout(&self) -> &GridLayout {
         self.backend.layout()
     }

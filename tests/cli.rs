@@ -125,3 +125,51 @@ fn snapshot_writes_a_png_of_the_scene() {
     );
     std::fs::remove_file(&path).ok();
 }
+
+#[test]
+fn headless_run_writes_snapshots_at_the_asked_interval() {
+    let dir = std::env::temp_dir().join(format!("dts-snapshots-{}", std::process::id()));
+    let out = bin()
+        .args([
+            "run",
+            "--scene",
+            "config/default.toml",
+            "--headless",
+            "--seconds",
+            "0.1",
+            "--snapshot-every",
+            "0.05",
+            "--snapshot-dir",
+        ])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["t0000.050.png", "t0000.100.png"], "{stdout}");
+    for name in &names {
+        let file = std::fs::File::open(dir.join(name)).unwrap();
+        let info = png::Decoder::new(std::io::BufReader::new(file))
+            .read_info()
+            .unwrap();
+        assert_eq!((info.info().width, info.info().height), (960, 640));
+        assert!(stdout.contains(name.as_str()), "{stdout}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+
+    let bad = bin()
+        .args(["run", "--headless", "--snapshot-every", "0"])
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--snapshot-every"));
+}

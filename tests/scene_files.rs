@@ -188,7 +188,7 @@ tool = "probe"
     assert_eq!(scene.outputs.points_rate_hz, 30.0);
 
     let bad = format!(
-        "{GOOD}{}\n[teleop]\narm = \"PSM9\"\nscale = -1.0\n[outputs]\npoints_rate_hz = -3.0\npoints_downsample = 0\n",
+        "{GOOD}{}\n[teleop]\narm = \"PSM9\"\nscale = -1.0\n[outputs]\npoints_rate_hz = -3.0\npoints_downsample = 0\npoints_voxel = -0.001\n",
         arm.replace("\"probe\"", "\"scalpel\"")
             .replace("name = \"PSM1\"", "name = \"PSM 1\"")
             .replace("0.12, 0.0", "nan, 0.0")
@@ -203,6 +203,7 @@ tool = "probe"
         "teleop.scale",
         "outputs.points_rate_hz",
         "outputs.points_downsample",
+        "outputs.points_voxel",
     ] {
         assert!(keys.contains(&key), "{key} not reported: {keys:?}");
     }
@@ -211,4 +212,35 @@ tool = "probe"
     assert!(problems
         .iter()
         .any(|p| p.key.ends_with("mirror_of") && p.allowed.contains("mode = \"mirror\"")));
+}
+
+#[test]
+fn surface_and_cloud_scalar_options_parse_and_bad_names_are_explained() {
+    let scene = config::from_str(GOOD, Path::new("ok.toml")).unwrap();
+    assert_eq!(
+        scene.outputs.surface,
+        dvrk_tissue_sim::output::SurfaceKind::Mesh
+    );
+    let chosen = format!(
+        "{GOOD}[outputs]\nsurface = \"isosurface\"\npoints_scalar = \"equivalent\"\npoints_voxel = 0.002\n"
+    );
+    let scene = config::from_str(&chosen, Path::new("iso.toml")).unwrap();
+    assert_eq!(
+        scene.outputs.surface,
+        dvrk_tissue_sim::output::SurfaceKind::Isosurface
+    );
+    assert_eq!(
+        scene.outputs.points_scalar,
+        dvrk_tissue_sim::output::strain::StrainMeasure::Equivalent
+    );
+    assert_eq!(scene.outputs.points_voxel, 0.002);
+    let err = config::from_str(
+        &format!("{GOOD}[outputs]\nsurface = \"marching\"\n"),
+        Path::new("bad.toml"),
+    )
+    .unwrap_err()
+    .to_string();
+    for fragment in ["bad.toml", "surface", "marching", "mesh", "isosurface"] {
+        assert!(err.contains(fragment), "'{fragment}' missing from: {err}");
+    }
 }

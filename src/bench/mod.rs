@@ -1,5 +1,5 @@
 //! Benchmarks: scenes with analytic answers, the runtime-against-error sweep and its plot,
-//! throughput and scaling.
+//! throughput and scaling, the tissue surface's fidelity and cost.
 
 pub mod analytic;
 pub mod meter;
@@ -8,5 +8,6 @@ pub mod scaling;
 pub mod scenes;
 pub mod skip;
 pub mod stress;
+pub mod surface;
 pub mod sweep;
 pub mod throughput;

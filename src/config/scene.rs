@@ -5,6 +5,8 @@
 use crate::mpm::backend::{BackendChoice, P2gAtomics};
 use crate::mpm::guard::GuardPolicy;
 use crate::mpm::material::MaterialModel;
+use crate::output::strain::StrainMeasure;
+use crate::output::SurfaceKind;
 use crate::tools::{ContactModel, Shape};
 use serde::{Deserialize, Serialize};
 
@@ -308,9 +310,20 @@ pub struct Outputs {
     /// Publish every n-th particle only (1: all).
     #[serde(default = "default_downsample")]
     pub points_downsample: u32,
+    /// Then one point (the mean) per occupied cube of this edge (m); 0: off.
+    #[serde(default)]
+    pub points_voxel: f64,
+    /// The cloud's scalar: `volumetric` (J − 1) or `equivalent` (equivalent Green strain);
+    /// also what the surface mesh is coloured by.
+    #[serde(default = "default_points_scalar")]
+    pub points_scalar: StrainMeasure,
     /// `tissue/surface` (visualization_msgs/Marker).
     #[serde(default = "default_surface_rate")]
     pub surface_rate_hz: f64,
+    /// `mesh` (constant topology, carried by the particles) or `isosurface` (rebuilt each
+    /// frame, for tissue whose topology changes).
+    #[serde(default)]
+    pub surface: SurfaceKind,
     /// `tools/<tool>/wrench` (geometry_msgs/WrenchStamped).
     #[serde(default = "default_wrench_rate")]
     pub wrench_rate_hz: f64,
@@ -327,6 +340,9 @@ fn default_points_rate() -> f64 {
 }
 fn default_downsample() -> u32 {
     1
+}
+fn default_points_scalar() -> StrainMeasure {
+    StrainMeasure::Volumetric
 }
 fn default_surface_rate() -> f64 {
     10.0
@@ -346,7 +362,10 @@ impl Default for Outputs {
         Outputs {
             points_rate_hz: default_points_rate(),
             points_downsample: default_downsample(),
+            points_voxel: 0.0,
+            points_scalar: default_points_scalar(),
             surface_rate_hz: default_surface_rate(),
+            surface: SurfaceKind::default(),
             wrench_rate_hz: default_wrench_rate(),
             tf_rate_hz: default_tf_rate(),
             arm_rate_hz: default_arm_rate(),

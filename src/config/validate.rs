@@ -487,4 +487,10 @@ fn validate_outputs(c: &mut Checker, scene: &Scene) {
         o.points_downsample,
         "≥ 1 (1 publishes every particle)",
     );
+    c.require(
+        o.points_voxel.is_finite() && o.points_voxel >= 0.0,
+        "outputs.points_voxel",
+        o.points_voxel,
+        "0 (off) or a cube edge > 0 m",
+    );
 }

@@ -154,8 +154,17 @@ impl Backend {
         }
     }
 
-    /// Particle state on the host. On the GPU: positions as of the last frame; velocity,
-    /// affine velocity and deformation gradient as of the last `sync_particles`.
+    /// Whether frames bring the deformation gradients to the host as well as the positions
+    /// (a per-frame download on the GPU while on; the CPU always has them).
+    pub fn set_deformation_readback(&mut self, on: bool) {
+        if let Backend::Gpu(g) = self {
+            g.set_deformation_readback(on);
+        }
+    }
+
+    /// Particle state on the host. On the GPU: positions as of the last frame, deformation
+    /// gradients too while `set_deformation_readback` is on; everything else as of the
+    /// last `sync_particles`.
     pub fn particles(&self) -> &Particles {
         match self {
             Backend::Cpu(c) => &c.solver.particles,

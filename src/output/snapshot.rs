@@ -2,12 +2,12 @@
 //! strain, tools ray-marched from their own signed distance functions, the table as a
 //! checkerboard. A CPU renderer, so it works on any machine (no display, no GPU).
 
-use super::strain::StrainMeasure;
+use super::strain::{self, StrainMeasure};
 use crate::mpm::Vec3;
 use crate::tools::Shape;
 use crate::world::World;
 use std::io::BufWriter;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 #[derive(Clone, Debug)]
 pub struct SnapshotOptions {
@@ -53,6 +53,43 @@ impl Snapshot {
         writer
             .write_image_data(&self.rgb)
             .map_err(std::io::Error::other)
+    }
+}
+
+/// Pictures at regular simulated times during a run, written as `DIR/t<seconds>.png`.
+#[derive(Clone, Debug)]
+pub struct SnapshotSchedule {
+    /// Simulated seconds between pictures (> 0).
+    pub every: f64,
+    pub dir: PathBuf,
+    pub options: SnapshotOptions,
+    next: f64,
+}
+
+impl SnapshotSchedule {
+    /// The first picture is of the first frame at or after `every`.
+    pub fn new(every: f64, dir: PathBuf, options: SnapshotOptions) -> SnapshotSchedule {
+        SnapshotSchedule {
+            every,
+            dir,
+            options,
+            next: every,
+        }
+    }
+
+    /// Writes a picture if the world's time has reached the next one, and returns its path.
+    /// On the GPU the particle state is downloaded first (the picture's strain needs F).
+    pub fn take_if_due(&mut self, world: &mut World) -> std::io::Result<Option<PathBuf>> {
+        if world.time + 1e-9 < self.next {
+            return Ok(None);
+        }
+        while self.next <= world.time + 1e-9 {
+            self.next += self.every;
+        }
+        world.sync_particles();
+        let path = self.dir.join(format!("t{:08.3}.png", world.time));
+        render(world, &self.options).write_png(&path)?;
+        Ok(Some(path))
     }
 }
 
@@ -117,32 +154,6 @@ fn scene_distance(tools: &[DrawnTool], p: Vec3) -> f32 {
         .iter()
         .map(|t| t.distance(p))
         .fold(f32::INFINITY, f32::min)
-}
-
-/// Colour of a normalised strain value `s` (0..1, or −1..1 for signed measures).
-fn colour(s: f32, signed: bool) -> Vec3 {
-    if signed {
-        // Diverging: blue (compressed) – light grey – red (expanded).
-        let t = s.clamp(-1.0, 1.0);
-        let mid = Vec3::new(0.86, 0.86, 0.86);
-        if t < 0.0 {
-            mid.lerp(&Vec3::new(0.15, 0.3, 0.85), -t)
-        } else {
-            mid.lerp(&Vec3::new(0.85, 0.15, 0.12), t)
-        }
-    } else {
-        // Sequential, viridis-like stops.
-        let stops = [
-            Vec3::new(0.27, 0.00, 0.33),
-            Vec3::new(0.23, 0.32, 0.55),
-            Vec3::new(0.13, 0.57, 0.55),
-            Vec3::new(0.37, 0.79, 0.38),
-            Vec3::new(0.99, 0.91, 0.14),
-        ];
-        let t = s.clamp(0.0, 1.0) * (stops.len() - 1) as f32;
-        let i = (t as usize).min(stops.len() - 2);
-        stops[i].lerp(&stops[i + 1], t - i as f32)
-    }
 }
 
 /// Renders the world's current state.
@@ -236,14 +247,9 @@ pub fn render(world: &World, opts: &SnapshotOptions) -> Snapshot {
 
     // Tissue: one shaded sphere per particle, coloured by strain.
     let strains: Vec<f32> = particles.f.iter().map(|f| opts.measure.of(f)).collect();
-    let strain_range = opts.strain_range.unwrap_or_else(|| {
-        let mut mags: Vec<f32> = strains.iter().map(|s| s.abs()).collect();
-        mags.sort_by(f32::total_cmp);
-        mags.get(mags.len() * 98 / 100)
-            .copied()
-            .unwrap_or(0.0)
-            .max(0.01)
-    });
+    let strain_range = opts
+        .strain_range
+        .unwrap_or_else(|| strain::colour_range(&strains));
     let spacing = particles
         .volume0
         .first()
@@ -254,7 +260,7 @@ pub fn render(world: &World, opts: &SnapshotOptions) -> Snapshot {
             continue;
         };
         let r_px = (r_world * cam.focal / z).max(0.7);
-        let base = colour(strain / strain_range, opts.measure.is_signed());
+        let base = opts.measure.colour(*strain, strain_range);
         let (x0, x1) = (
             (sx - r_px).floor().max(0.0) as usize,
             (sx + r_px).ceil().min(w as f32 - 1.0) as usize,

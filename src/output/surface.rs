@@ -1,94 +1,196 @@
-//! A simple tissue surface: the faces between cells that hold particles and cells that do
-//! not, two triangles each, wound so that normals point out of the tissue.
+//! The tissue surface published each frame, in the form a scene asks for: the mesh of
+//! constant topology carried by the particles ([`TissueMesh`], coloured by strain, with
+//! UVs), or the level set extracted afresh ([`isosurface`], for tissue whose topology
+//! changes). Either way the result is a triangle list in a fixed vertex order.
 
-use std::collections::HashSet;
+use super::isosurface;
+use super::mesh::{MeshError, TissueMesh};
+use super::strain::{colour_range, StrainMeasure};
+use crate::mpm::Particles;
+use serde::{Deserialize, Serialize};
 
-/// Triangles (three vertices each, flattened) of the boundary of the cells of size `cell`
-/// (m) that contain at least one of `positions`.
-pub fn boundary_faces(positions: &[[f32; 3]], cell: f32) -> Vec<[f32; 3]> {
-    let key = |p: &[f32; 3]| {
-        [
-            (p[0] / cell).floor() as i32,
-            (p[1] / cell).floor() as i32,
-            (p[2] / cell).floor() as i32,
-        ]
-    };
-    let occupied: HashSet<[i32; 3]> = positions
-        .iter()
-        .filter(|p| p.iter().all(|v| v.is_finite()))
-        .map(key)
-        .collect();
-    let mut cells: Vec<[i32; 3]> = occupied.iter().copied().collect();
-    cells.sort_unstable();
-    let mut triangles = Vec::new();
-    for c in cells {
-        for axis in 0..3 {
-            for side in [-1i32, 1] {
-                let mut n = c;
-                n[axis] += side;
-                if occupied.contains(&n) {
-                    continue;
-                }
-                push_face(&mut triangles, c, axis, side, cell);
-            }
-        }
-    }
-    triangles
+/// Which surface a scene publishes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum SurfaceKind {
+    /// Triangulated once at rest and carried by the particles: vertex count, triangles and
+    /// UVs never change, so the tissue cannot be cut.
+    #[default]
+    Mesh,
+    /// The ½ volume-fraction level set by marching cubes (split into tetrahedra), rebuilt
+    /// every frame: follows any change of topology, no UVs, one colour.
+    Isosurface,
 }
 
-fn push_face(out: &mut Vec<[f32; 3]>, c: [i32; 3], axis: usize, side: i32, cell: f32) {
-    let u = (axis + 1) % 3;
-    let v = (axis + 2) % 3;
-    let corner = |du: i32, dv: i32| {
-        let mut p = [0.0f32; 3];
-        p[axis] = (c[axis] + i32::from(side > 0)) as f32 * cell;
-        p[u] = (c[u] + du) as f32 * cell;
-        p[v] = (c[v] + dv) as f32 * cell;
-        p
-    };
-    let (a, b, cc, d) = (corner(0, 0), corner(1, 0), corner(1, 1), corner(0, 1));
-    // (u, v, axis) is right-handed: a→b→c is counter-clockwise seen from +axis.
-    if side > 0 {
-        out.extend_from_slice(&[a, b, cc, a, cc, d]);
-    } else {
-        out.extend_from_slice(&[a, cc, b, a, d, cc]);
+/// One frame's surface as a triangle list: three corners a triangle, in a fixed order.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SurfaceTriangles {
+    pub corners: Vec<[f32; 3]>,
+    /// Linear RGB per corner (empty: one colour for the whole surface).
+    pub colours: Vec<[f32; 3]>,
+    /// Texture coordinates per corner (empty for the isosurface).
+    pub uvs: Vec<[f32; 2]>,
+}
+
+/// Builds a scene's surface each frame.
+pub enum TissueSurface {
+    Mesh {
+        mesh: Box<TissueMesh>,
+        /// Strain the vertices are coloured by.
+        measure: StrainMeasure,
+    },
+    Isosurface {
+        /// Lattice spacing (m).
+        cell: f32,
+    },
+}
+
+impl TissueSurface {
+    /// `rest`: the particles at rest; `cell` (m): triangle size of the mesh and lattice
+    /// spacing of the isosurface.
+    pub fn new(
+        kind: SurfaceKind,
+        rest: &Particles,
+        cell: f32,
+        measure: StrainMeasure,
+    ) -> Result<TissueSurface, MeshError> {
+        Ok(match kind {
+            SurfaceKind::Mesh => TissueSurface::Mesh {
+                mesh: Box::new(TissueMesh::build(rest, cell)?),
+                measure,
+            },
+            SurfaceKind::Isosurface => TissueSurface::Isosurface { cell },
+        })
+    }
+
+    /// Whether a frame needs the particles' deformation gradients (the mesh's colours).
+    pub fn needs_deformation(&self) -> bool {
+        matches!(self, TissueSurface::Mesh { .. })
+    }
+
+    /// The surface of `particles` now. Non-finite corners (a diverged particle bound to a
+    /// vertex) drop their triangle, so NaN is never published.
+    pub fn triangles(&mut self, particles: &Particles) -> SurfaceTriangles {
+        let mut out = SurfaceTriangles::default();
+        match self {
+            TissueSurface::Mesh { mesh, measure } => {
+                mesh.update(&particles.x);
+                let strain: Vec<f32> = particles.f.iter().map(|f| measure.of(f)).collect();
+                let values = mesh.vertex_values(&strain);
+                let range = colour_range(&values);
+                for t in &mesh.triangles {
+                    let corners = t.map(|i| mesh.vertices[i as usize]);
+                    if !corners.iter().flatten().all(|v| v.is_finite()) {
+                        continue;
+                    }
+                    for &i in t {
+                        let i = i as usize;
+                        let x = mesh.vertices[i];
+                        let value = if values[i].is_finite() {
+                            values[i]
+                        } else {
+                            0.0
+                        };
+                        let c = measure.colour(value, range);
+                        out.corners.push([x.x, x.y, x.z]);
+                        out.colours.push([c.x, c.y, c.z]);
+                        out.uvs.push(mesh.uvs[i]);
+                    }
+                }
+            }
+            TissueSurface::Isosurface { cell } => {
+                let s = isosurface::extract(particles, *cell);
+                out.corners = s
+                    .triangles
+                    .iter()
+                    .flatten()
+                    .map(|&i| {
+                        let x = s.vertices[i as usize];
+                        [x.x, x.y, x.z]
+                    })
+                    .collect();
+            }
+        }
+        out
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::Vector3;
 
-    fn normal(t: &[[f32; 3]]) -> [f32; 3] {
-        let e1 = [t[1][0] - t[0][0], t[1][1] - t[0][1], t[1][2] - t[0][2]];
-        let e2 = [t[2][0] - t[0][0], t[2][1] - t[0][1], t[2][2] - t[0][2]];
-        [
-            e1[1] * e2[2] - e1[2] * e2[1],
-            e1[2] * e2[0] - e1[0] * e2[2],
-            e1[0] * e2[1] - e1[1] * e2[0],
-        ]
+    fn block() -> Particles {
+        let mut p = Particles::default();
+        p.add_box(
+            Vector3::new(0.0, 0.0, 0.0),
+            Vector3::new(0.004, 0.003, 0.002),
+            0.001,
+            2,
+            1000.0,
+            0,
+        );
+        p
     }
 
     #[test]
-    fn a_single_cell_is_a_closed_outward_cube() {
-        let tris = boundary_faces(&[[0.5, 0.5, 0.5]], 1.0);
-        assert_eq!(tris.len(), 6 * 2 * 3);
-        for t in tris.chunks(3) {
-            let n = normal(t);
-            let centre = [
-                (t[0][0] + t[1][0] + t[2][0]) / 3.0 - 0.5,
-                (t[0][1] + t[1][1] + t[2][1]) / 3.0 - 0.5,
-                (t[0][2] + t[1][2] + t[2][2]) / 3.0 - 0.5,
-            ];
-            let dot = n[0] * centre[0] + n[1] * centre[1] + n[2] * centre[2];
-            assert!(dot > 0.0, "inward face {t:?}");
+    fn both_kinds_give_triangle_lists_and_the_mesh_keeps_its_order() {
+        let mut particles = block();
+        let mut mesh = TissueSurface::new(
+            SurfaceKind::Mesh,
+            &particles,
+            0.001,
+            StrainMeasure::Volumetric,
+        )
+        .unwrap();
+        assert!(mesh.needs_deformation());
+        let before = mesh.triangles(&particles);
+        assert!(before.corners.len().is_multiple_of(3));
+        assert_eq!(before.colours.len(), before.corners.len());
+        assert_eq!(before.uvs.len(), before.corners.len());
+        // Squash the top: same count, same UVs, the top corners lower, colours by J − 1.
+        for (x, f) in particles.x.iter_mut().zip(particles.f.iter_mut()) {
+            x.z *= 0.5;
+            f[(2, 2)] = 0.5;
         }
+        let after = mesh.triangles(&particles);
+        assert_eq!(after.corners.len(), before.corners.len());
+        assert_eq!(after.uvs, before.uvs);
+        let top = |s: &SurfaceTriangles| s.corners.iter().map(|c| c[2]).fold(0.0, f32::max);
+        assert!((top(&before) - 0.002).abs() < 1e-6);
+        assert!((top(&after) - 0.001).abs() < 1e-6);
+        assert!(
+            after.colours.iter().all(|c| c[2] > c[0]),
+            "compression is blue"
+        );
+
+        let mut iso = TissueSurface::new(
+            SurfaceKind::Isosurface,
+            &particles,
+            0.001,
+            StrainMeasure::Volumetric,
+        )
+        .unwrap();
+        assert!(!iso.needs_deformation());
+        let s = iso.triangles(&block());
+        assert!(!s.corners.is_empty() && s.corners.len().is_multiple_of(3));
+        assert!(s.colours.is_empty() && s.uvs.is_empty());
     }
 
     #[test]
-    fn shared_faces_are_dropped() {
-        let tris = boundary_faces(&[[0.5, 0.5, 0.5], [1.5, 0.5, 0.5], [1.6, 0.4, 0.5]], 1.0);
-        assert_eq!(tris.len(), 10 * 2 * 3);
-        assert!(boundary_faces(&[[f32::NAN, 0.0, 0.0]], 1.0).is_empty());
+    fn diverged_particles_drop_their_triangles() {
+        let mut particles = block();
+        let mut mesh = TissueSurface::new(
+            SurfaceKind::Mesh,
+            &particles,
+            0.001,
+            StrainMeasure::Volumetric,
+        )
+        .unwrap();
+        let all = mesh.triangles(&particles).corners.len();
+        particles.x[0].x = f32::NAN;
+        let some = mesh.triangles(&particles);
+        assert!(some.corners.len() < all);
+        assert!(some.corners.iter().flatten().all(|v| v.is_finite()));
     }
 }

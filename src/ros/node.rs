@@ -18,7 +18,8 @@ use ros2_client::{
 };
 
 use crate::config::{ArmMode, Scene};
-use crate::output::{boundary_faces, CLOUD_POINT_STEP};
+use crate::output::snapshot::SnapshotSchedule;
+use crate::output::{CloudOptions, TissueSurface, CLOUD_POINT_STEP};
 use crate::robot::{Psm, Teleop, TeleopConfig};
 use crate::ros::arm::{ArmCommand, ArmEvent, ArmInput, ArmSim};
 use crate::ros::msgs::*;
@@ -43,6 +44,8 @@ pub struct NodeSettings {
     pub namespace: String,
     /// Stop after this much simulated time (s); `None` runs until Ctrl-C.
     pub seconds: Option<f64>,
+    /// Pictures during the run (taken on the simulation thread, which pauses for each).
+    pub snapshots: Option<SnapshotSchedule>,
 }
 
 /// The world-from-base pose of a scene arm.
@@ -104,12 +107,26 @@ pub fn build_setup(scene: &Scene) -> Result<SimSetup, NodeError> {
             Some(TeleopBinding { arm, teleop })
         }
     };
+    let outputs = &scene.outputs;
+    let surface = TissueSurface::new(
+        outputs.surface,
+        world.particles(),
+        scene.domain.dx as f32,
+        outputs.points_scalar,
+    )
+    .map_err(|e| err("tissue surface", e))?;
     Ok(SimSetup {
         world,
         arms,
         arm_tools,
         teleop,
-        downsample: scene.outputs.points_downsample.max(1) as usize,
+        cloud: CloudOptions {
+            measure: outputs.points_scalar,
+            stride: outputs.points_downsample.max(1) as usize,
+            voxel: outputs.points_voxel as f32,
+        },
+        surface,
+        snapshots: None,
     })
 }
 
@@ -346,7 +363,8 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
     let node_name = NodeName::new(&settings.namespace, &settings.name)
         .map_err(|e| err("node name / namespace", e))?;
     let domain_id = domain_id_from_env()?;
-    let setup = build_setup(scene)?;
+    let mut setup = build_setup(scene)?;
+    setup.snapshots = settings.snapshots.clone();
     let context = Context::with_options(ContextOptions::new().domain_id(domain_id))
         .map_err(|e| err("DDS participant", e))?;
     let mut node = context
@@ -446,7 +464,6 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
     let tf: Publisher<TFMessage> = topics.publisher("/tf", periodic_qos())?;
     drop(topics);
 
-    let dx = scene.domain.dx as f32;
     let mut sim = sim_thread::spawn(setup);
     tracing::info!(
         "node {} in namespace {} up: {} arm(s), {} tool(s), frames at {} Hz",
@@ -482,7 +499,6 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
             tf: Rate::new(outputs.tf_rate_hz),
             demand: Rate::new(10.0),
         },
-        dx,
     };
     let main = async {
         let mut tick = tokio::time::interval(Duration::from_millis(2));
@@ -552,7 +568,6 @@ struct Io {
     tf: Publisher<TFMessage>,
     log: RateLimitedLog,
     rates: Rates,
-    dx: f32,
 }
 
 impl Io {
@@ -755,8 +770,10 @@ impl Io {
                     .map(|t| node.subscription_count(t) > 0)
                     .collect(),
             };
-            sim.tissue_wanted
-                .store(self.demand.points || self.demand.surface, Ordering::Relaxed);
+            sim.points_wanted
+                .store(self.demand.points, Ordering::Relaxed);
+            sim.surface_wanted
+                .store(self.demand.surface, Ordering::Relaxed);
         }
         if self.rates.arm.due(now) {
             self.publish_arms(frame, stamp);
@@ -783,9 +800,8 @@ impl Io {
         if self.rates.tf.due(now) && self.demand.tf {
             self.publish_tf(frame, stamp);
         }
-        let tissue = frame.tissue.as_ref();
         if self.rates.points.due(now) && self.demand.points {
-            if let Some(t) = tissue {
+            if let Some(t) = &frame.cloud {
                 let field = |name: &str, offset: u32| PointField {
                     name: name.into(),
                     offset,
@@ -800,7 +816,7 @@ impl Io {
                         field("x", 0),
                         field("y", 4),
                         field("z", 8),
-                        field("deformation", 12),
+                        field(t.scalar_name(), 12),
                     ],
                     is_bigendian: false,
                     point_step: CLOUD_POINT_STEP as u32,
@@ -811,15 +827,12 @@ impl Io {
             }
         }
         if self.rates.surface.due(now) && self.demand.surface {
-            if let Some(t) = tissue {
-                let points = boundary_faces(&t.positions, self.dx)
-                    .into_iter()
-                    .map(|p| Point {
-                        x: p[0] as f64,
-                        y: p[1] as f64,
-                        z: p[2] as f64,
-                    })
-                    .collect();
+            if let Some(t) = &frame.surface {
+                let point = |p: &[f32; 3]| Point {
+                    x: p[0] as f64,
+                    y: p[1] as f64,
+                    z: p[2] as f64,
+                };
                 let _ = self.surface.publish(Marker {
                     header: Header::new(stamp, "world"),
                     ns: "tissue".into(),
@@ -838,7 +851,22 @@ impl Io {
                         b: 0.45,
                         a: 1.0,
                     },
-                    points,
+                    points: t.corners.iter().map(point).collect(),
+                    colors: t
+                        .colours
+                        .iter()
+                        .map(|c| ColorRGBA {
+                            r: c[0],
+                            g: c[1],
+                            b: c[2],
+                            a: 1.0,
+                        })
+                        .collect(),
+                    uv_coordinates: t
+                        .uvs
+                        .iter()
+                        .map(|uv| UVCoordinate { u: uv[0], v: uv[1] })
+                        .collect(),
                     ..Default::default()
                 });
             }

@@ -14,7 +14,8 @@ use std::time::{Duration, Instant};
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 use tokio::sync::watch;
 
-use crate::output::TissueSample;
+use crate::output::snapshot::SnapshotSchedule;
+use crate::output::{CloudOptions, SurfaceTriangles, TissueCloud, TissueSurface};
 use crate::robot::{RcmPolicy, Teleop, TeleopState};
 use crate::ros::arm::{ArmCommand, ArmEvent, ArmSim, ArmStatus};
 use crate::tools::ToolPose;
@@ -63,8 +64,10 @@ pub struct Frame {
     pub time: f64,
     pub arms: Vec<ArmStatus>,
     pub tools: Vec<ToolState>,
-    /// Present while the ROS side asks for tissue outputs.
-    pub tissue: Option<Arc<TissueSample>>,
+    /// Present while the ROS side asks for the point cloud.
+    pub cloud: Option<Arc<TissueCloud>>,
+    /// Present while the ROS side asks for the surface.
+    pub surface: Option<Arc<SurfaceTriangles>>,
     pub teleop: Option<TeleopState>,
 }
 
@@ -81,8 +84,9 @@ pub struct SimSetup {
     /// Scene tool index each arm drives.
     pub arm_tools: Vec<usize>,
     pub teleop: Option<TeleopBinding>,
-    /// Particle stride of the tissue sample.
-    pub downsample: usize,
+    pub cloud: CloudOptions,
+    pub surface: TissueSurface,
+    pub snapshots: Option<SnapshotSchedule>,
 }
 
 /// The network side's handles.
@@ -90,8 +94,10 @@ pub struct SimHandle {
     pub inputs: SyncSender<SimInput>,
     pub frames: watch::Receiver<Arc<Frame>>,
     pub events: Receiver<(usize, ArmEvent)>,
-    /// Set while someone subscribes to a tissue output.
-    pub tissue_wanted: Arc<AtomicBool>,
+    /// Set while someone subscribes to the point cloud.
+    pub points_wanted: Arc<AtomicBool>,
+    /// Set while someone subscribes to the surface.
+    pub surface_wanted: Arc<AtomicBool>,
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
 }
@@ -157,7 +163,10 @@ impl RateLimitedLog {
 pub fn spawn(mut setup: SimSetup) -> SimHandle {
     let (input_tx, input_rx) = sync_channel(INPUT_CAPACITY);
     let (event_tx, event_rx) = sync_channel(EVENT_CAPACITY);
-    let tissue_wanted = Arc::new(AtomicBool::new(false));
+    let wanted = Wanted {
+        points: Arc::new(AtomicBool::new(false)),
+        surface: Arc::new(AtomicBool::new(false)),
+    };
     let stop = Arc::new(AtomicBool::new(false));
     // Tools driven by arms start where the arm is, not where their keyframes are.
     for (arm, &tool) in setup.arms.iter().zip(&setup.arm_tools) {
@@ -172,18 +181,19 @@ pub fn spawn(mut setup: SimSetup) -> SimHandle {
     let first = Arc::new(frame_of(&setup, None));
     let (frame_tx, frame_rx) = watch::channel(first);
     let thread = {
-        let tissue_wanted = tissue_wanted.clone();
+        let wanted = wanted.clone();
         let stop = stop.clone();
         std::thread::Builder::new()
             .name("simulation".into())
-            .spawn(move || run(setup, input_rx, event_tx, frame_tx, &tissue_wanted, &stop))
+            .spawn(move || run(setup, input_rx, event_tx, frame_tx, &wanted, &stop))
             .expect("cannot start the simulation thread")
     };
     SimHandle {
         inputs: input_tx,
         frames: frame_rx,
         events: event_rx,
-        tissue_wanted,
+        points_wanted: wanted.points,
+        surface_wanted: wanted.surface,
         stop,
         thread: Some(thread),
     }
@@ -220,7 +230,8 @@ fn frame_of(setup: &SimSetup, report: Option<&crate::world::FrameReport>) -> Fra
         time: world.time,
         arms: setup.arms.iter().map(|a| a.status()).collect(),
         tools,
-        tissue: None,
+        cloud: None,
+        surface: None,
         teleop: setup.teleop.as_ref().map(|t| t.teleop.state()),
     }
 }
@@ -238,6 +249,13 @@ fn isometry(position: &[f64; 3], quaternion: &[f64; 4]) -> Result<Isometry3<f64>
         Translation3::new(position[0], position[1], position[2]),
         UnitQuaternion::from_quaternion(q),
     ))
+}
+
+/// Which tissue outputs the ROS side asks for.
+#[derive(Clone)]
+struct Wanted {
+    points: Arc<AtomicBool>,
+    surface: Arc<AtomicBool>,
 }
 
 struct Loop {
@@ -336,7 +354,7 @@ fn run(
     inputs: Receiver<SimInput>,
     events: SyncSender<(usize, ArmEvent)>,
     frames: watch::Sender<Arc<Frame>>,
-    tissue_wanted: &AtomicBool,
+    wanted: &Wanted,
     stop: &AtomicBool,
 ) {
     let frame_dt = setup.world.frame_dt();
@@ -373,6 +391,11 @@ fn run(
                 }
             }
         }
+        let points = wanted.points.load(Ordering::Relaxed);
+        let surface = wanted.surface.load(Ordering::Relaxed);
+        setup
+            .world
+            .set_deformation_readback(points || (surface && setup.surface.needs_deformation()));
         let report = match setup.world.step_frame() {
             Ok(report) => Some(report),
             Err(e) => {
@@ -386,13 +409,29 @@ fn run(
             }
         };
         index += 1;
+        if let Some(schedule) = &mut setup.snapshots {
+            match schedule.take_if_due(&mut setup.world) {
+                Ok(Some(path)) => tracing::info!("snapshot {}", path.display()),
+                Ok(None) => {}
+                Err(e) => {
+                    tracing::error!(
+                        "snapshot in {}: {e}; no more pictures",
+                        schedule.dir.display()
+                    );
+                    setup.snapshots = None;
+                }
+            }
+        }
         let mut frame = frame_of(&setup, report.as_ref());
         frame.index = index;
-        if tissue_wanted.load(Ordering::Relaxed) {
-            frame.tissue = Some(Arc::new(TissueSample::from_particles(
+        if points {
+            frame.cloud = Some(Arc::new(TissueCloud::from_particles(
                 setup.world.particles(),
-                setup.downsample,
+                &setup.cloud,
             )));
+        }
+        if surface {
+            frame.surface = Some(Arc::new(setup.surface.triangles(setup.world.particles())));
         }
         frames.send_replace(Arc::new(frame));
 

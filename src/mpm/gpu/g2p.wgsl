@@ -89,11 +89,18 @@ fn finalize_guard() {
     atomicStore(&stats[S_GUARD_POS + 2u], bitcast<u32>(part.x.z));
 }
 
-// One invocation per particle at the end of a frame: positions for the readback.
+// One invocation per particle at the end of a frame: what the readback needs, positions
+// in the first n entries, then the deformation gradient's columns (three entries a
+// particle), read back only when an output asks for it.
 @compute @workgroup_size(64)
 fn extract_positions(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = gid.x;
     if (p < sim.n_particles) {
-        out_pos[p] = particles[p].x;
+        let part = particles[p];
+        out_pos[p] = part.x;
+        let at = sim.n_particles + 3u * p;
+        out_pos[at] = vec4<f32>(part.f[0], 0.0);
+        out_pos[at + 1u] = vec4<f32>(part.f[1], 0.0);
+        out_pos[at + 2u] = vec4<f32>(part.f[2], 0.0);
     }
 }

@@ -15,8 +15,9 @@
 //! every substep is recorded into one compute pass with its parameters selected by a
 //! dynamic uniform offset (all substeps' parameters and tool kinematics are written once
 //! per frame), and at the end the frame statistics (tool impulses, max speed, clamped
-//! count, guard) and the positions are copied into one of two staging buffers used in turn.
-//! Nothing is read back per substep.
+//! count, guard) and the positions are copied into one of two staging buffers used in turn,
+//! with the deformation gradients too while an output asks for them
+//! ([`GpuSolver::set_deformation_readback`]). Nothing is read back per substep.
 
 pub mod adapter;
 mod pack;
@@ -68,6 +69,8 @@ const S_GUARD_KIND: usize = 6;
 const S_GUARD_SPEED: usize = 7;
 const S_GUARD_POS: usize = 8;
 const S_IMPULSE: usize = 16;
+/// Bytes per particle of the end-of-frame extract: a position and three F columns, vec4 each.
+const EXTRACT_BYTES: usize = 64;
 /// Fixed-point scale of the integer P2G: 2^26 per unit, so a node holds ±32 units (see
 /// `acc_fixed.wgsl`). Measured on the free-block agreement scene: 2^23 leaves 29 µm of
 /// position difference to the f32 solver after 0.1 s, 2^26 leaves 1.7 µm.
@@ -104,7 +107,11 @@ pub struct GpuSolver {
     steps: wgpu::Buffer,
     stats: wgpu::Buffer,
     args: wgpu::Buffer,
+    /// End-of-frame extract: positions (n × vec4), then deformation gradient columns
+    /// (n × 3 × vec4).
     out_pos: wgpu::Buffer,
+    /// Whether frames read back the deformation gradients as well as the positions.
+    read_deformation: bool,
     /// Readback ring: frame k reads back through `staging[k % 2]`.
     staging: [wgpu::Buffer; 2],
     frame: u64,
@@ -241,7 +248,7 @@ impl GpuSolver {
         let active = storage(device, "active blocks", (blocks * 4) as u64, copy);
         let stats = storage(device, "frame stats", STATS_BYTES, copy);
         let partials = storage(device, "contact partials", (blocks * 64 * 4) as u64, copy);
-        let out_pos = storage(device, "positions out", (n * 16) as u64, copy);
+        let out_pos = storage(device, "frame extract", (n * EXTRACT_BYTES) as u64, copy);
         let args = storage(device, "indirect args", 16, wgpu::BufferUsages::INDIRECT);
         let sim = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("sim"),
@@ -258,7 +265,7 @@ impl GpuSolver {
         let staging = [0, 1].map(|i| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(if i == 0 { "readback 0" } else { "readback 1" }),
-                size: STATS_BYTES + (n * 16).max(16) as u64,
+                size: STATS_BYTES + (n * EXTRACT_BYTES).max(16) as u64,
                 usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             })
@@ -452,6 +459,7 @@ impl GpuSolver {
             stats,
             args,
             out_pos,
+            read_deformation: false,
             staging,
             frame: 0,
             host: setup.particles,
@@ -477,6 +485,12 @@ impl GpuSolver {
 
     pub fn adapter_name(&self) -> &str {
         &self.ctx.info.name
+    }
+
+    /// Whether each frame also reads back the deformation gradients (48 bytes a particle
+    /// on top of the positions' 16), so that `host_particles().f` is current.
+    pub fn set_deformation_readback(&mut self, on: bool) {
+        self.read_deformation = on;
     }
 
     pub fn host_particles(&self) -> &Particles {
@@ -584,21 +598,33 @@ impl GpuSolver {
         self.frame += 1;
         let staging = &self.staging[slot];
         encoder.copy_buffer_to_buffer(&self.stats, 0, staging, 0, STATS_BYTES);
-        if self.n > 0 {
+        let n = self.n as usize;
+        let extract_bytes = if self.read_deformation {
+            n * EXTRACT_BYTES
+        } else {
+            n * 16
+        };
+        if n > 0 {
             encoder.copy_buffer_to_buffer(
                 &self.out_pos,
                 0,
                 staging,
                 STATS_BYTES,
-                self.n as u64 * 16,
+                extract_bytes as u64,
             );
         }
         queue.submit([encoder.finish()]);
         let bytes = map_read(device, staging);
         let words: &[u32] = bytemuck::cast_slice(&bytes[..STATS_BYTES as usize]);
-        let positions: &[[f32; 4]] = bytemuck::cast_slice(&bytes[STATS_BYTES as usize..]);
+        let extract: &[[f32; 4]] = bytemuck::cast_slice(
+            &bytes[STATS_BYTES as usize..STATS_BYTES as usize + extract_bytes],
+        );
+        let (positions, gradients) = extract.split_at(n.min(extract.len()));
         for (x, p) in self.host.x.iter_mut().zip(positions) {
             *x = Vec3::new(p[0], p[1], p[2]);
+        }
+        for (f, cols) in self.host.f.iter_mut().zip(gradients.chunks_exact(3)) {
+            *f = pack::unpack_mat3(cols);
         }
         let stats = parse_stats(words);
         drop(bytes);

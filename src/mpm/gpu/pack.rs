@@ -68,6 +68,11 @@ fn unm3(m: &[[f32; 4]; 3]) -> Mat3 {
     Mat3::from_columns(&m.map(|c| Vec3::new(c[0], c[1], c[2])))
 }
 
+/// A matrix from its three padded columns (the first three entries of `cols`).
+pub fn unpack_mat3(cols: &[[f32; 4]]) -> Mat3 {
+    unm3(&[cols[0], cols[1], cols[2]])
+}
+
 impl From<&ToolKinematics> for GpuTool {
     fn from(t: &ToolKinematics) -> Self {
         let (shape, kind) = match t.shape {
