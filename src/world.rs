@@ -147,6 +147,42 @@ pub struct World {
     /// This frame's tool kinematics, substep-major (capacity reused across frames).
     kinematics: Vec<ToolKinematics>,
     sleep: SleepState,
+    /// The frame begun and not finished yet.
+    in_flight: Option<InFlight>,
+}
+
+/// A frame between `begin_frame` and `finish_frame`.
+enum InFlight {
+    /// The tissue sleeps: the frame's report is ready.
+    Skipped(FrameReport),
+    Stepped(PlannedFrame),
+}
+
+/// The schedule of a stepped frame.
+struct PlannedFrame {
+    t_start: f64,
+    t_end: f64,
+    dt: f64,
+    substeps: u32,
+    truncated: bool,
+}
+
+impl PlannedFrame {
+    /// What the backend runs; `kinematics` holds every substep's tool kinematics.
+    fn plan<'a>(
+        &self,
+        gravity: Vec3,
+        tool_count: usize,
+        kinematics: &'a [ToolKinematics],
+    ) -> FramePlan<'a> {
+        FramePlan {
+            dt: self.dt as f32,
+            substeps: self.substeps,
+            gravity,
+            tool_count,
+            tools: kinematics,
+        }
+    }
 }
 
 /// Why a world could not be built.
@@ -267,6 +303,7 @@ impl World {
             warned_fixed_dt: false,
             kinematics: Vec::new(),
             sleep: SleepState::default(),
+            in_flight: None,
         })
     }
 
@@ -334,17 +371,58 @@ impl World {
         Ok(())
     }
 
-    /// Advances one frame. The frame's schedule is planned up front: dt from CFL with the
-    /// previous frame's largest particle speed and the tools' speeds over the frame, equal
-    /// substeps, and every substep's tool kinematics; the backend then runs it whole. With
-    /// guard policy `stop`, a guard event restores the state at the start of the frame and
-    /// returns the error; with `reset_tissue` the tissue goes back to rest and the frame ends
-    /// early.
+    /// Advances one frame: [`World::begin_frame`] then [`World::finish_frame`].
     pub fn step_frame(&mut self) -> Result<FrameReport, StepError> {
-        // Run the frame on a pool thread: parallel loops started there queue their tasks on
-        // the worker's own deque instead of the pool's global injector, whose queue grows
-        // in heap blocks (an allocation every few dozen calls from outside the pool).
-        rayon::scope(|_| self.step_frame_on_pool())
+        self.begin_frame();
+        self.finish_frame()
+    }
+
+    /// Plans the next frame and starts it. The frame's schedule is planned up front: dt from
+    /// CFL with the previous frame's largest particle speed and the tools' speeds over the
+    /// frame, equal substeps, and every substep's tool kinematics. On the GPU the frame is
+    /// submitted and runs while this returns; until [`World::finish_frame`],
+    /// [`World::particles`] still holds the previous frame, so its outputs can be built in
+    /// the meantime. Give tool commands before this call, not between the two.
+    ///
+    /// # Panics
+    /// When a frame is already in flight.
+    pub fn begin_frame(&mut self) {
+        assert!(
+            self.in_flight.is_none(),
+            "begin_frame called while a frame is in flight"
+        );
+        let frame_dt = self.frame_dt();
+        let t_start = self.time;
+        let t_end = t_start + frame_dt;
+        if let Some(report) = self.skip_sleeping_frame(t_start, t_end) {
+            self.in_flight = Some(InFlight::Skipped(report));
+            return;
+        }
+        let planned = self.plan_frame(t_start, frame_dt);
+        let plan = planned.plan(self.gravity, self.tools.len(), &self.kinematics);
+        self.backend.begin_frame(&plan);
+        self.in_flight = Some(InFlight::Stepped(planned));
+    }
+
+    /// Completes the frame [`World::begin_frame`] started (the CPU backend does its work
+    /// here). With guard policy `stop`, a guard event restores the state at the start of the
+    /// frame and returns the error; with `reset_tissue` the tissue goes back to rest and the
+    /// frame ends early.
+    ///
+    /// # Panics
+    /// When no frame is in flight.
+    pub fn finish_frame(&mut self) -> Result<FrameReport, StepError> {
+        match self
+            .in_flight
+            .take()
+            .expect("finish_frame called with no frame in flight")
+        {
+            InFlight::Skipped(report) => Ok(report),
+            // Run the frame on a pool thread: parallel loops started there queue their tasks
+            // on the worker's own deque instead of the pool's global injector, whose queue
+            // grows in heap blocks (an allocation every few dozen calls from outside the pool).
+            InFlight::Stepped(planned) => rayon::scope(|_| self.finish_stepped(planned)),
+        }
     }
 
     /// Whether the tissue is asleep (frames are skipped until a tool comes near).
@@ -381,13 +459,10 @@ impl World {
         })
     }
 
-    fn step_frame_on_pool(&mut self) -> Result<FrameReport, StepError> {
-        let frame_dt = self.frame_dt();
-        let t_start = self.time;
+    /// Chooses the frame's substep length and count and fills `kinematics` with every
+    /// substep's tool kinematics.
+    fn plan_frame(&mut self, t_start: f64, frame_dt: f64) -> PlannedFrame {
         let t_end = t_start + frame_dt;
-        if let Some(report) = self.skip_sleeping_frame(t_start, t_end) {
-            return Ok(report);
-        }
         // Tool speed over the frame bounds dt like particle speed does.
         let tool_speed = self
             .tools
@@ -414,7 +489,6 @@ impl World {
         let needed = (frame_dt / dt).round().max(1.0) as u32;
         let max_substeps = self.scene.solver.max_substeps_per_frame.max(1);
         let substeps = needed.min(max_substeps);
-        let truncated = needed > max_substeps;
         let dx = self.scene.domain.dx as f32;
         self.kinematics.clear();
         for s in 0..substeps {
@@ -432,14 +506,26 @@ impl World {
                 ));
             }
         }
-        let plan = FramePlan {
-            dt: dt as f32,
+        PlannedFrame {
+            t_start,
+            t_end,
+            dt,
             substeps,
-            gravity: self.gravity,
-            tool_count: self.tools.len(),
-            tools: &self.kinematics,
-        };
-        let stats = self.backend.step_frame(&plan);
+            truncated: needed > max_substeps,
+        }
+    }
+
+    fn finish_stepped(&mut self, planned: PlannedFrame) -> Result<FrameReport, StepError> {
+        let plan = planned.plan(self.gravity, self.tools.len(), &self.kinematics);
+        let stats = self.backend.finish_frame(&plan);
+        let PlannedFrame {
+            t_start,
+            t_end,
+            dt,
+            substeps,
+            truncated,
+        } = planned;
+        let dx = self.scene.domain.dx as f32;
         let mut report = FrameReport {
             time: t_start,
             substeps: stats.substeps_done,

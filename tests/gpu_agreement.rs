@@ -349,3 +349,54 @@ fn backend_choice_auto_and_gpu_log_and_pick_as_documented() {
         }
     }
 }
+
+/// Between `begin_frame` and `finish_frame` the host copy still holds the previous frame
+/// (outputs are built from it while the device computes), and the split frame ends where
+/// `step_frame` does.
+fn frame_in_flight_keeps_the_previous_frame(backend: BackendChoice, p2g: P2gAtomics) {
+    let scene = free_block_scene();
+    let mut split = on(&scene, backend, p2g);
+    let mut whole = on(&scene, backend, p2g);
+    set_initial_motion(&mut split);
+    set_initial_motion(&mut whole);
+    for _ in 0..3 {
+        let before = split.particles().x.clone();
+        split.begin_frame();
+        assert_eq!(
+            split.particles().x,
+            before,
+            "{backend:?}: host positions changed while the frame was in flight"
+        );
+        let r_split = split.finish_frame().unwrap();
+        let r_whole = whole.step_frame().unwrap();
+        assert_eq!(r_split.substeps, r_whole.substeps);
+        let moved = split
+            .particles()
+            .x
+            .iter()
+            .zip(&before)
+            .map(|(p, q)| (p - q).norm())
+            .fold(0.0, f32::max);
+        assert!(
+            moved > 1e-5,
+            "{backend:?}: the frame moved nothing ({moved} m)"
+        );
+        let diff = max_position_difference(&split, &whole);
+        assert!(
+            diff < 1e-6,
+            "{backend:?}: split frame differs from step_frame by {diff} m"
+        );
+    }
+}
+
+#[test]
+fn frame_in_flight_keeps_the_previous_frame_cpu() {
+    frame_in_flight_keeps_the_previous_frame(BackendChoice::Cpu, P2gAtomics::Auto);
+}
+
+#[test]
+fn frame_in_flight_keeps_the_previous_frame_gpu() {
+    if gpu_ready(P2gAtomics::Fixed) {
+        frame_in_flight_keeps_the_previous_frame(BackendChoice::Gpu, P2gAtomics::Fixed);
+    }
+}

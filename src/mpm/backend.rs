@@ -111,6 +111,21 @@ impl Backend {
 
     /// Runs a planned frame. The state at the frame start is kept for `restore_frame_start`.
     pub fn step_frame(&mut self, plan: &FramePlan) -> FrameStats {
+        self.begin_frame(plan);
+        self.finish_frame(plan)
+    }
+
+    /// Starts a planned frame: the GPU backend submits it and returns at once; the CPU
+    /// backend does its work in `finish_frame`. Until `finish_frame`, `particles()` holds
+    /// the previous frame's state on both, so its outputs can be built meanwhile.
+    pub fn begin_frame(&mut self, plan: &FramePlan) {
+        if let Backend::Gpu(g) = self {
+            g.submit_frame(plan);
+        }
+    }
+
+    /// Completes the frame `begin_frame` started (the same plan is passed to both).
+    pub fn finish_frame(&mut self, plan: &FramePlan) -> FrameStats {
         match self {
             Backend::Cpu(c) => {
                 c.frame_start.copy_state_from(&c.solver.particles);
@@ -134,7 +149,7 @@ impl Backend {
                 }
                 out
             }
-            Backend::Gpu(g) => g.step_frame(plan),
+            Backend::Gpu(g) => g.collect_frame(),
         }
     }
 

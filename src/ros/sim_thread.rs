@@ -369,6 +369,9 @@ fn run(
     let mut deadline = Instant::now();
     let mut index = 0u64;
     let mut lagging_since: Option<Instant> = None;
+    // A finished frame whose tissue outputs are still to be built: while the simulation runs
+    // behind real time, they are built during the next frame's GPU work instead of before it.
+    let mut held: Option<HeldFrame> = None;
     while !stop.load(Ordering::Relaxed) {
         loop {
             match inputs.try_recv() {
@@ -396,7 +399,12 @@ fn run(
         setup
             .world
             .set_deformation_readback(points || (surface && setup.surface.needs_deformation()));
-        let report = match setup.world.step_frame() {
+        setup.world.begin_frame();
+        // The world's particles hold the previous frame until `finish_frame`.
+        if let Some(h) = held.take() {
+            publish(&mut setup, &frames, h);
+        }
+        let report = match setup.world.finish_frame() {
             Ok(report) => Some(report),
             Err(e) => {
                 if let Some(line) = state.log.admit("guard", &e.to_string()) {
@@ -424,23 +432,21 @@ fn run(
         }
         let mut frame = frame_of(&setup, report.as_ref());
         frame.index = index;
-        if points {
-            frame.cloud = Some(Arc::new(TissueCloud::from_particles(
-                setup.world.particles(),
-                &setup.cloud,
-            )));
-        }
-        if surface {
-            frame.surface = Some(Arc::new(setup.surface.triangles(setup.world.particles())));
-        }
-        frames.send_replace(Arc::new(frame));
+        let finished = HeldFrame {
+            frame,
+            points,
+            surface,
+        };
 
         deadline += period;
         let now = Instant::now();
         if deadline > now {
+            // Ahead of real time: publish at once, the lowest latency.
+            publish(&mut setup, &frames, finished);
             std::thread::sleep(deadline - now);
             lagging_since = None;
         } else {
+            held = Some(finished);
             // Slower than real time: carry on at full speed, without trying to catch up.
             deadline = now;
             let since = *lagging_since.get_or_insert(now);
@@ -453,6 +459,35 @@ fn run(
             }
         }
     }
+    if let Some(h) = held {
+        publish(&mut setup, &frames, h);
+    }
+}
+
+/// A finished frame and the tissue outputs it is to carry.
+struct HeldFrame {
+    frame: Frame,
+    points: bool,
+    surface: bool,
+}
+
+/// Builds the frame's tissue outputs from the world's particles and hands it to the ROS side.
+fn publish(setup: &mut SimSetup, frames: &watch::Sender<Arc<Frame>>, held: HeldFrame) {
+    let HeldFrame {
+        mut frame,
+        points,
+        surface,
+    } = held;
+    if points {
+        frame.cloud = Some(Arc::new(TissueCloud::from_particles(
+            setup.world.particles(),
+            &setup.cloud,
+        )));
+    }
+    if surface {
+        frame.surface = Some(Arc::new(setup.surface.triangles(setup.world.particles())));
+    }
+    frames.send_replace(Arc::new(frame));
 }
 
 #[cfg(test)]

@@ -18,6 +18,10 @@
 //! count, guard) and the positions are copied into one of two staging buffers used in turn,
 //! with the deformation gradients too while an output asks for them
 //! ([`GpuSolver::set_deformation_readback`]). Nothing is read back per substep.
+//!
+//! Submitting a frame and collecting it are separate calls ([`GpuSolver::submit_frame`],
+//! [`GpuSolver::collect_frame`]): between them the host copy still holds the previous
+//! frame, so its outputs (point cloud, mesh) are built on the CPU while the device computes.
 
 pub mod adapter;
 mod pack;
@@ -115,11 +119,23 @@ pub struct GpuSolver {
     /// Readback ring: frame k reads back through `staging[k % 2]`.
     staging: [wgpu::Buffer; 2],
     frame: u64,
+    /// The frame submitted and not collected yet.
+    pending: Option<PendingFrame>,
     host: Particles,
     /// The host copy has edits the device does not have yet.
     host_dirty: bool,
     tool_scratch: Vec<GpuTool>,
     step_scratch: Vec<u8>,
+}
+
+/// A submitted frame whose readback is under way.
+struct PendingFrame {
+    /// Staging buffer its statistics and extract are copied into.
+    slot: usize,
+    /// Bytes of the extract after the statistics.
+    extract_bytes: usize,
+    /// Answered once the staging buffer is mapped.
+    mapped: mpsc::Receiver<Result<(), wgpu::BufferAsyncError>>,
 }
 
 fn storage(
@@ -462,6 +478,7 @@ impl GpuSolver {
             read_deformation: false,
             staging,
             frame: 0,
+            pending: None,
             host: setup.particles,
             host_dirty: false,
             tool_scratch: Vec::new(),
@@ -514,8 +531,21 @@ impl GpuSolver {
     }
 
     /// Runs a frame's substeps in one submission and reads back its statistics and the
-    /// particle positions.
+    /// particle positions: [`GpuSolver::submit_frame`] then [`GpuSolver::collect_frame`].
     pub fn step_frame(&mut self, plan: &FramePlan) -> FrameStats {
+        self.submit_frame(plan);
+        self.collect_frame()
+    }
+
+    /// Records a frame's substeps into one submission, submits it and asks for its readback,
+    /// without waiting: the host copy keeps the previous frame's state until
+    /// [`GpuSolver::collect_frame`], so the caller can build that frame's outputs while the
+    /// device computes this one.
+    pub fn submit_frame(&mut self, plan: &FramePlan) {
+        assert!(
+            self.pending.is_none(),
+            "submit_frame called while a frame is in flight"
+        );
         assert!(
             plan.substeps <= self.max_substeps && plan.tool_count == self.tool_count,
             "frame plan does not fit the solver ({} substeps of at most {}, {} tools of {})",
@@ -614,7 +644,40 @@ impl GpuSolver {
             );
         }
         queue.submit([encoder.finish()]);
-        let bytes = map_read(device, staging);
+        let (tx, mapped) = mpsc::channel();
+        staging.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        self.pending = Some(PendingFrame {
+            slot,
+            extract_bytes,
+            mapped,
+        });
+    }
+
+    /// Waits for the frame in flight, copies its positions (and deformation gradients while
+    /// asked for) into the host copy and returns its statistics.
+    ///
+    /// # Panics
+    /// When no frame was submitted, or the device is lost.
+    pub fn collect_frame(&mut self) -> FrameStats {
+        let pending = self
+            .pending
+            .take()
+            .expect("collect_frame called with no frame in flight");
+        self.ctx
+            .device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .expect("GPU device lost while waiting for a frame");
+        pending
+            .mapped
+            .recv()
+            .expect("map callback ran")
+            .expect("GPU readback mapping failed");
+        let staging = &self.staging[pending.slot];
+        let bytes = staging.get_mapped_range(..);
+        let n = self.n as usize;
+        let extract_bytes = pending.extract_bytes;
         let words: &[u32] = bytemuck::cast_slice(&bytes[..STATS_BYTES as usize]);
         let extract: &[[f32; 4]] = bytemuck::cast_slice(
             &bytes[STATS_BYTES as usize..STATS_BYTES as usize + extract_bytes],
@@ -660,6 +723,10 @@ impl GpuSolver {
     /// Blocking download of every particle field into the host copy (unless the host copy
     /// holds edits not uploaded yet).
     pub fn download_all(&mut self) {
+        debug_assert!(
+            self.pending.is_none(),
+            "download while a frame is in flight"
+        );
         if self.host_dirty || self.n == 0 {
             return;
         }
