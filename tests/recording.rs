@@ -166,8 +166,8 @@ fn replay_records_every_output_and_repeats_tissue_clouds_bit_for_bit() {
     assert_eq!(counts["/PSM1/servo_jp"], 33);
     assert_eq!(counts["/PSM1/measured_js"], 38);
     assert_eq!(counts["/tools/probe/wrench"], 38);
-    assert_eq!(counts["/tissue/points"], 20);
-    assert_eq!(counts["/tissue/surface"], 7);
+    assert_eq!(counts["/tissue/points"], 19);
+    assert_eq!(counts["/tissue/surface"], 6);
 
     // Log times never go back; header stamps equal them on outputs.
     for w in messages.windows(2) {

@@ -351,7 +351,7 @@ impl EventStamps {
 }
 
 /// An output rate counted in simulated time: due at the first frame ending at or after each
-/// multiple of the period, so a recording and its replay sample the same frames.
+/// multiple of the period (from one period on), so a recording and its replay sample the same frames.
 #[derive(Clone, Debug)]
 struct SimRate {
     period: Option<f64>,
@@ -360,9 +360,10 @@ struct SimRate {
 
 impl SimRate {
     fn new(hz: f64) -> SimRate {
+        let period = (hz > 0.0).then(|| 1.0 / hz);
         SimRate {
-            period: (hz > 0.0).then(|| 1.0 / hz),
-            next: 0.0,
+            period,
+            next: period.unwrap_or(0.0),
         }
     }
 
