@@ -58,6 +58,15 @@ enum Command {
         /// Folder for those pictures (created if missing).
         #[arg(long, default_value = "snapshots")]
         snapshot_dir: PathBuf,
+        /// Record the node's outputs and the inputs it applied to this rosbag2-compatible
+        /// MCAP file (finished on Ctrl-C and at the end of --seconds).
+        #[arg(long, value_name = "OUT.mcap")]
+        record: Option<PathBuf>,
+        /// Drive the arms from the inputs of a bag written by --record, each at the frame it
+        /// was applied originally (the input topics are not subscribed); runs until the bag's
+        /// end unless --seconds is given. With --headless: no network, as fast as it computes.
+        #[arg(long, value_name = "IN.mcap")]
+        replay: Option<PathBuf>,
     },
     /// Simulate a scene headless to a time and write a PNG picture of it: tissue coloured
     /// by strain, tools drawn, no display or GPU needed.
@@ -198,9 +207,17 @@ fn run(cli: Cli) -> Result<()> {
             namespace,
             snapshot_every,
             snapshot_dir,
+            record,
+            replay,
         } => {
             let snapshots = snapshot_schedule(snapshot_every, snapshot_dir)?;
-            if headless {
+            if headless && replay.is_none() && record.is_some() {
+                bail!(
+                    "--record in a headless run needs --replay: the scripted headless run \
+                     has no ROS inputs or outputs to record (run as a node, or replay a bag)"
+                );
+            }
+            if headless && replay.is_none() {
                 return run_headless(
                     &scene,
                     seconds.unwrap_or(2.0),
@@ -223,7 +240,26 @@ fn run(cli: Cli) -> Result<()> {
                 namespace,
                 seconds,
                 snapshots,
+                record,
+                replay,
             };
+            if headless {
+                let run = ros::replay::run_headless(&scene, &settings)
+                    .with_context(|| format!("replay on scene {}", path.display()))?;
+                println!(
+                    "replay: {} frames, {:.3} s simulated in {:.2} s wall",
+                    run.frames,
+                    run.time,
+                    run.wall.as_secs_f64()
+                );
+                if let Some(summary) = run.record {
+                    println!(
+                        "recorded {summary}; {:.1} frames/s written",
+                        run.frames as f64 / run.wall.as_secs_f64()
+                    );
+                }
+                return Ok(());
+            }
             ros::run_node(&scene, &settings)
                 .with_context(|| format!("node on scene {}", path.display()))
         }

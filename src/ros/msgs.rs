@@ -2,12 +2,51 @@
 //! fields in declaration order, nothing else). Only the messages the node uses.
 
 use nalgebra::{Isometry3, Quaternion as NaQuaternion, Translation3, UnitQuaternion, Vector3};
+use ros2_client::dds::rustdds::cdr_encoding;
 use serde::{Deserialize, Serialize};
 
 /// A ROS type name and the Rust struct that carries it.
 pub trait RosMessage: Serialize + for<'de> Deserialize<'de> + 'static {
     const PACKAGE: &'static str;
     const NAME: &'static str;
+
+    /// The ROS 2 type name, `pkg/msg/Type`.
+    fn type_name() -> String {
+        format!("{}/msg/{}", Self::PACKAGE, Self::NAME)
+    }
+}
+
+/// The CDR encapsulation header of little-endian plain CDR (what ROS 2 puts on the wire and
+/// rosbag2 stores).
+pub const CDR_LE_HEADER: [u8; 4] = [0x00, 0x01, 0x00, 0x00];
+
+/// A message as ROS 2 serializes it: encapsulation header, then little-endian CDR (RustDDS's
+/// encoder, the one the node publishes with). An empty struct gets the one padding byte
+/// other ROS 2 implementations send.
+pub fn to_cdr<M: Serialize>(message: &M) -> Result<Vec<u8>, String> {
+    let mut out = CDR_LE_HEADER.to_vec();
+    cdr_encoding::to_writer::<M, byteorder::LittleEndian, _>(&mut out, message)
+        .map_err(|e| format!("CDR encoding: {e}"))?;
+    if out.len() == CDR_LE_HEADER.len() {
+        out.push(0);
+    }
+    Ok(out)
+}
+
+/// The inverse of [`to_cdr`]; accepts either byte order.
+pub fn from_cdr<M: for<'de> Deserialize<'de>>(bytes: &[u8]) -> Result<M, String> {
+    if bytes.len() < 4 {
+        return Err(format!("{} bytes: no CDR header", bytes.len()));
+    }
+    let body = &bytes[4..];
+    let decoded = match bytes[1] {
+        0x01 => cdr_encoding::from_bytes::<M, byteorder::LittleEndian>(body),
+        0x00 => cdr_encoding::from_bytes::<M, byteorder::BigEndian>(body),
+        other => return Err(format!("unsupported CDR representation {other:#04x}")),
+    };
+    decoded
+        .map(|(m, _)| m)
+        .map_err(|e| format!("CDR decoding: {e}"))
 }
 
 macro_rules! ros_message {

@@ -3,9 +3,11 @@
 //!
 //! One tokio task polls every subscription, turns messages into [`SimInput`]s (latest values;
 //! the simulation validates them), and publishes from the newest [`Frame`] at each output's
-//! rate. Stamps are simulated time throughout.
+//! rate. Stamps are simulated time throughout. With `--record` a recorder writes the inputs
+//! and outputs to an MCAP bag; with `--replay` a bag's inputs drive the arms instead of the
+//! input topics.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -17,15 +19,17 @@ use ros2_client::{
     QosProfile, Subscription,
 };
 
-use crate::config::{ArmMode, Scene};
+use crate::config::Scene;
 use crate::output::snapshot::SnapshotSchedule;
-use crate::output::{CloudOptions, TissueSurface, CLOUD_POINT_STEP};
+use crate::output::{CloudOptions, TissueSurface};
 use crate::robot::{Psm, Teleop, TeleopConfig};
-use crate::ros::arm::{ArmCommand, ArmEvent, ArmInput, ArmSim};
+use crate::ros::arm::ArmSim;
+use crate::ros::inputs::{input_topics, InputKind, InputMessage, InputTopic};
 use crate::ros::msgs::*;
-use crate::ros::sim_thread::{
-    self, Frame, RateLimitedLog, SimHandle, SimInput, SimSetup, TeleopBinding,
-};
+use crate::ros::outputs::{self, ArmOutput, EventMessage, EventStamps, OutputLayout};
+use crate::ros::recorder::{RecordSummary, RecordedInput, Recorder};
+use crate::ros::replay;
+use crate::ros::sim_thread::{self, Frame, RateLimitedLog, SimHandle, SimSetup, TeleopBinding};
 use crate::world::World;
 
 #[derive(Debug, thiserror::Error)]
@@ -46,6 +50,10 @@ pub struct NodeSettings {
     pub seconds: Option<f64>,
     /// Pictures during the run (taken on the simulation thread, which pauses for each).
     pub snapshots: Option<SnapshotSchedule>,
+    /// Record inputs and outputs to this MCAP file.
+    pub record: Option<PathBuf>,
+    /// Drive the arms from this bag's inputs (the input topics are not subscribed).
+    pub replay: Option<PathBuf>,
 }
 
 /// The world-from-base pose of a scene arm.
@@ -127,7 +135,56 @@ pub fn build_setup(scene: &Scene) -> Result<SimSetup, NodeError> {
         },
         surface,
         snapshots: None,
+        recorder: None,
+        replay: None,
+        paced: true,
+        stop_at: None,
     })
+}
+
+/// A scene's simulation side with the run's snapshots, replayed inputs (and its end as the
+/// stop time unless `seconds` is given) and recorder attached.
+pub fn prepare(
+    scene: &Scene,
+    settings: &NodeSettings,
+) -> Result<(SimSetup, Option<Recorder>), NodeError> {
+    let mut setup = build_setup(scene)?;
+    setup.snapshots = settings.snapshots.clone();
+    setup.stop_at = settings.seconds;
+    let layout = OutputLayout::new(scene, &setup, &settings.namespace);
+    if let Some(path) = &settings.replay {
+        let bag = replay::load(path, scene, &layout, &settings.namespace)
+            .map_err(|e| NodeError(e.to_string()))?;
+        tracing::info!(
+            "replaying {} inputs of {} messages from {} ({:.3} s simulated)",
+            bag.inputs.len(),
+            bag.messages,
+            path.display(),
+            bag.end
+        );
+        // Through the frame that starts at the bag's last message.
+        let through = bag.end + setup.world.frame_dt();
+        setup.stop_at = Some(settings.seconds.unwrap_or(through));
+        setup.replay = Some(bag.inputs);
+    }
+    let recorder = match &settings.record {
+        None => None,
+        Some(path) => {
+            let (recorder, tap) =
+                Recorder::create(path, layout).map_err(|e| NodeError(e.to_string()))?;
+            setup.recorder = Some(tap);
+            tracing::info!("recording to {}", path.display());
+            Some(recorder)
+        }
+    };
+    Ok((setup, recorder))
+}
+
+/// Ends a recording started by [`prepare`], after the simulation thread has ended.
+pub fn finish_recording(recorder: Option<Recorder>) -> Result<Option<RecordSummary>, NodeError> {
+    recorder
+        .map(|r| r.finish().map_err(|e| NodeError(e.to_string())))
+        .transpose()
 }
 
 /// Absolute topic name of `relative` under `namespace`.
@@ -191,22 +248,77 @@ impl Topics<'_> {
             .map_err(|e| err(topic, e))
     }
 
-    fn subscription<M: RosMessage>(
-        &mut self,
-        topic: &str,
-    ) -> Result<(String, Subscription<M>), NodeError> {
+    fn subscribe<M: RosMessage>(&mut self, topic: &str) -> Result<Subscription<M>, NodeError> {
         let qos = command_qos();
         let name = self.name(topic)?;
         let t = self
             .node
             .create_topic(&name, MessageTypeName::new(M::PACKAGE, M::NAME), &qos)
             .map_err(|e| err(topic, e))?;
-        let s = self
-            .node
+        self.node
             .create_subscription(&t, Some(qos))
-            .map_err(|e| err(topic, e))?;
-        Ok((topic.to_owned(), s))
+            .map_err(|e| err(topic, e))
     }
+
+    fn input(&mut self, topic: InputTopic) -> Result<InputSubscription, NodeError> {
+        use InputKind::*;
+        let name = topic.topic.clone();
+        let subscription = match topic.kind {
+            ServoJp | MoveJp | JawServoJp | JawMoveJp | MirrorJs | MirrorJaw | MtmGripper => {
+                AnySubscription::Joints(self.subscribe(&name)?)
+            }
+            ServoCp | MoveCp | MtmCp => AnySubscription::Pose(self.subscribe(&name)?),
+            Hold | Free => AnySubscription::Empty(self.subscribe(&name)?),
+            StateCommand => AnySubscription::Command(self.subscribe(&name)?),
+            ServoCf => AnySubscription::Wrench(self.subscribe(&name)?),
+            GravityCompensation => AnySubscription::Flag(self.subscribe(&name)?),
+            Clutch | OperatorPresent => AnySubscription::Joy(self.subscribe(&name)?),
+        };
+        Ok(InputSubscription {
+            topic,
+            subscription,
+        })
+    }
+}
+
+/// A subscription of one of the input types.
+enum AnySubscription {
+    Joints(Subscription<JointState>),
+    Pose(Subscription<PoseStamped>),
+    Empty(Subscription<Empty>),
+    Command(Subscription<StringStamped>),
+    Wrench(Subscription<WrenchStamped>),
+    Flag(Subscription<Bool>),
+    Joy(Subscription<Joy>),
+}
+
+impl AnySubscription {
+    fn take(&self) -> Result<Option<InputMessage>, String> {
+        fn one<M: RosMessage>(
+            s: &Subscription<M>,
+            wrap: impl FnOnce(M) -> InputMessage,
+        ) -> Result<Option<InputMessage>, String> {
+            match s.take() {
+                Ok(Some((m, _info))) => Ok(Some(wrap(m))),
+                Ok(None) => Ok(None),
+                Err(e) => Err(format!("{e:?}")),
+            }
+        }
+        match self {
+            AnySubscription::Joints(s) => one(s, InputMessage::Joints),
+            AnySubscription::Pose(s) => one(s, InputMessage::Pose),
+            AnySubscription::Empty(s) => one(s, InputMessage::Empty),
+            AnySubscription::Command(s) => one(s, InputMessage::Command),
+            AnySubscription::Wrench(s) => one(s, InputMessage::Wrench),
+            AnySubscription::Flag(s) => one(s, InputMessage::Flag),
+            AnySubscription::Joy(s) => one(s, InputMessage::Joy),
+        }
+    }
+}
+
+struct InputSubscription {
+    topic: InputTopic,
+    subscription: AnySubscription,
 }
 
 /// Publishers of a simulated arm.
@@ -222,45 +334,10 @@ struct ArmPublishers {
     error: Publisher<StringMsg>,
     warning: Publisher<StringMsg>,
     status: Publisher<StringMsg>,
-    last_state_stamp: Time,
-}
-
-/// Subscriptions of a simulated arm.
-struct ArmSubscriptions {
-    servo_jp: (String, Subscription<JointState>),
-    move_jp: (String, Subscription<JointState>),
-    jaw_servo_jp: (String, Subscription<JointState>),
-    jaw_move_jp: (String, Subscription<JointState>),
-    servo_cp: (String, Subscription<PoseStamped>),
-    move_cp: (String, Subscription<PoseStamped>),
-    hold: (String, Subscription<Empty>),
-    free: (String, Subscription<Empty>),
-    state_command: (String, Subscription<StringStamped>),
-    servo_cf: (String, Subscription<WrenchStamped>),
-    gravity: (String, Subscription<Bool>),
-}
-
-struct MirrorSubscriptions {
-    measured_js: (String, Subscription<JointState>),
-    jaw_measured_js: (String, Subscription<JointState>),
 }
 
 struct ArmIo {
-    name: String,
-    base_frame: String,
-    psm: Psm,
-    base: Isometry3<f64>,
     publishers: Option<ArmPublishers>,
-    subscriptions: Option<ArmSubscriptions>,
-    mirror: Option<MirrorSubscriptions>,
-}
-
-struct TeleopIo {
-    mtm_cp: (String, Subscription<PoseStamped>),
-    gripper: (String, Subscription<JointState>),
-    clutch: (String, Subscription<Joy>),
-    operator_present: (String, Subscription<Joy>),
-    force: Option<(Publisher<WrenchStamped>, f64, usize)>,
 }
 
 /// Sends the next output of one kind when its period (wall clock) has passed.
@@ -292,49 +369,6 @@ impl Rate {
     }
 }
 
-/// Drains a subscription, handing each message to `f`; malformed samples are logged.
-fn drain<M: RosMessage>(
-    sub: &(String, Subscription<M>),
-    log: &mut RateLimitedLog,
-    mut f: impl FnMut(M),
-) {
-    loop {
-        match sub.1.take() {
-            Ok(Some((msg, _info))) => f(msg),
-            Ok(None) => break,
-            Err(e) => {
-                if let Some(line) = log.admit(
-                    &sub.0,
-                    &format!("{}: rejected: unreadable message: {e:?}", sub.0),
-                ) {
-                    tracing::warn!("{line}");
-                }
-                break;
-            }
-        }
-    }
-}
-
-fn joint_state(stamp: Time, names: &[&str], position: &[f64], velocity: &[f64]) -> JointState {
-    JointState {
-        header: Header::new(stamp, ""),
-        name: names.iter().map(|s| s.to_string()).collect(),
-        position: position.to_vec(),
-        velocity: velocity.to_vec(),
-        effort: Vec::new(),
-    }
-}
-
-fn pose_input(msg: &PoseStamped) -> ([f64; 3], [f64; 4]) {
-    let p = &msg.pose.position;
-    let o = &msg.pose.orientation;
-    ([p.x, p.y, p.z], [o.x, o.y, o.z, o.w])
-}
-
-fn pressed(joy: &Joy) -> Option<bool> {
-    joy.buttons.first().map(|b| *b == 1)
-}
-
 /// The DDS domain from `ROS_DOMAIN_ID` (0 when unset), as every ROS 2 node reads it.
 pub fn domain_id_from_env() -> Result<u16, NodeError> {
     match std::env::var("ROS_DOMAIN_ID") {
@@ -363,8 +397,8 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
     let node_name = NodeName::new(&settings.namespace, &settings.name)
         .map_err(|e| err("node name / namespace", e))?;
     let domain_id = domain_id_from_env()?;
-    let mut setup = build_setup(scene)?;
-    setup.snapshots = settings.snapshots.clone();
+    let (setup, recorder) = prepare(scene, settings)?;
+    let layout = OutputLayout::new(scene, &setup, &settings.namespace);
     let context = Context::with_options(ContextOptions::new().domain_id(domain_id))
         .map_err(|e| err("DDS participant", e))?;
     let mut node = context
@@ -377,83 +411,39 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
         namespace: settings.namespace.clone(),
     };
     let mut arms = Vec::new();
-    for (arm, sim) in scene.arms.iter().zip(&setup.arms) {
-        let n = &arm.name;
-        let (publishers, subscriptions, mirror) = match arm.mode {
-            ArmMode::Simulated => {
-                let p = ArmPublishers {
-                    measured_js: topics.publisher(&format!("{n}/measured_js"), periodic_qos())?,
-                    setpoint_js: topics.publisher(&format!("{n}/setpoint_js"), periodic_qos())?,
-                    measured_cp: topics.publisher(&format!("{n}/measured_cp"), periodic_qos())?,
-                    setpoint_cp: topics.publisher(&format!("{n}/setpoint_cp"), periodic_qos())?,
-                    measured_cv: topics.publisher(&format!("{n}/measured_cv"), periodic_qos())?,
-                    jaw_measured_js: topics
-                        .publisher(&format!("{n}/jaw/measured_js"), periodic_qos())?,
-                    jaw_setpoint_js: topics
-                        .publisher(&format!("{n}/jaw/setpoint_js"), periodic_qos())?,
-                    operating_state: topics
-                        .publisher(&format!("{n}/operating_state"), event_qos())?,
-                    error: topics.publisher(&format!("{n}/error"), event_qos())?,
-                    warning: topics.publisher(&format!("{n}/warning"), event_qos())?,
-                    status: topics.publisher(&format!("{n}/status"), event_qos())?,
-                    last_state_stamp: Time::default(),
-                };
-                let s = ArmSubscriptions {
-                    servo_jp: topics.subscription(&format!("{n}/servo_jp"))?,
-                    move_jp: topics.subscription(&format!("{n}/move_jp"))?,
-                    jaw_servo_jp: topics.subscription(&format!("{n}/jaw/servo_jp"))?,
-                    jaw_move_jp: topics.subscription(&format!("{n}/jaw/move_jp"))?,
-                    servo_cp: topics.subscription(&format!("{n}/servo_cp"))?,
-                    move_cp: topics.subscription(&format!("{n}/move_cp"))?,
-                    hold: topics.subscription(&format!("{n}/hold"))?,
-                    free: topics.subscription(&format!("{n}/free"))?,
-                    state_command: topics.subscription(&format!("{n}/state_command"))?,
-                    servo_cf: topics.subscription(&format!("{n}/body/servo_cf"))?,
-                    gravity: topics.subscription(&format!("{n}/use_gravity_compensation"))?,
-                };
-                (Some(p), Some(s), None)
-            }
-            ArmMode::Mirror => {
-                let of = arm.mirror_of.clone().unwrap_or_else(|| format!("/{n}"));
-                let m = MirrorSubscriptions {
-                    measured_js: topics.subscription(&format!("{of}/measured_js"))?,
-                    jaw_measured_js: topics.subscription(&format!("{of}/jaw/measured_js"))?,
-                };
-                (None, None, Some(m))
-            }
-        };
-        arms.push(ArmIo {
-            name: n.clone(),
-            base_frame: sim.psm().base_frame().to_owned(),
-            psm: sim.psm().clone(),
-            base: *sim.base(),
-            publishers,
-            subscriptions,
-            mirror,
-        });
-    }
-    let teleop = match &scene.teleop {
-        None => None,
-        Some(t) => {
-            let arm = scene.arms.iter().position(|a| a.name == t.arm).unwrap_or(0);
-            let tool = setup.arm_tools.get(arm).copied().unwrap_or(0);
-            Some(TeleopIo {
-                mtm_cp: topics.subscription(&format!("{}/measured_cp", t.mtm))?,
-                gripper: topics.subscription(&format!("{}/gripper/measured_js", t.mtm))?,
-                clutch: topics.subscription(&format!("{}/clutch", t.console))?,
-                operator_present: topics
-                    .subscription(&format!("{}/operator_present", t.console))?,
-                force: if t.force_feedback {
-                    Some((
-                        topics.publisher(&format!("{}/body/servo_cf", t.mtm), periodic_qos())?,
-                        t.force_feedback_scale,
-                        tool,
-                    ))
-                } else {
-                    None
-                },
+    for output in &layout.arms {
+        let n = &output.name;
+        let publishers = if output.simulated {
+            Some(ArmPublishers {
+                measured_js: topics.publisher(&format!("{n}/measured_js"), periodic_qos())?,
+                setpoint_js: topics.publisher(&format!("{n}/setpoint_js"), periodic_qos())?,
+                measured_cp: topics.publisher(&format!("{n}/measured_cp"), periodic_qos())?,
+                setpoint_cp: topics.publisher(&format!("{n}/setpoint_cp"), periodic_qos())?,
+                measured_cv: topics.publisher(&format!("{n}/measured_cv"), periodic_qos())?,
+                jaw_measured_js: topics
+                    .publisher(&format!("{n}/jaw/measured_js"), periodic_qos())?,
+                jaw_setpoint_js: topics
+                    .publisher(&format!("{n}/jaw/setpoint_js"), periodic_qos())?,
+                operating_state: topics.publisher(&format!("{n}/operating_state"), event_qos())?,
+                error: topics.publisher(&format!("{n}/error"), event_qos())?,
+                warning: topics.publisher(&format!("{n}/warning"), event_qos())?,
+                status: topics.publisher(&format!("{n}/status"), event_qos())?,
             })
+        } else {
+            None
+        };
+        arms.push(ArmIo { publishers });
+    }
+    // A replay drives the arms from the bag: the input topics are not subscribed.
+    let mut inputs = Vec::new();
+    if settings.replay.is_none() {
+        for topic in input_topics(scene, &settings.namespace) {
+            inputs.push(topics.input(topic)?);
         }
+    }
+    let force = match &layout.force_feedback {
+        Some(f) => Some((topics.publisher(&f.topic, periodic_qos())?, f.scale, f.tool)),
+        None => None,
     };
     let points: Publisher<PointCloud2> = topics.publisher("tissue/points", periodic_qos())?;
     let surface: Publisher<Marker> = topics.publisher("tissue/surface", periodic_qos())?;
@@ -485,7 +475,11 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
             .map(|t| resolve(&settings.namespace, &format!("tools/{}/wrench", t.name)))
             .collect(),
         demand: Demand::default(),
-        teleop,
+        arm_outputs: layout.arms.clone(),
+        inputs,
+        recording: recorder.is_some(),
+        stamps: EventStamps::default(),
+        force,
         points,
         surface,
         wrenches,
@@ -517,10 +511,8 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
             io.publish_events(&sim);
             let frame = sim.frames.borrow().clone();
             io.publish_frame(&node, &sim, &frame);
-            if let Some(limit) = settings.seconds {
-                if frame.time >= limit {
-                    break;
-                }
+            if sim.is_finished() {
+                break;
             }
         }
     };
@@ -533,6 +525,9 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
         _ = main => {}
     }
     sim.shutdown();
+    if let Some(summary) = finish_recording(recorder)? {
+        tracing::info!("bag finished: {summary}");
+    }
     Ok(())
 }
 
@@ -561,7 +556,13 @@ struct Io {
     surface_topic: String,
     wrench_topics: Vec<String>,
     demand: Demand,
-    teleop: Option<TeleopIo>,
+    arm_outputs: Vec<ArmOutput>,
+    inputs: Vec<InputSubscription>,
+    /// Inputs go to the simulation with their messages, to be recorded.
+    recording: bool,
+    stamps: EventStamps,
+    /// MTM force feedback: publisher, scale, scene tool.
+    force: Option<(Publisher<WrenchStamped>, f64, usize)>,
     points: Publisher<PointCloud2>,
     surface: Publisher<Marker>,
     wrenches: Vec<Publisher<WrenchStamped>>,
@@ -571,8 +572,13 @@ struct Io {
 }
 
 impl Io {
-    fn send(&mut self, sim: &SimHandle, input: SimInput) {
-        if !sim.send(input) {
+    fn send(
+        &mut self,
+        sim: &SimHandle,
+        input: Option<crate::ros::sim_thread::SimInput>,
+        record: Option<RecordedInput>,
+    ) {
+        if !sim.send(input, record) {
             if let Some(line) = self
                 .log
                 .admit("inputs", "input queue full: dropping commands")
@@ -583,175 +589,71 @@ impl Io {
     }
 
     fn poll_inputs(&mut self, sim: &SimHandle) {
-        let mut inputs = Vec::new();
-        for (index, arm) in self.arms.iter().enumerate() {
-            let mut push = |topic: &'static str, input: ArmInput| {
-                inputs.push(SimInput::Arm {
-                    arm: index,
-                    command: ArmCommand { topic, input },
-                })
-            };
-            if let Some(s) = &arm.subscriptions {
-                let log = &mut self.log;
-                drain(&s.servo_jp, log, |m| {
-                    push(
-                        "servo_jp",
-                        ArmInput::ServoJp {
-                            names: m.name,
-                            positions: m.position,
-                        },
-                    )
-                });
-                drain(&s.move_jp, log, |m| {
-                    push(
-                        "move_jp",
-                        ArmInput::MoveJp {
-                            names: m.name,
-                            positions: m.position,
-                        },
-                    )
-                });
-                drain(&s.jaw_servo_jp, log, |m| {
-                    push(
-                        "jaw/servo_jp",
-                        ArmInput::JawServoJp {
-                            names: m.name,
-                            positions: m.position,
-                        },
-                    )
-                });
-                drain(&s.jaw_move_jp, log, |m| {
-                    push(
-                        "jaw/move_jp",
-                        ArmInput::JawMoveJp {
-                            names: m.name,
-                            positions: m.position,
-                        },
-                    )
-                });
-                drain(&s.servo_cp, log, |m| {
-                    let (position, quaternion) = pose_input(&m);
-                    push(
-                        "servo_cp",
-                        ArmInput::ServoCp {
-                            position,
-                            quaternion,
-                        },
-                    )
-                });
-                drain(&s.move_cp, log, |m| {
-                    let (position, quaternion) = pose_input(&m);
-                    push(
-                        "move_cp",
-                        ArmInput::MoveCp {
-                            position,
-                            quaternion,
-                        },
-                    )
-                });
-                drain(&s.hold, log, |_| push("hold", ArmInput::Hold));
-                drain(&s.free, log, |_| push("free", ArmInput::Free));
-                drain(&s.state_command, log, |m| {
-                    push("state_command", ArmInput::StateCommand(m.string))
-                });
-                drain(&s.servo_cf, log, |m| {
-                    let w = m.wrench;
-                    push(
-                        "body/servo_cf",
-                        ArmInput::ServoCf([
-                            w.force.x, w.force.y, w.force.z, w.torque.x, w.torque.y, w.torque.z,
-                        ]),
-                    )
-                });
-                drain(&s.gravity, log, |_| {});
-            }
-            if let Some(m) = &arm.mirror {
-                let log = &mut self.log;
-                drain(&m.measured_js, log, |m| {
-                    push(
-                        "measured_js (mirrored)",
-                        ArmInput::MirrorJs {
-                            names: m.name,
-                            positions: m.position,
-                        },
-                    )
-                });
-                drain(&m.jaw_measured_js, log, |m| {
-                    push(
-                        "jaw/measured_js (mirrored)",
-                        ArmInput::MirrorJaw {
-                            names: m.name,
-                            positions: m.position,
-                        },
-                    )
-                });
-            }
-        }
-        if let Some(t) = &self.teleop {
-            let log = &mut self.log;
-            drain(&t.mtm_cp, log, |m| {
-                let (position, quaternion) = pose_input(&m);
-                inputs.push(SimInput::MtmPose {
-                    position,
-                    quaternion,
-                })
-            });
-            drain(&t.gripper, log, |m| {
-                inputs.push(SimInput::MtmGripper(m.position))
-            });
-            let mut bad_joy = Vec::new();
-            drain(&t.clutch, log, |m| match pressed(&m) {
-                Some(p) => inputs.push(SimInput::Clutch(p)),
-                None => bad_joy.push(t.clutch.0.clone()),
-            });
-            drain(&t.operator_present, log, |m| match pressed(&m) {
-                Some(p) => inputs.push(SimInput::OperatorPresent(p)),
-                None => bad_joy.push(t.operator_present.0.clone()),
-            });
-            for topic in bad_joy {
-                if let Some(line) =
-                    log.admit(&topic, &format!("{topic}: rejected: Joy without buttons"))
-                {
-                    tracing::warn!("{line}");
+        let mut received = Vec::new();
+        for input in &self.inputs {
+            loop {
+                let message = match input.subscription.take() {
+                    Ok(Some(m)) => m,
+                    Ok(None) => break,
+                    Err(e) => {
+                        let topic = &input.topic.topic;
+                        let line = format!("{topic}: rejected: unreadable message: {e}");
+                        if let Some(line) = self.log.admit(topic, &line) {
+                            tracing::warn!("{line}");
+                        }
+                        break;
+                    }
+                };
+                let record = if self.recording {
+                    match message.to_cdr() {
+                        Ok(cdr) => Some(RecordedInput {
+                            topic: input.topic.topic.clone(),
+                            type_name: input.topic.kind.type_name(),
+                            cdr,
+                        }),
+                        Err(e) => {
+                            tracing::warn!("{}: not recorded: {e}", input.topic.topic);
+                            None
+                        }
+                    }
+                } else {
+                    None
+                };
+                match input.topic.to_sim_input(message) {
+                    Ok(sim_input) => received.push((sim_input, record)),
+                    Err(reason) => {
+                        let topic = &input.topic.topic;
+                        if let Some(line) = self
+                            .log
+                            .admit(topic, &format!("{topic}: rejected: {reason}"))
+                        {
+                            tracing::warn!("{line}");
+                        }
+                        received.push((None, record));
+                    }
                 }
             }
         }
-        for input in inputs {
-            self.send(sim, input);
+        for (input, record) in received {
+            if input.is_some() || record.is_some() {
+                self.send(sim, input, record);
+            }
         }
     }
 
     fn publish_events(&mut self, sim: &SimHandle) {
         while let Ok((index, event)) = sim.events.try_recv() {
-            let Some(p) = self.arms.get_mut(index).and_then(|a| a.publishers.as_mut()) else {
+            let Some(p) = self.arms.get(index).and_then(|a| a.publishers.as_ref()) else {
                 continue;
             };
-            let text = |s: String| StringMsg { data: s };
-            let _ = match event {
-                ArmEvent::State {
-                    time,
-                    state,
-                    homed,
-                    busy,
-                } => {
-                    // Strictly increasing stamps: clients drop states not newer than the last.
-                    let mut stamp = Time::from_secs(time);
-                    if stamp <= p.last_state_stamp {
-                        stamp = Time::from_secs(p.last_state_stamp.as_secs() + 1e-6);
-                    }
-                    p.last_state_stamp = stamp;
-                    p.operating_state
-                        .publish(OperatingState {
-                            header: Header::new(stamp, ""),
-                            state: state.as_str().to_owned(),
-                            is_homed: homed,
-                            is_busy: busy,
-                        })
-                        .map_err(|_| ())
+            let _ = match self.stamps.message(index, event) {
+                EventMessage::State(m) => p.operating_state.publish(m).map_err(|_| ()),
+                EventMessage::Text { suffix, message } => match suffix {
+                    "error" => p.error.publish(message),
+                    "warning" => p.warning.publish(message),
+                    _ => p.status.publish(message),
                 }
-                ArmEvent::Error(s) => p.error.publish(text(s)).map_err(|_| ()),
-                ArmEvent::Warning(s) => p.warning.publish(text(s)).map_err(|_| ()),
-                ArmEvent::Status(s) => p.status.publish(text(s)).map_err(|_| ()),
+                .map_err(|_| ()),
             };
         }
     }
@@ -788,13 +690,7 @@ impl Io {
                 if !wanted {
                     continue;
                 }
-                let _ = publisher.publish(WrenchStamped {
-                    header: Header::new(stamp, &tool.frame_id),
-                    wrench: Wrench {
-                        force: tool.wrench.force.into(),
-                        torque: tool.wrench.torque.into(),
-                    },
-                });
+                let _ = publisher.publish(outputs::wrench_message(tool, 1.0, stamp));
             }
         }
         if self.rates.tf.due(now) && self.demand.tf {
@@ -802,156 +698,41 @@ impl Io {
         }
         if self.rates.points.due(now) && self.demand.points {
             if let Some(t) = &frame.cloud {
-                let field = |name: &str, offset: u32| PointField {
-                    name: name.into(),
-                    offset,
-                    datatype: PointField::FLOAT32,
-                    count: 1,
-                };
-                let _ = self.points.publish(PointCloud2 {
-                    header: Header::new(stamp, "world"),
-                    height: 1,
-                    width: t.len() as u32,
-                    fields: vec![
-                        field("x", 0),
-                        field("y", 4),
-                        field("z", 8),
-                        field(t.scalar_name(), 12),
-                    ],
-                    is_bigendian: false,
-                    point_step: CLOUD_POINT_STEP as u32,
-                    row_step: (CLOUD_POINT_STEP * t.len()) as u32,
-                    data: t.cloud_bytes(),
-                    is_dense: true,
-                });
+                let _ = self.points.publish(outputs::cloud_message(t, stamp));
             }
         }
         if self.rates.surface.due(now) && self.demand.surface {
             if let Some(t) = &frame.surface {
-                let point = |p: &[f32; 3]| Point {
-                    x: p[0] as f64,
-                    y: p[1] as f64,
-                    z: p[2] as f64,
-                };
-                let _ = self.surface.publish(Marker {
-                    header: Header::new(stamp, "world"),
-                    ns: "tissue".into(),
-                    id: 0,
-                    kind: Marker::TRIANGLE_LIST,
-                    action: Marker::ADD,
-                    pose: Pose::default(),
-                    scale: Vector3Msg {
-                        x: 1.0,
-                        y: 1.0,
-                        z: 1.0,
-                    },
-                    color: ColorRGBA {
-                        r: 0.85,
-                        g: 0.45,
-                        b: 0.45,
-                        a: 1.0,
-                    },
-                    points: t.corners.iter().map(point).collect(),
-                    colors: t
-                        .colours
-                        .iter()
-                        .map(|c| ColorRGBA {
-                            r: c[0],
-                            g: c[1],
-                            b: c[2],
-                            a: 1.0,
-                        })
-                        .collect(),
-                    uv_coordinates: t
-                        .uvs
-                        .iter()
-                        .map(|uv| UVCoordinate { u: uv[0], v: uv[1] })
-                        .collect(),
-                    ..Default::default()
-                });
+                let _ = self.surface.publish(outputs::surface_message(t, stamp));
             }
         }
     }
 
     fn publish_arms(&mut self, frame: &Frame, stamp: Time) {
-        for (io, status) in self.arms.iter_mut().zip(&frame.arms) {
+        for (index, (io, status)) in self.arms.iter().zip(&frame.arms).enumerate() {
             let Some(p) = &io.publishers else {
                 continue;
             };
-            let names = io.psm.joints().names();
-            let js = joint_state(stamp, &names, &status.q, &status.qdot);
-            let _ = p.measured_js.publish(js.clone());
-            let _ = p.setpoint_js.publish(js);
-            let jaw = joint_state(stamp, &["jaw"], &[status.jaw], &[status.jaw_rate]);
-            let _ = p.jaw_measured_js.publish(jaw.clone());
-            let _ = p.jaw_setpoint_js.publish(jaw);
-            let pose = Pose::from_isometry(&status.cp);
-            let _ = p.measured_cp.publish(PoseStamped {
-                header: Header::new(stamp, &io.base_frame),
-                pose,
-            });
-            let _ = p.setpoint_cp.publish(PoseStamped {
-                header: Header::new(stamp, &io.base_frame),
-                pose,
-            });
-            let _ = p.measured_cv.publish(TwistStamped {
-                header: Header::new(stamp, &io.base_frame),
-                twist: Twist {
-                    linear: status.linear_velocity.into(),
-                    angular: status.angular_velocity.into(),
-                },
-            });
+            let m = outputs::arm_messages(&self.arm_outputs[index], status, stamp);
+            let _ = p.measured_js.publish(m.js.clone());
+            let _ = p.setpoint_js.publish(m.js);
+            let _ = p.jaw_measured_js.publish(m.jaw.clone());
+            let _ = p.jaw_setpoint_js.publish(m.jaw);
+            let _ = p.measured_cp.publish(m.cp.clone());
+            let _ = p.setpoint_cp.publish(m.cp);
+            let _ = p.measured_cv.publish(m.cv);
         }
-        if let Some(t) = &self.teleop {
-            if let Some((publisher, scale, tool)) = &t.force {
-                if let Some(tool) = frame.tools.get(*tool) {
-                    let _ = publisher.publish(WrenchStamped {
-                        header: Header::new(stamp, &tool.frame_id),
-                        wrench: Wrench {
-                            force: (tool.wrench.force * *scale).into(),
-                            torque: (tool.wrench.torque * *scale).into(),
-                        },
-                    });
-                }
+        if let Some((publisher, scale, tool)) = &self.force {
+            if let Some(tool) = frame.tools.get(*tool) {
+                let _ = publisher.publish(outputs::wrench_message(tool, *scale, stamp));
             }
         }
     }
 
     fn publish_tf(&mut self, frame: &Frame, stamp: Time) {
-        let mut transforms = Vec::new();
-        let arm_frames: Vec<&str> = self.arms.iter().map(|a| a.name.as_str()).collect();
-        for (io, status) in self.arms.iter().zip(&frame.arms) {
-            transforms.push(TransformStamped {
-                header: Header::new(stamp, "world"),
-                child_frame_id: io.base_frame.clone(),
-                transform: (&io.base).into(),
-            });
-            if let Ok(links) = io.psm.link_frames(&status.q, status.jaw) {
-                for link in links {
-                    if link.link == io.base_frame {
-                        continue;
-                    }
-                    transforms.push(TransformStamped {
-                        header: Header::new(stamp, &io.base_frame),
-                        child_frame_id: link.link,
-                        transform: (&link.pose).into(),
-                    });
-                }
-            }
-        }
-        for tool in &frame.tools {
-            if arm_frames.contains(&tool.frame_id.as_str()) {
-                continue;
-            }
-            let iso =
-                Isometry3::from_parts(Translation3::from(tool.pose.position), tool.pose.rotation);
-            transforms.push(TransformStamped {
-                header: Header::new(stamp, "world"),
-                child_frame_id: tool.frame_id.clone(),
-                transform: (&iso).into(),
-            });
-        }
-        let _ = self.tf.publish(TFMessage { transforms });
+        let _ = self
+            .tf
+            .publish(outputs::tf_message(&self.arm_outputs, frame, stamp));
     }
 }
 

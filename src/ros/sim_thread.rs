@@ -3,8 +3,12 @@
 //! frame to the ROS side as a latest value (a `watch` channel: a slow reader skips frames, it
 //! never queues them). Commands come in through a bounded channel; when it is full a command
 //! is dropped with a log line rather than blocking the network side.
+//!
+//! With a recorder attached, each frame's applied inputs, arm events and (when an output is
+//! due) the finished frame go to it; with a replay attached, the recorded inputs are applied
+//! at the frames they were applied originally.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, VecDeque};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender, TryRecvError, TrySendError};
 use std::sync::Arc;
@@ -18,6 +22,9 @@ use crate::output::snapshot::SnapshotSchedule;
 use crate::output::{CloudOptions, SurfaceTriangles, TissueCloud, TissueSurface};
 use crate::robot::{RcmPolicy, Teleop, TeleopState};
 use crate::ros::arm::{ArmCommand, ArmEvent, ArmSim, ArmStatus};
+use crate::ros::outputs::Due;
+use crate::ros::recorder::{nanos, FrameRecord, RecordTap, RecordedInput};
+use crate::ros::replay::ReplayInput;
 use crate::tools::ToolPose;
 use crate::world::{ToolDriver, World, Wrench};
 
@@ -42,6 +49,14 @@ pub enum SimInput {
     MtmGripper(Vec<f64>),
     Clutch(bool),
     OperatorPresent(bool),
+}
+
+/// An input with, when recording, the message it came from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Received {
+    /// `None` for a message with no effect on the simulation (recorded all the same).
+    pub input: Option<SimInput>,
+    pub record: Option<RecordedInput>,
 }
 
 /// A tool at the end of a frame.
@@ -87,11 +102,19 @@ pub struct SimSetup {
     pub cloud: CloudOptions,
     pub surface: TissueSurface,
     pub snapshots: Option<SnapshotSchedule>,
+    /// Records inputs, events and outputs.
+    pub recorder: Option<RecordTap>,
+    /// Recorded inputs to apply, in order, each at the frame start at its time.
+    pub replay: Option<VecDeque<ReplayInput>>,
+    /// Frames at the scene's rate in real time (false: as fast as they compute).
+    pub paced: bool,
+    /// The thread ends by itself once simulated time reaches this (s).
+    pub stop_at: Option<f64>,
 }
 
 /// The network side's handles.
 pub struct SimHandle {
-    pub inputs: SyncSender<SimInput>,
+    pub inputs: SyncSender<Received>,
     pub frames: watch::Receiver<Arc<Frame>>,
     pub events: Receiver<(usize, ArmEvent)>,
     /// Set while someone subscribes to the point cloud.
@@ -103,12 +126,18 @@ pub struct SimHandle {
 }
 
 impl SimHandle {
-    /// Queues an input for the next frame; drops it (false) when the queue is full.
-    pub fn send(&self, input: SimInput) -> bool {
-        match self.inputs.try_send(input) {
+    /// Queues an input for the next frame (with its message when recording); drops it
+    /// (false) when the queue is full.
+    pub fn send(&self, input: Option<SimInput>, record: Option<RecordedInput>) -> bool {
+        match self.inputs.try_send(Received { input, record }) {
             Ok(()) => true,
             Err(TrySendError::Full(_)) | Err(TrySendError::Disconnected(_)) => false,
         }
+    }
+
+    /// True once the thread has ended (at `stop_at`, or after [`SimHandle::shutdown`]).
+    pub fn is_finished(&self) -> bool {
+        self.thread.as_ref().is_none_or(|t| t.is_finished())
     }
 
     /// Stops the thread after its current frame and waits for it.
@@ -258,15 +287,38 @@ struct Wanted {
     surface: Arc<AtomicBool>,
 }
 
+/// A frame's applied inputs and arm events, for the recorder.
+type FrameShare = (Vec<RecordedInput>, Vec<(usize, ArmEvent)>);
+
 struct Loop {
     log: RateLimitedLog,
     events: SyncSender<(usize, ArmEvent)>,
     mtm_pose: Option<Isometry3<f64>>,
     mtm_gripper: f64,
     mtm_fresh: bool,
+    /// This frame's applied inputs and events, while recording.
+    recording: Option<FrameShare>,
 }
 
 impl Loop {
+    fn event(&mut self, arm: usize, event: ArmEvent) {
+        if let Some((_, events)) = &mut self.recording {
+            events.push((arm, event.clone()));
+        }
+        if self.events.try_send((arm, event)).is_err() {
+            tracing::warn!("arm event queue full; dropping an event");
+        }
+    }
+
+    fn receive(&mut self, setup: &mut SimSetup, received: Received) {
+        if let (Some((inputs, _)), Some(record)) = (&mut self.recording, received.record) {
+            inputs.push(record);
+        }
+        if let Some(input) = received.input {
+            self.apply(setup, input);
+        }
+    }
+
     fn reject(&mut self, arm: Option<(usize, &str)>, topic: &str, reason: &str) {
         let who = arm.map(|(_, n)| n).unwrap_or("teleop");
         let key = format!("{who}/{topic}");
@@ -274,7 +326,7 @@ impl Loop {
         if let Some(line) = self.log.admit(&key, &message) {
             tracing::warn!("{line}");
             if let Some((index, _)) = arm {
-                let _ = self.events.try_send((index, ArmEvent::Error(line)));
+                self.event(index, ArmEvent::Error(line));
             }
         }
     }
@@ -351,7 +403,7 @@ impl Loop {
 
 fn run(
     mut setup: SimSetup,
-    inputs: Receiver<SimInput>,
+    inputs: Receiver<Received>,
     events: SyncSender<(usize, ArmEvent)>,
     frames: watch::Sender<Arc<Frame>>,
     wanted: &Wanted,
@@ -365,6 +417,7 @@ fn run(
         mtm_pose: None,
         mtm_gripper: 0.0,
         mtm_fresh: false,
+        recording: None,
     };
     let mut deadline = Instant::now();
     let mut index = 0u64;
@@ -372,12 +425,33 @@ fn run(
     // A finished frame whose tissue outputs are still to be built: while the simulation runs
     // behind real time, they are built during the next frame's GPU work instead of before it.
     let mut held: Option<HeldFrame> = None;
-    while !stop.load(Ordering::Relaxed) {
+    'frames: while !stop.load(Ordering::Relaxed) {
+        if setup.stop_at.is_some_and(|t| setup.world.time >= t - 1e-9) {
+            break;
+        }
+        let start = setup.world.time;
+        if setup.recorder.is_some() {
+            state.recording = Some(Default::default());
+        }
+        if let Some(mut replay) = setup.replay.take() {
+            let now = nanos(start);
+            while replay.front().is_some_and(|r| r.time <= now) {
+                let r = replay.pop_front().expect("front exists");
+                state.receive(
+                    &mut setup,
+                    Received {
+                        input: r.input,
+                        record: Some(r.record),
+                    },
+                );
+            }
+            setup.replay = Some(replay);
+        }
         loop {
             match inputs.try_recv() {
-                Ok(input) => state.apply(&mut setup, input),
+                Ok(received) => state.receive(&mut setup, received),
                 Err(TryRecvError::Empty) => break,
-                Err(TryRecvError::Disconnected) => return,
+                Err(TryRecvError::Disconnected) => break 'frames,
             }
         }
         state.teleoperate(&mut setup, frame_dt);
@@ -389,13 +463,15 @@ fn run(
                 tracing::error!("{}: {e}", arm.name());
             }
             for event in arm.take_events() {
-                if state.events.try_send((a, event)).is_err() {
-                    tracing::warn!("arm event queue full; dropping an event");
-                }
+                state.event(a, event);
             }
         }
-        let points = wanted.points.load(Ordering::Relaxed);
-        let surface = wanted.surface.load(Ordering::Relaxed);
+        let due = match &mut setup.recorder {
+            Some(tap) => tap.due(t_next),
+            None => Default::default(),
+        };
+        let points = wanted.points.load(Ordering::Relaxed) || due.points;
+        let surface = wanted.surface.load(Ordering::Relaxed) || due.surface;
         setup
             .world
             .set_deformation_readback(points || (surface && setup.surface.needs_deformation()));
@@ -410,7 +486,7 @@ fn run(
                 if let Some(line) = state.log.admit("guard", &e.to_string()) {
                     tracing::error!("{line}");
                     for a in 0..setup.arms.len() {
-                        let _ = state.events.try_send((a, ArmEvent::Error(line.clone())));
+                        state.event(a, ArmEvent::Error(line.clone()));
                     }
                 }
                 None
@@ -432,12 +508,22 @@ fn run(
         }
         let mut frame = frame_of(&setup, report.as_ref());
         frame.index = index;
+        let record = state.recording.take().and_then(|(inputs, events)| {
+            (due.any() || !inputs.is_empty() || !events.is_empty())
+                .then_some((start, inputs, events, due))
+        });
         let finished = HeldFrame {
             frame,
             points,
             surface,
+            record,
         };
 
+        if !setup.paced {
+            // As fast as frames compute: always build outputs during the next frame.
+            held = Some(finished);
+            continue;
+        }
         deadline += period;
         let now = Instant::now();
         if deadline > now {
@@ -464,19 +550,23 @@ fn run(
     }
 }
 
-/// A finished frame and the tissue outputs it is to carry.
+/// A finished frame, the tissue outputs it is to carry and, when recording, its share of the
+/// bag: its start time, applied inputs, arm events and the outputs due.
 struct HeldFrame {
     frame: Frame,
     points: bool,
     surface: bool,
+    record: Option<(f64, Vec<RecordedInput>, Vec<(usize, ArmEvent)>, Due)>,
 }
 
-/// Builds the frame's tissue outputs from the world's particles and hands it to the ROS side.
+/// Builds the frame's tissue outputs from the world's particles and hands it to the ROS side
+/// and the recorder.
 fn publish(setup: &mut SimSetup, frames: &watch::Sender<Arc<Frame>>, held: HeldFrame) {
     let HeldFrame {
         mut frame,
         points,
         surface,
+        record,
     } = held;
     if points {
         frame.cloud = Some(Arc::new(TissueCloud::from_particles(
@@ -487,7 +577,17 @@ fn publish(setup: &mut SimSetup, frames: &watch::Sender<Arc<Frame>>, held: HeldF
     if surface {
         frame.surface = Some(Arc::new(setup.surface.triangles(setup.world.particles())));
     }
-    frames.send_replace(Arc::new(frame));
+    let frame = Arc::new(frame);
+    if let (Some(tap), Some((start, inputs, events, due))) = (&mut setup.recorder, record) {
+        tap.send(FrameRecord {
+            start,
+            inputs,
+            events,
+            frame: frame.clone(),
+            due,
+        });
+    }
+    frames.send_replace(frame);
 }
 
 #[cfg(test)]

@@ -1,0 +1,301 @@
+//! The node's input topics: their names and types for a scene, and how a message on each
+//! becomes a [`SimInput`]. The node's subscriptions and the replay of a recorded bag go
+//! through the same conversion, so a replayed command does exactly what the live one did.
+
+use crate::config::{ArmMode, Scene};
+use crate::ros::arm::{ArmCommand, ArmInput};
+use crate::ros::msgs::*;
+use crate::ros::node::resolve;
+use crate::ros::sim_thread::SimInput;
+
+/// What an input topic is for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum InputKind {
+    ServoJp,
+    MoveJp,
+    JawServoJp,
+    JawMoveJp,
+    ServoCp,
+    MoveCp,
+    Hold,
+    Free,
+    StateCommand,
+    ServoCf,
+    GravityCompensation,
+    MirrorJs,
+    MirrorJaw,
+    MtmCp,
+    MtmGripper,
+    Clutch,
+    OperatorPresent,
+}
+
+/// A message on one of the input topics.
+#[derive(Clone, Debug, PartialEq)]
+pub enum InputMessage {
+    Joints(JointState),
+    Pose(PoseStamped),
+    Empty(Empty),
+    Command(StringStamped),
+    Wrench(WrenchStamped),
+    Flag(Bool),
+    Joy(Joy),
+}
+
+impl InputKind {
+    /// The ROS 2 type of the topic, `pkg/msg/Type`.
+    pub fn type_name(&self) -> String {
+        use InputKind::*;
+        match self {
+            ServoJp | MoveJp | JawServoJp | JawMoveJp | MirrorJs | MirrorJaw | MtmGripper => {
+                JointState::type_name()
+            }
+            ServoCp | MoveCp | MtmCp => PoseStamped::type_name(),
+            Hold | Free => Empty::type_name(),
+            StateCommand => StringStamped::type_name(),
+            ServoCf => WrenchStamped::type_name(),
+            GravityCompensation => Bool::type_name(),
+            Clutch | OperatorPresent => Joy::type_name(),
+        }
+    }
+
+    /// Decodes a CDR payload (with its encapsulation header) of this topic's type.
+    pub fn decode(&self, cdr: &[u8]) -> Result<InputMessage, String> {
+        use InputKind::*;
+        Ok(match self {
+            ServoJp | MoveJp | JawServoJp | JawMoveJp | MirrorJs | MirrorJaw | MtmGripper => {
+                InputMessage::Joints(from_cdr(cdr)?)
+            }
+            ServoCp | MoveCp | MtmCp => InputMessage::Pose(from_cdr(cdr)?),
+            Hold | Free => InputMessage::Empty(Empty {}),
+            StateCommand => InputMessage::Command(from_cdr(cdr)?),
+            ServoCf => InputMessage::Wrench(from_cdr(cdr)?),
+            GravityCompensation => InputMessage::Flag(from_cdr(cdr)?),
+            Clutch | OperatorPresent => InputMessage::Joy(from_cdr(cdr)?),
+        })
+    }
+}
+
+impl InputMessage {
+    /// The message as ROS 2 serializes it.
+    pub fn to_cdr(&self) -> Result<Vec<u8>, String> {
+        match self {
+            InputMessage::Joints(m) => to_cdr(m),
+            InputMessage::Pose(m) => to_cdr(m),
+            InputMessage::Empty(m) => to_cdr(m),
+            InputMessage::Command(m) => to_cdr(m),
+            InputMessage::Wrench(m) => to_cdr(m),
+            InputMessage::Flag(m) => to_cdr(m),
+            InputMessage::Joy(m) => to_cdr(m),
+        }
+    }
+}
+
+/// One input topic of a scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InputTopic {
+    /// Absolute topic name.
+    pub topic: String,
+    pub kind: InputKind,
+    /// The scene arm it drives (`None`: teleoperation inputs).
+    pub arm: Option<usize>,
+}
+
+/// Every input topic of `scene` under `namespace`, in a fixed order.
+pub fn input_topics(scene: &Scene, namespace: &str) -> Vec<InputTopic> {
+    use InputKind::*;
+    let name = |relative: &str| {
+        if relative.starts_with('/') {
+            relative.to_owned()
+        } else {
+            resolve(namespace, relative)
+        }
+    };
+    let mut out = Vec::new();
+    for (index, arm) in scene.arms.iter().enumerate() {
+        let n = &arm.name;
+        let mut push = |topic: String, kind| {
+            out.push(InputTopic {
+                topic,
+                kind,
+                arm: Some(index),
+            })
+        };
+        match arm.mode {
+            ArmMode::Simulated => {
+                for (suffix, kind) in [
+                    ("servo_jp", ServoJp),
+                    ("move_jp", MoveJp),
+                    ("jaw/servo_jp", JawServoJp),
+                    ("jaw/move_jp", JawMoveJp),
+                    ("servo_cp", ServoCp),
+                    ("move_cp", MoveCp),
+                    ("hold", Hold),
+                    ("free", Free),
+                    ("state_command", StateCommand),
+                    ("body/servo_cf", ServoCf),
+                    ("use_gravity_compensation", GravityCompensation),
+                ] {
+                    push(name(&format!("{n}/{suffix}")), kind);
+                }
+            }
+            ArmMode::Mirror => {
+                let of = arm.mirror_of.clone().unwrap_or_else(|| format!("/{n}"));
+                push(name(&format!("{of}/measured_js")), MirrorJs);
+                push(name(&format!("{of}/jaw/measured_js")), MirrorJaw);
+            }
+        }
+    }
+    if let Some(t) = &scene.teleop {
+        for (relative, kind) in [
+            (format!("{}/measured_cp", t.mtm), MtmCp),
+            (format!("{}/gripper/measured_js", t.mtm), MtmGripper),
+            (format!("{}/clutch", t.console), Clutch),
+            (format!("{}/operator_present", t.console), OperatorPresent),
+        ] {
+            out.push(InputTopic {
+                topic: name(&relative),
+                kind,
+                arm: None,
+            });
+        }
+    }
+    out
+}
+
+fn pose_parts(m: &PoseStamped) -> ([f64; 3], [f64; 4]) {
+    let p = &m.pose.position;
+    let o = &m.pose.orientation;
+    ([p.x, p.y, p.z], [o.x, o.y, o.z, o.w])
+}
+
+impl InputTopic {
+    /// What the message asks of the simulation: `Ok(None)` for a message accepted without
+    /// effect (gravity compensation of a kinematic arm), `Err` for one rejected here.
+    pub fn to_sim_input(&self, message: InputMessage) -> Result<Option<SimInput>, String> {
+        use InputKind::*;
+        let arm = |topic: &'static str, input: ArmInput| {
+            Ok(Some(SimInput::Arm {
+                arm: self.arm.unwrap_or(0),
+                command: ArmCommand { topic, input },
+            }))
+        };
+        match (self.kind, message) {
+            (ServoJp, InputMessage::Joints(m)) => arm(
+                "servo_jp",
+                ArmInput::ServoJp {
+                    names: m.name,
+                    positions: m.position,
+                },
+            ),
+            (MoveJp, InputMessage::Joints(m)) => arm(
+                "move_jp",
+                ArmInput::MoveJp {
+                    names: m.name,
+                    positions: m.position,
+                },
+            ),
+            (JawServoJp, InputMessage::Joints(m)) => arm(
+                "jaw/servo_jp",
+                ArmInput::JawServoJp {
+                    names: m.name,
+                    positions: m.position,
+                },
+            ),
+            (JawMoveJp, InputMessage::Joints(m)) => arm(
+                "jaw/move_jp",
+                ArmInput::JawMoveJp {
+                    names: m.name,
+                    positions: m.position,
+                },
+            ),
+            (ServoCp, InputMessage::Pose(m)) => {
+                let (position, quaternion) = pose_parts(&m);
+                arm(
+                    "servo_cp",
+                    ArmInput::ServoCp {
+                        position,
+                        quaternion,
+                    },
+                )
+            }
+            (MoveCp, InputMessage::Pose(m)) => {
+                let (position, quaternion) = pose_parts(&m);
+                arm(
+                    "move_cp",
+                    ArmInput::MoveCp {
+                        position,
+                        quaternion,
+                    },
+                )
+            }
+            (Hold, InputMessage::Empty(_)) => arm("hold", ArmInput::Hold),
+            (Free, InputMessage::Empty(_)) => arm("free", ArmInput::Free),
+            (StateCommand, InputMessage::Command(m)) => {
+                arm("state_command", ArmInput::StateCommand(m.string))
+            }
+            (ServoCf, InputMessage::Wrench(m)) => {
+                let w = m.wrench;
+                arm(
+                    "body/servo_cf",
+                    ArmInput::ServoCf([
+                        w.force.x, w.force.y, w.force.z, w.torque.x, w.torque.y, w.torque.z,
+                    ]),
+                )
+            }
+            (GravityCompensation, InputMessage::Flag(_)) => Ok(None),
+            (MirrorJs, InputMessage::Joints(m)) => arm(
+                "measured_js (mirrored)",
+                ArmInput::MirrorJs {
+                    names: m.name,
+                    positions: m.position,
+                },
+            ),
+            (MirrorJaw, InputMessage::Joints(m)) => arm(
+                "jaw/measured_js (mirrored)",
+                ArmInput::MirrorJaw {
+                    names: m.name,
+                    positions: m.position,
+                },
+            ),
+            (MtmCp, InputMessage::Pose(m)) => {
+                let (position, quaternion) = pose_parts(&m);
+                Ok(Some(SimInput::MtmPose {
+                    position,
+                    quaternion,
+                }))
+            }
+            (MtmGripper, InputMessage::Joints(m)) => Ok(Some(SimInput::MtmGripper(m.position))),
+            (Clutch, InputMessage::Joy(m)) => match m.buttons.first() {
+                Some(b) => Ok(Some(SimInput::Clutch(*b == 1))),
+                None => Err("Joy without buttons".into()),
+            },
+            (OperatorPresent, InputMessage::Joy(m)) => match m.buttons.first() {
+                Some(b) => Ok(Some(SimInput::OperatorPresent(*b == 1))),
+                None => Err("Joy without buttons".into()),
+            },
+            (kind, m) => Err(format!("{kind:?} cannot take {m:?}")),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn messages_round_trip_through_cdr() {
+        let js = InputMessage::Joints(JointState {
+            header: Header::new(Time::from_secs(1.5), "x"),
+            name: vec!["a".into()],
+            position: vec![0.25],
+            velocity: vec![],
+            effort: vec![],
+        });
+        let bytes = js.to_cdr().unwrap();
+        assert_eq!(&bytes[..4], &CDR_LE_HEADER);
+        assert_eq!(InputKind::ServoJp.decode(&bytes).unwrap(), js);
+        // std_msgs/Empty carries one padding byte, as other ROS 2 implementations send it.
+        assert_eq!(InputMessage::Empty(Empty {}).to_cdr().unwrap().len(), 5);
+    }
+}

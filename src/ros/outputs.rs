@@ -1,0 +1,458 @@
+//! The node's output messages, built from a finished [`Frame`]: what the publishers send and
+//! what the recorder writes are the same messages on the same topics. Also the output rates
+//! counted in simulated time, which the recorder follows (publishers follow the wall clock).
+
+use nalgebra::{Isometry3, Translation3};
+
+use crate::config::{ArmMode, Scene};
+use crate::output::{SurfaceTriangles, TissueCloud, CLOUD_POINT_STEP};
+use crate::robot::Psm;
+use crate::ros::arm::{ArmEvent, ArmStatus};
+use crate::ros::msgs::*;
+use crate::ros::node::resolve;
+use crate::ros::sim_thread::{Frame, SimSetup, ToolState};
+
+/// What the outputs need to know about an arm.
+#[derive(Clone)]
+pub struct ArmOutput {
+    pub name: String,
+    pub base_frame: String,
+    pub psm: Psm,
+    /// World from `<name>_base`.
+    pub base: Isometry3<f64>,
+    /// Simulated arms publish their state; mirrored ones publish nothing on the arm's topics.
+    pub simulated: bool,
+}
+
+/// MTM force feedback: the tool's contact wrench × scale on `<mtm>/body/servo_cf`.
+#[derive(Clone, Debug)]
+pub struct ForceFeedback {
+    pub topic: String,
+    pub scale: f64,
+    pub tool: usize,
+}
+
+/// Output rates (Hz; 0 turns an output off).
+#[derive(Clone, Copy, Debug)]
+pub struct OutputRates {
+    pub arm: f64,
+    pub points: f64,
+    pub surface: f64,
+    pub wrench: f64,
+    pub tf: f64,
+}
+
+/// Every output topic of a scene (absolute names) and what builds its messages.
+#[derive(Clone)]
+pub struct OutputLayout {
+    pub namespace: String,
+    pub arms: Vec<ArmOutput>,
+    pub tools: Vec<String>,
+    pub force_feedback: Option<ForceFeedback>,
+    pub rates: OutputRates,
+}
+
+impl OutputLayout {
+    pub fn new(scene: &Scene, setup: &SimSetup, namespace: &str) -> OutputLayout {
+        let arms = scene
+            .arms
+            .iter()
+            .zip(&setup.arms)
+            .map(|(arm, sim)| ArmOutput {
+                name: arm.name.clone(),
+                base_frame: sim.psm().base_frame().to_owned(),
+                psm: sim.psm().clone(),
+                base: *sim.base(),
+                simulated: arm.mode == ArmMode::Simulated,
+            })
+            .collect();
+        let force_feedback = scene.teleop.as_ref().and_then(|t| {
+            t.force_feedback.then(|| {
+                let arm = scene.arms.iter().position(|a| a.name == t.arm).unwrap_or(0);
+                ForceFeedback {
+                    topic: resolve(namespace, &format!("{}/body/servo_cf", t.mtm)),
+                    scale: t.force_feedback_scale,
+                    tool: setup.arm_tools.get(arm).copied().unwrap_or(0),
+                }
+            })
+        });
+        let o = &scene.outputs;
+        OutputLayout {
+            namespace: namespace.to_owned(),
+            arms,
+            tools: scene.tools.iter().map(|t| t.name.clone()).collect(),
+            force_feedback,
+            rates: OutputRates {
+                arm: o.arm_rate_hz,
+                points: o.points_rate_hz,
+                surface: o.surface_rate_hz,
+                wrench: o.wrench_rate_hz,
+                tf: o.tf_rate_hz,
+            },
+        }
+    }
+
+    /// Absolute name of a topic relative to the namespace (`/tf` stays global).
+    pub fn topic(&self, relative: &str) -> String {
+        if relative.starts_with('/') {
+            relative.to_owned()
+        } else {
+            resolve(&self.namespace, relative)
+        }
+    }
+
+    /// Every output topic with its type.
+    pub fn topics(&self) -> Vec<(String, String)> {
+        let mut out = Vec::new();
+        for arm in self.arms.iter().filter(|a| a.simulated) {
+            let n = &arm.name;
+            for t in [
+                "measured_js",
+                "setpoint_js",
+                "jaw/measured_js",
+                "jaw/setpoint_js",
+            ] {
+                out.push((self.topic(&format!("{n}/{t}")), JointState::type_name()));
+            }
+            for t in ["measured_cp", "setpoint_cp"] {
+                out.push((self.topic(&format!("{n}/{t}")), PoseStamped::type_name()));
+            }
+            out.push((
+                self.topic(&format!("{n}/measured_cv")),
+                TwistStamped::type_name(),
+            ));
+            out.push((
+                self.topic(&format!("{n}/operating_state")),
+                OperatingState::type_name(),
+            ));
+            for t in ["error", "warning", "status"] {
+                out.push((self.topic(&format!("{n}/{t}")), StringMsg::type_name()));
+            }
+        }
+        out.push((self.topic("tissue/points"), PointCloud2::type_name()));
+        out.push((self.topic("tissue/surface"), Marker::type_name()));
+        for tool in &self.tools {
+            out.push((
+                self.topic(&format!("tools/{tool}/wrench")),
+                WrenchStamped::type_name(),
+            ));
+        }
+        out.push(("/tf".to_owned(), TFMessage::type_name()));
+        if let Some(f) = &self.force_feedback {
+            out.push((f.topic.clone(), WrenchStamped::type_name()));
+        }
+        out
+    }
+}
+
+pub fn joint_state(stamp: Time, names: &[&str], position: &[f64], velocity: &[f64]) -> JointState {
+    JointState {
+        header: Header::new(stamp, ""),
+        name: names.iter().map(|s| s.to_string()).collect(),
+        position: position.to_vec(),
+        velocity: velocity.to_vec(),
+        effort: Vec::new(),
+    }
+}
+
+/// A simulated arm's periodic state messages (measured = setpoint).
+pub struct ArmMessages {
+    pub js: JointState,
+    pub jaw: JointState,
+    pub cp: PoseStamped,
+    pub cv: TwistStamped,
+}
+
+pub fn arm_messages(arm: &ArmOutput, status: &ArmStatus, stamp: Time) -> ArmMessages {
+    let names = arm.psm.joints().names();
+    ArmMessages {
+        js: joint_state(stamp, &names, &status.q, &status.qdot),
+        jaw: joint_state(stamp, &["jaw"], &[status.jaw], &[status.jaw_rate]),
+        cp: PoseStamped {
+            header: Header::new(stamp, &arm.base_frame),
+            pose: Pose::from_isometry(&status.cp),
+        },
+        cv: TwistStamped {
+            header: Header::new(stamp, &arm.base_frame),
+            twist: Twist {
+                linear: status.linear_velocity.into(),
+                angular: status.angular_velocity.into(),
+            },
+        },
+    }
+}
+
+/// A tool's contact wrench, in its frame, times `scale`.
+pub fn wrench_message(tool: &ToolState, scale: f64, stamp: Time) -> WrenchStamped {
+    WrenchStamped {
+        header: Header::new(stamp, &tool.frame_id),
+        wrench: Wrench {
+            force: (tool.wrench.force * scale).into(),
+            torque: (tool.wrench.torque * scale).into(),
+        },
+    }
+}
+
+pub fn cloud_message(cloud: &TissueCloud, stamp: Time) -> PointCloud2 {
+    let field = |name: &str, offset: u32| PointField {
+        name: name.into(),
+        offset,
+        datatype: PointField::FLOAT32,
+        count: 1,
+    };
+    PointCloud2 {
+        header: Header::new(stamp, "world"),
+        height: 1,
+        width: cloud.len() as u32,
+        fields: vec![
+            field("x", 0),
+            field("y", 4),
+            field("z", 8),
+            field(cloud.scalar_name(), 12),
+        ],
+        is_bigendian: false,
+        point_step: CLOUD_POINT_STEP as u32,
+        row_step: (CLOUD_POINT_STEP * cloud.len()) as u32,
+        data: cloud.cloud_bytes(),
+        is_dense: true,
+    }
+}
+
+pub fn surface_message(t: &SurfaceTriangles, stamp: Time) -> Marker {
+    let point = |p: &[f32; 3]| Point {
+        x: p[0] as f64,
+        y: p[1] as f64,
+        z: p[2] as f64,
+    };
+    Marker {
+        header: Header::new(stamp, "world"),
+        ns: "tissue".into(),
+        id: 0,
+        kind: Marker::TRIANGLE_LIST,
+        action: Marker::ADD,
+        pose: Pose::default(),
+        scale: Vector3Msg {
+            x: 1.0,
+            y: 1.0,
+            z: 1.0,
+        },
+        color: ColorRGBA {
+            r: 0.85,
+            g: 0.45,
+            b: 0.45,
+            a: 1.0,
+        },
+        points: t.corners.iter().map(point).collect(),
+        colors: t
+            .colours
+            .iter()
+            .map(|c| ColorRGBA {
+                r: c[0],
+                g: c[1],
+                b: c[2],
+                a: 1.0,
+            })
+            .collect(),
+        uv_coordinates: t
+            .uvs
+            .iter()
+            .map(|uv| UVCoordinate { u: uv[0], v: uv[1] })
+            .collect(),
+        ..Default::default()
+    }
+}
+
+/// `world` → each arm's base → its links; scripted tools in `world`.
+pub fn tf_message(arms: &[ArmOutput], frame: &Frame, stamp: Time) -> TFMessage {
+    let mut transforms = Vec::new();
+    for (arm, status) in arms.iter().zip(&frame.arms) {
+        transforms.push(TransformStamped {
+            header: Header::new(stamp, "world"),
+            child_frame_id: arm.base_frame.clone(),
+            transform: (&arm.base).into(),
+        });
+        if let Ok(links) = arm.psm.link_frames(&status.q, status.jaw) {
+            for link in links {
+                if link.link == arm.base_frame {
+                    continue;
+                }
+                transforms.push(TransformStamped {
+                    header: Header::new(stamp, &arm.base_frame),
+                    child_frame_id: link.link,
+                    transform: (&link.pose).into(),
+                });
+            }
+        }
+    }
+    for tool in &frame.tools {
+        if arms.iter().any(|a| a.name == tool.frame_id) {
+            continue;
+        }
+        let iso = Isometry3::from_parts(Translation3::from(tool.pose.position), tool.pose.rotation);
+        transforms.push(TransformStamped {
+            header: Header::new(stamp, "world"),
+            child_frame_id: tool.frame_id.clone(),
+            transform: (&iso).into(),
+        });
+    }
+    TFMessage { transforms }
+}
+
+/// A latched arm event as a message on the arm's topic `suffix`.
+pub enum EventMessage {
+    State(OperatingState),
+    Text {
+        suffix: &'static str,
+        message: StringMsg,
+    },
+}
+
+/// Turns arm events into messages; operating states get strictly increasing stamps per arm
+/// (clients drop a state not newer than the last).
+#[derive(Default)]
+pub struct EventStamps {
+    last: Vec<Time>,
+}
+
+impl EventStamps {
+    pub fn message(&mut self, arm: usize, event: ArmEvent) -> EventMessage {
+        let text = |suffix, s: String| EventMessage::Text {
+            suffix,
+            message: StringMsg { data: s },
+        };
+        match event {
+            ArmEvent::State {
+                time,
+                state,
+                homed,
+                busy,
+            } => {
+                if self.last.len() <= arm {
+                    self.last.resize(arm + 1, Time::default());
+                }
+                let last = &mut self.last[arm];
+                let mut stamp = Time::from_secs(time);
+                if stamp <= *last {
+                    stamp = Time::from_secs(last.as_secs() + 1e-6);
+                }
+                *last = stamp;
+                EventMessage::State(OperatingState {
+                    header: Header::new(stamp, ""),
+                    state: state.as_str().to_owned(),
+                    is_homed: homed,
+                    is_busy: busy,
+                })
+            }
+            ArmEvent::Error(s) => text("error", s),
+            ArmEvent::Warning(s) => text("warning", s),
+            ArmEvent::Status(s) => text("status", s),
+        }
+    }
+}
+
+/// An output rate counted in simulated time: due at the first frame ending at or after each
+/// multiple of the period (from one period on), so a recording and its replay sample the same frames.
+#[derive(Clone, Debug)]
+struct SimRate {
+    period: Option<f64>,
+    next: f64,
+}
+
+impl SimRate {
+    fn new(hz: f64) -> SimRate {
+        let period = (hz > 0.0).then(|| 1.0 / hz);
+        SimRate {
+            period,
+            next: period.unwrap_or(0.0),
+        }
+    }
+
+    fn due(&mut self, t: f64) -> bool {
+        let Some(period) = self.period else {
+            return false;
+        };
+        if t + 1e-9 < self.next {
+            return false;
+        }
+        self.next += period;
+        if self.next <= t + 1e-9 {
+            self.next = t + period;
+        }
+        true
+    }
+}
+
+/// Which outputs a frame carries.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Due {
+    pub arm: bool,
+    pub points: bool,
+    pub surface: bool,
+    pub wrench: bool,
+    pub tf: bool,
+}
+
+impl Due {
+    pub fn any(&self) -> bool {
+        self.arm || self.points || self.surface || self.wrench || self.tf
+    }
+}
+
+/// The output rates in simulated time.
+#[derive(Clone, Debug)]
+pub struct SimSchedule {
+    arm: SimRate,
+    points: SimRate,
+    surface: SimRate,
+    wrench: SimRate,
+    tf: SimRate,
+}
+
+impl SimSchedule {
+    pub fn new(rates: &OutputRates) -> SimSchedule {
+        SimSchedule {
+            arm: SimRate::new(rates.arm),
+            points: SimRate::new(rates.points),
+            surface: SimRate::new(rates.surface),
+            wrench: SimRate::new(rates.wrench),
+            tf: SimRate::new(rates.tf),
+        }
+    }
+
+    /// The outputs due for the frame ending at `t`; call once per frame, in order.
+    pub fn due(&mut self, t: f64) -> Due {
+        Due {
+            arm: self.arm.due(t),
+            points: self.points.due(t),
+            surface: self.surface.due(t),
+            wrench: self.wrench.due(t),
+            tf: self.tf.due(t),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rates_in_simulated_time_pick_every_nth_frame() {
+        let mut s = SimSchedule::new(&OutputRates {
+            arm: 100.0,
+            points: 30.0,
+            surface: 10.0,
+            wrench: 0.0,
+            tf: 60.0,
+        });
+        let (mut arm, mut points, mut surface, mut wrench, mut tf) = (0, 0, 0, 0, 0);
+        for k in 1..=60 {
+            let d = s.due(k as f64 / 60.0);
+            arm += d.arm as u32;
+            points += d.points as u32;
+            surface += d.surface as u32;
+            wrench += d.wrench as u32;
+            tf += d.tf as u32;
+        }
+        assert_eq!((arm, points, surface, wrench, tf), (60, 30, 10, 0, 60));
+    }
+}

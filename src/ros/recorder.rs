@@ -1,0 +1,466 @@
+//! The built-in recorder: a rosbag2-compatible MCAP file (profile `ros2`, `ros2msg` schemas,
+//! CDR payloads, `offered_qos_profiles` per channel) of every output the node publishes and
+//! every input it applied, on their topics with their types.
+//!
+//! The simulation thread hands each frame's share (the inputs it applied, the arm events,
+//! the finished frame when an output is due) to a writer thread through a bounded queue;
+//! when the queue is full the frame's share is dropped and counted, never waited for. Times
+//! are simulated: an input is logged at the simulated time of the frame start at which it was
+//! applied (so a replay applies it at the same frame), an output at its frame's end, which is
+//! also its header stamp. Outputs follow the scene's rates in simulated time.
+//!
+//! The file is finished (summary, footer) when the simulation side lets go of it: at the end
+//! of `--seconds`, on Ctrl-C, or on any orderly shutdown.
+
+use std::collections::{BTreeMap, HashMap};
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::mpsc::{sync_channel, Receiver, SyncSender, TrySendError};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use serde::Serialize;
+
+use crate::ros::arm::ArmEvent;
+use crate::ros::msgs::{to_cdr, RosMessage, Time};
+use crate::ros::outputs::{self, Due, EventMessage, EventStamps, OutputLayout, SimSchedule};
+use crate::ros::schema;
+use crate::ros::sim_thread::Frame;
+
+/// Frames whose share may wait for the writer; beyond this they are dropped and counted.
+pub const QUEUE_FRAMES: usize = 256;
+
+/// Simulated seconds as integer nanoseconds (the MCAP log time).
+pub fn nanos(t: f64) -> u64 {
+    if t.is_finite() && t > 0.0 {
+        (t * 1e9).round() as u64
+    } else {
+        0
+    }
+}
+
+/// An input as it arrived: its topic, type and CDR payload.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RecordedInput {
+    pub topic: String,
+    pub type_name: String,
+    pub cdr: Vec<u8>,
+}
+
+/// One frame's share of the recording.
+pub struct FrameRecord {
+    /// Simulated time at the frame start, when `inputs` were applied (s).
+    pub start: f64,
+    pub inputs: Vec<RecordedInput>,
+    pub events: Vec<(usize, ArmEvent)>,
+    /// The finished frame (outputs are built from it when due).
+    pub frame: Arc<Frame>,
+    pub due: Due,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum RecordError {
+    #[error("cannot create {path}: {source}")]
+    Create {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}: {message}")]
+    Write { path: PathBuf, message: String },
+}
+
+#[derive(Default)]
+struct Dropped {
+    frames: AtomicU64,
+    inputs: AtomicU64,
+}
+
+/// The simulation thread's end: decides which outputs are due and queues frames' shares.
+pub struct RecordTap {
+    tx: SyncSender<FrameRecord>,
+    schedule: SimSchedule,
+    dropped: Arc<Dropped>,
+    last_warning: Option<Instant>,
+}
+
+impl RecordTap {
+    /// The outputs to record for the frame ending at `t` (once per frame, in order).
+    pub fn due(&mut self, t: f64) -> Due {
+        self.schedule.due(t)
+    }
+
+    /// Queues a frame's share; drops it (counted, logged at most once a second) when the
+    /// writer is behind.
+    pub fn send(&mut self, record: FrameRecord) {
+        let inputs = record.inputs.len() as u64;
+        match self.tx.try_send(record) {
+            Ok(()) => {}
+            Err(TrySendError::Full(_)) | Err(TrySendError::Disconnected(_)) => {
+                let frames = self.dropped.frames.fetch_add(1, Ordering::Relaxed) + 1;
+                let lost_inputs = self.dropped.inputs.fetch_add(inputs, Ordering::Relaxed) + inputs;
+                let now = Instant::now();
+                if self
+                    .last_warning
+                    .is_none_or(|t| now.duration_since(t) >= Duration::from_secs(1))
+                {
+                    self.last_warning = Some(now);
+                    tracing::warn!(
+                        "recorder behind: {frames} frame(s) dropped from the bag so far \
+                         ({lost_inputs} input(s) among them)"
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// What was written.
+#[derive(Clone, Debug)]
+pub struct RecordSummary {
+    pub path: PathBuf,
+    pub messages: u64,
+    pub topics: usize,
+    pub bytes: u64,
+    /// Simulated time span of the messages (s).
+    pub span: f64,
+    pub dropped_frames: u64,
+    pub dropped_inputs: u64,
+}
+
+impl std::fmt::Display for RecordSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{}: {} messages on {} topics over {:.3} s simulated, {:.1} MB; {} frame(s) dropped \
+             ({} input(s) among them)",
+            self.path.display(),
+            self.messages,
+            self.topics,
+            self.span,
+            self.bytes as f64 / 1e6,
+            self.dropped_frames,
+            self.dropped_inputs
+        )
+    }
+}
+
+/// The writer thread's handle: [`Recorder::finish`] waits for the file to be complete.
+pub struct Recorder {
+    path: PathBuf,
+    dropped: Arc<Dropped>,
+    thread: Option<JoinHandle<Result<RecordSummary, String>>>,
+}
+
+impl Recorder {
+    /// Creates `path` and starts the writer thread for a scene's `layout`.
+    pub fn create(path: &Path, layout: OutputLayout) -> Result<(Recorder, RecordTap), RecordError> {
+        let file = File::create(path).map_err(|source| RecordError::Create {
+            path: path.to_owned(),
+            source,
+        })?;
+        let writer = mcap::WriteOptions::new()
+            .profile("ros2")
+            .library(concat!("dvrk-tissue-sim ", env!("CARGO_PKG_VERSION")))
+            .create(BufWriter::with_capacity(1 << 20, file))
+            .map_err(|e| RecordError::Write {
+                path: path.to_owned(),
+                message: e.to_string(),
+            })?;
+        let (tx, rx) = sync_channel(QUEUE_FRAMES);
+        let dropped = Arc::new(Dropped::default());
+        let schedule = SimSchedule::new(&layout.rates);
+        let bag = Bag {
+            writer,
+            schemas: HashMap::new(),
+            channels: HashMap::new(),
+            layout,
+            stamps: EventStamps::default(),
+            messages: 0,
+            first: None,
+            last: 0,
+        };
+        let thread = {
+            let file_path = path.to_owned();
+            let dropped = dropped.clone();
+            std::thread::Builder::new()
+                .name("recorder".into())
+                .spawn(move || write_all(rx, bag, file_path, &dropped))
+                .map_err(|e| RecordError::Write {
+                    path: path.to_owned(),
+                    message: format!("cannot start the writer thread: {e}"),
+                })?
+        };
+        Ok((
+            Recorder {
+                path: path.to_owned(),
+                dropped: dropped.clone(),
+                thread: Some(thread),
+            },
+            RecordTap {
+                tx,
+                schedule,
+                dropped,
+                last_warning: None,
+            },
+        ))
+    }
+
+    /// Waits until the file is finished. Call after the [`RecordTap`] is gone (the
+    /// simulation thread has ended); returns what was written.
+    pub fn finish(mut self) -> Result<RecordSummary, RecordError> {
+        let result = match self.thread.take().map(|t| t.join()) {
+            Some(Ok(r)) => r,
+            Some(Err(_)) => Err("the writer thread panicked".into()),
+            None => Err("already finished".into()),
+        };
+        result.map_err(|message| RecordError::Write {
+            path: self.path.clone(),
+            message,
+        })
+    }
+
+    /// Frames dropped so far because the writer was behind.
+    pub fn dropped_frames(&self) -> u64 {
+        self.dropped.frames.load(Ordering::Relaxed)
+    }
+}
+
+/// rosbag2's QoS description of a channel (`offered_qos_profiles`).
+#[derive(Clone, Copy)]
+enum Qos {
+    /// The node's periodic outputs: reliable, volatile, keep last 5.
+    Periodic,
+    /// Latched events: reliable, transient local, keep last 100.
+    Latched,
+    /// Commands as the node subscribes them: reliable, volatile, keep last 10.
+    Command,
+}
+
+impl Qos {
+    fn yaml(self) -> String {
+        let (depth, durability) = match self {
+            Qos::Periodic => (5, 2),
+            Qos::Latched => (100, 1),
+            Qos::Command => (10, 2),
+        };
+        let infinite = "\n    sec: 9223372036\n    nsec: 854775807";
+        format!(
+            "- history: 1\n  depth: {depth}\n  reliability: 1\n  durability: {durability}\n  \
+             deadline:{infinite}\n  lifespan:{infinite}\n  liveliness: 1\n  \
+             liveliness_lease_duration:{infinite}\n  avoid_ros_namespace_conventions: false\n"
+        )
+    }
+}
+
+struct Bag {
+    writer: mcap::Writer<BufWriter<File>>,
+    schemas: HashMap<String, u16>,
+    /// Channel id and next sequence number per topic.
+    channels: HashMap<String, (u16, u32)>,
+    layout: OutputLayout,
+    stamps: EventStamps,
+    messages: u64,
+    first: Option<u64>,
+    last: u64,
+}
+
+impl Bag {
+    fn channel(&mut self, topic: &str, type_name: &str, qos: Qos) -> Result<(u16, u32), String> {
+        if let Some(entry) = self.channels.get_mut(topic) {
+            let current = *entry;
+            entry.1 = entry.1.wrapping_add(1);
+            return Ok(current);
+        }
+        let schema = match self.schemas.get(type_name) {
+            Some(&id) => id,
+            None => {
+                let text = schema::ros2msg(type_name)
+                    .ok_or_else(|| format!("no message definition for {type_name}"))?;
+                let id = self
+                    .writer
+                    .add_schema(type_name, "ros2msg", text.as_bytes())
+                    .map_err(|e| e.to_string())?;
+                self.schemas.insert(type_name.to_owned(), id);
+                id
+            }
+        };
+        let metadata = BTreeMap::from([("offered_qos_profiles".to_owned(), qos.yaml())]);
+        let id = self
+            .writer
+            .add_channel(schema, topic, "cdr", &metadata)
+            .map_err(|e| e.to_string())?;
+        self.channels.insert(topic.to_owned(), (id, 2));
+        Ok((id, 1))
+    }
+
+    fn write_cdr(
+        &mut self,
+        topic: &str,
+        type_name: &str,
+        qos: Qos,
+        time: u64,
+        cdr: &[u8],
+    ) -> Result<(), String> {
+        let (channel_id, sequence) = self.channel(topic, type_name, qos)?;
+        self.writer
+            .write_to_known_channel(
+                &mcap::records::MessageHeader {
+                    channel_id,
+                    sequence,
+                    log_time: time,
+                    publish_time: time,
+                },
+                cdr,
+            )
+            .map_err(|e| e.to_string())?;
+        self.messages += 1;
+        self.first.get_or_insert(time);
+        self.last = self.last.max(time);
+        Ok(())
+    }
+
+    fn write<M: RosMessage + Serialize>(
+        &mut self,
+        relative: &str,
+        qos: Qos,
+        time: u64,
+        message: &M,
+    ) -> Result<(), String> {
+        let topic = self.layout.topic(relative);
+        let cdr = to_cdr(message)?;
+        self.write_cdr(&topic, &M::type_name(), qos, time, &cdr)
+    }
+
+    fn write_record(&mut self, record: FrameRecord) -> Result<(), String> {
+        let start = nanos(record.start);
+        for input in &record.inputs {
+            self.write_cdr(
+                &input.topic,
+                &input.type_name,
+                Qos::Command,
+                start,
+                &input.cdr,
+            )?;
+        }
+        let frame = record.frame;
+        let end = nanos(frame.time);
+        let stamp = Time::from_secs(frame.time);
+        for (arm, event) in record.events {
+            let Some(name) = self
+                .layout
+                .arms
+                .get(arm)
+                .filter(|a| a.simulated)
+                .map(|a| a.name.clone())
+            else {
+                continue;
+            };
+            match self.stamps.message(arm, event) {
+                EventMessage::State(m) => {
+                    self.write(&format!("{name}/operating_state"), Qos::Latched, end, &m)?
+                }
+                EventMessage::Text { suffix, message } => {
+                    self.write(&format!("{name}/{suffix}"), Qos::Latched, end, &message)?
+                }
+            }
+        }
+        let due = record.due;
+        if due.arm {
+            let arms: Vec<_> = self.layout.arms.clone();
+            for (arm, status) in arms.iter().zip(&frame.arms) {
+                if !arm.simulated {
+                    continue;
+                }
+                let m = outputs::arm_messages(arm, status, stamp);
+                let n = &arm.name;
+                self.write(&format!("{n}/measured_js"), Qos::Periodic, end, &m.js)?;
+                self.write(&format!("{n}/setpoint_js"), Qos::Periodic, end, &m.js)?;
+                self.write(&format!("{n}/jaw/measured_js"), Qos::Periodic, end, &m.jaw)?;
+                self.write(&format!("{n}/jaw/setpoint_js"), Qos::Periodic, end, &m.jaw)?;
+                self.write(&format!("{n}/measured_cp"), Qos::Periodic, end, &m.cp)?;
+                self.write(&format!("{n}/setpoint_cp"), Qos::Periodic, end, &m.cp)?;
+                self.write(&format!("{n}/measured_cv"), Qos::Periodic, end, &m.cv)?;
+            }
+            if let Some(f) = self.layout.force_feedback.clone() {
+                if let Some(tool) = frame.tools.get(f.tool) {
+                    let m = outputs::wrench_message(tool, f.scale, stamp);
+                    self.write(&f.topic, Qos::Periodic, end, &m)?;
+                }
+            }
+        }
+        if due.wrench {
+            let names = self.layout.tools.clone();
+            for (name, tool) in names.iter().zip(&frame.tools) {
+                let m = outputs::wrench_message(tool, 1.0, stamp);
+                self.write(&format!("tools/{name}/wrench"), Qos::Periodic, end, &m)?;
+            }
+        }
+        if due.tf {
+            let m = outputs::tf_message(&self.layout.arms, &frame, stamp);
+            self.write("/tf", Qos::Periodic, end, &m)?;
+        }
+        if due.points {
+            if let Some(cloud) = &frame.cloud {
+                let m = outputs::cloud_message(cloud, stamp);
+                self.write("tissue/points", Qos::Periodic, end, &m)?;
+            }
+        }
+        if due.surface {
+            if let Some(surface) = &frame.surface {
+                let m = outputs::surface_message(surface, stamp);
+                self.write("tissue/surface", Qos::Periodic, end, &m)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+fn write_all(
+    rx: Receiver<FrameRecord>,
+    mut bag: Bag,
+    path: PathBuf,
+    dropped: &Dropped,
+) -> Result<RecordSummary, String> {
+    let mut failed: Option<String> = None;
+    // Ends when the simulation side lets go of its sender.
+    for record in rx {
+        if failed.is_some() {
+            continue;
+        }
+        if let Err(e) = bag.write_record(record) {
+            tracing::error!(
+                "recording {}: {e}; nothing more is recorded",
+                path.display()
+            );
+            failed = Some(e);
+        }
+    }
+    let finished = bag.writer.finish().map_err(|e| e.to_string());
+    let flushed = finished.and_then(|_| {
+        use std::io::Write;
+        bag.writer.into_inner().flush().map_err(|e| e.to_string())
+    });
+    if let Some(e) = failed {
+        return Err(e);
+    }
+    flushed?;
+    let bytes = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
+    let summary = RecordSummary {
+        path,
+        messages: bag.messages,
+        topics: bag.channels.len(),
+        bytes,
+        span: bag.last.saturating_sub(bag.first.unwrap_or(0)) as f64 * 1e-9,
+        dropped_frames: dropped.frames.load(Ordering::Relaxed),
+        dropped_inputs: dropped.inputs.load(Ordering::Relaxed),
+    };
+    if summary.dropped_frames > 0 {
+        tracing::warn!("recorded {summary}");
+    } else {
+        tracing::info!("recorded {summary}");
+    }
+    Ok(summary)
+}

@@ -1,0 +1,225 @@
+//! Replay of a bag written by `run --record`: its input messages (arm commands, MTM and
+//! console topics) drive the arms again, each applied at the frame start at which the
+//! recording node applied it (its log time is that frame's simulated start time). Same
+//! scene, same inputs at the same frames: on the CPU backend the tissue outputs repeat bit for
+//! bit.
+//!
+//! The bag must come from this scene and namespace: every topic in it must be one of the
+//! scene's input or output topics, and at least one input must be there.
+
+use std::collections::{BTreeSet, VecDeque};
+use std::fs::File;
+use std::io::BufReader;
+use std::path::{Path, PathBuf};
+
+use crate::config::Scene;
+use crate::ros::inputs::{input_topics, InputTopic};
+use crate::ros::outputs::OutputLayout;
+use crate::ros::recorder::RecordedInput;
+use crate::ros::sim_thread::SimInput;
+
+/// A recorded input, due at the frame starting at `time` (ns of simulated time).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReplayInput {
+    pub time: u64,
+    /// `None` for a message that has no effect on the simulation (recorded all the same).
+    pub input: Option<SimInput>,
+    pub record: RecordedInput,
+}
+
+/// The inputs of a bag, in the order they were applied.
+#[derive(Clone, Debug)]
+pub struct Replay {
+    pub inputs: VecDeque<ReplayInput>,
+    /// Simulated time of the bag's last message (s): a replay runs this long.
+    pub end: f64,
+    /// Messages in the bag, inputs and outputs.
+    pub messages: u64,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ReplayError {
+    #[error("cannot open {path}: {source}")]
+    Open {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path} is not a readable MCAP file: {message}")]
+    Corrupt { path: PathBuf, message: String },
+    #[error(
+        "{path} was not recorded on this scene ({scene}; namespace {namespace}): \
+         topic(s) {topics} are not among its inputs and outputs"
+    )]
+    OtherScene {
+        path: PathBuf,
+        scene: String,
+        namespace: String,
+        topics: String,
+    },
+    #[error(
+        "{path} has no input messages on this scene's input topics ({topics}): \
+         nothing to drive the arms with"
+    )]
+    NoInputs { path: PathBuf, topics: String },
+    #[error("{path}: message {index} on {topic}: {message}")]
+    Message {
+        path: PathBuf,
+        index: u64,
+        topic: String,
+        message: String,
+    },
+}
+
+/// Reads the inputs of the bag at `path` for `scene` under `namespace`.
+pub fn load(
+    path: &Path,
+    scene: &Scene,
+    layout: &OutputLayout,
+    namespace: &str,
+) -> Result<Replay, ReplayError> {
+    let file = File::open(path).map_err(|source| ReplayError::Open {
+        path: path.to_owned(),
+        source,
+    })?;
+    let inputs_of_scene: Vec<InputTopic> = input_topics(scene, namespace);
+    let outputs_of_scene: BTreeSet<String> = layout
+        .topics()
+        .into_iter()
+        .map(|(topic, _)| topic)
+        .collect();
+    let mut unknown = BTreeSet::new();
+    let mut inputs = VecDeque::new();
+    let mut end = 0u64;
+    let mut messages = 0u64;
+    for (index, message) in mcap::io::MessageReader::new(BufReader::new(file)).enumerate() {
+        let message = message.map_err(|e| ReplayError::Corrupt {
+            path: path.to_owned(),
+            message: e.to_string(),
+        })?;
+        messages += 1;
+        end = end.max(message.log_time);
+        let topic = &message.channel.topic;
+        let Some(input) = inputs_of_scene.iter().find(|t| &t.topic == topic) else {
+            if !outputs_of_scene.contains(topic) {
+                unknown.insert(topic.clone());
+            }
+            continue;
+        };
+        let fail = |m: String| ReplayError::Message {
+            path: path.to_owned(),
+            index: index as u64,
+            topic: topic.clone(),
+            message: m,
+        };
+        let type_name = input.kind.type_name();
+        let schema = message.channel.schema.as_ref().map(|s| s.name.as_str());
+        if schema != Some(type_name.as_str()) {
+            return Err(fail(format!(
+                "type {}, expected {type_name}",
+                schema.unwrap_or("(no schema)")
+            )));
+        }
+        if message.channel.message_encoding != "cdr" {
+            return Err(fail(format!(
+                "message encoding {}, expected cdr",
+                message.channel.message_encoding
+            )));
+        }
+        let decoded = input.kind.decode(&message.data).map_err(fail)?;
+        // A message the node rejected before the simulation (a Joy without buttons) has no
+        // effect either way.
+        let sim_input = input.to_sim_input(decoded).unwrap_or(None);
+        inputs.push_back(ReplayInput {
+            time: message.log_time,
+            input: sim_input,
+            record: RecordedInput {
+                topic: topic.clone(),
+                type_name,
+                cdr: message.data.into_owned(),
+            },
+        });
+    }
+    if !unknown.is_empty() {
+        let arms: Vec<&str> = scene.arms.iter().map(|a| a.name.as_str()).collect();
+        return Err(ReplayError::OtherScene {
+            path: path.to_owned(),
+            scene: format!("\"{}\", arms {}", scene.name, arms.join(", ")),
+            namespace: namespace.to_owned(),
+            topics: unknown.into_iter().take(5).collect::<Vec<_>>().join(", "),
+        });
+    }
+    if inputs.is_empty() {
+        return Err(ReplayError::NoInputs {
+            path: path.to_owned(),
+            topics: inputs_of_scene
+                .iter()
+                .map(|t| t.topic.as_str())
+                .take(4)
+                .collect::<Vec<_>>()
+                .join(", ")
+                + ", ...",
+        });
+    }
+    Ok(Replay {
+        inputs,
+        end: end as f64 * 1e-9,
+        messages,
+    })
+}
+
+/// What a run without the network ([`run_headless`]) did.
+#[derive(Clone, Debug)]
+pub struct HeadlessRun {
+    pub frames: u64,
+    /// Simulated time reached (s).
+    pub time: f64,
+    pub wall: std::time::Duration,
+    pub record: Option<crate::ros::recorder::RecordSummary>,
+}
+
+/// Replays `settings.replay` on `scene` with no DDS participant, frames as fast as they
+/// compute, recording to `settings.record` if given. Ctrl-C ends it early with the bag
+/// finished.
+pub fn run_headless(
+    scene: &Scene,
+    settings: &crate::ros::NodeSettings,
+) -> Result<HeadlessRun, crate::ros::NodeError> {
+    use crate::ros::node::{finish_recording, prepare};
+    use crate::ros::NodeError;
+    let started = std::time::Instant::now();
+    let (mut setup, recorder) = prepare(scene, settings)?;
+    setup.paced = false;
+    let mut sim = crate::ros::sim_thread::spawn(setup);
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .map_err(|e| NodeError(format!("tokio runtime: {e}")))?;
+    runtime.block_on(async {
+        let ctrl_c = tokio::signal::ctrl_c();
+        tokio::pin!(ctrl_c);
+        let mut tick = tokio::time::interval(std::time::Duration::from_millis(20));
+        loop {
+            tokio::select! {
+                _ = &mut ctrl_c => {
+                    tracing::info!("Ctrl-C: stopping the replay");
+                    break;
+                }
+                _ = tick.tick() => {}
+            }
+            // Nobody publishes the arm events here; keep their queue from filling.
+            while sim.events.try_recv().is_ok() {}
+            if sim.is_finished() {
+                break;
+            }
+        }
+    });
+    sim.shutdown();
+    let frame = sim.frames.borrow().clone();
+    let record = finish_recording(recorder)?;
+    Ok(HeadlessRun {
+        frames: frame.index,
+        time: frame.time,
+        wall: started.elapsed(),
+        record,
+    })
+}
