@@ -25,7 +25,9 @@ mod pack;
 use super::backend::{FramePlan, FrameStats, P2gAtomics};
 use super::grid::NODES_PER_BLOCK;
 use super::guard::{GuardEvent, GuardKind};
-use super::{Boundary, GridLayout, MaterialParams, Particles, TableHold, Vec3, MAX_TOOLS};
+use super::{
+    Boundary, GridLayout, MaterialParams, Particles, SolverKind, TableHold, Vec3, MAX_TOOLS,
+};
 use adapter::GpuContext;
 use pack::{GpuParticle, GpuTool, SimUniform, StepUniform};
 use std::sync::mpsc;
@@ -55,6 +57,7 @@ pub struct GpuSetup {
     pub max_substeps: u32,
     pub tool_count: usize,
     pub p2g: P2gAtomics,
+    pub kind: SolverKind,
 }
 
 const WG: u32 = 64;
@@ -177,6 +180,11 @@ fn shader_source(stage: &str, float_p2g: bool) -> String {
 
 impl GpuSolver {
     pub fn new(ctx: GpuContext, setup: GpuSetup) -> Result<Self, GpuError> {
+        if setup.kind != SolverKind::MlsMpm {
+            return Err(GpuError::Device(
+                "solver.method = \"pb_mpm\" runs on the CPU backend only".to_owned(),
+            ));
+        }
         let float_p2g = match setup.p2g {
             P2gAtomics::Auto => ctx.float_atomics,
             P2gAtomics::Float if !ctx.float_atomics => {
