@@ -1,11 +1,10 @@
 //! Position-based MPM (Lewin 2024; seed 002 §III-C, eqs. 13–16) on the CPU.
 //!
-//! One substep of length dt:
-//! 1. gravity enters the particle velocities once: v ← v + g·dt;
-//! 2. `iterations` times: the elastic constraint corrects each particle's affine velocity C
-//!    (below) → clear grid → P2G of APIC momentum m(v + C(xᵢ − xₚ)) and mass → grid update
-//!    (tools with momentum exchange, table, walls; no gravity) → G2P of v and C;
-//! 3. integration, once: x ← x + v·dt, F ← (I + C·dt)F, damping, guard.
+//! One substep of length dt, `iterations` times: the elastic constraint corrects each
+//! particle's affine velocity C (below) → clear grid → P2G of APIC momentum
+//! m(v + C(xᵢ − xₚ)) and mass → grid update (gravity in the first iteration only; tools
+//! with momentum exchange, table, walls) → G2P of v and C; the last G2P also integrates,
+//! once per substep: x ← x + v·dt, F ← (I + C·dt)F, damping, guard.
 //!
 //! The grid carries velocity rather than the reference's mass-weighted displacement: the
 //! two differ by the factor dt, and velocity lets the tool contact and the boundaries of
@@ -63,7 +62,7 @@ pub fn project_elastic(c: &Mat3, f: &Mat3, dt: f32, step: f32) -> Mat3 {
 impl CpuSolver {
     /// One PB-MPM substep (module docs).
     pub(super) fn pb_substep(&mut self, input: &SubstepInput, params: PbMpmParams) -> SubstepStats {
-        let grid_input = SubstepInput {
+        let later = SubstepInput {
             gravity: Vec3::zeros(),
             ..*input
         };
@@ -72,11 +71,10 @@ impl CpuSolver {
         let iterations = params.iterations.max(1);
         let mut end = (0.0, 0, None);
         for k in 0..iterations {
-            let gravity = if k == 0 { input.gravity } else { Vec3::zeros() };
-            self.constrain(input.dt, params.relaxation, gravity);
+            self.constrain(input.dt, params.relaxation);
             self.clear_touched_blocks();
             self.particle_to_grid(None);
-            let impulses = self.update_grid(&grid_input);
+            let impulses = self.update_grid(if k == 0 { input } else { &later });
             for (acc, imp) in tool_impulses.iter_mut().zip(&impulses) {
                 acc.add(imp);
             }
@@ -94,24 +92,20 @@ impl CpuSolver {
         }
     }
 
-    /// Elastic constraint on every particle's C; `gravity·dt` is added to v as well (once
-    /// per substep: pass zero after the first iteration).
-    fn constrain(&mut self, dt: f32, relaxation: f32, gravity: Vec3) {
+    /// Elastic constraint on every particle's C.
+    fn constrain(&mut self, dt: f32, relaxation: f32) {
         let dx = self.layout.dx;
         let materials = &self.materials[..];
-        let kick = gravity * dt;
         let parts = &mut self.particles;
         parts
             .c
             .par_iter_mut()
-            .zip(parts.v.par_iter_mut())
             .zip(parts.f.par_iter())
             .zip(parts.material.par_iter())
             .with_min_len(256)
-            .for_each(|(((c, v), f), &m)| {
+            .for_each(|((c, f), &m)| {
                 let step = constraint_step(&materials[m as usize], relaxation, dt, dx);
                 *c = project_elastic(c, f, dt, step);
-                *v += kick;
             });
     }
 }
