@@ -1,13 +1,17 @@
 //! One scene's simulation: tissue, tools, time. `World::step_frame` advances one output
-//! frame in as many CFL-bounded substeps as stability requires.
+//! frame in as many CFL-bounded substeps as stability requires: MLS-MPM's bound is the
+//! elastic wave and the material speed, PB-MPM's the material speed alone, under a substep
+//! of `solver.dt` (default 1/240 s).
 
-use crate::config::{Hold, Scene};
+use crate::config::{Hold, Scene, PB_MPM_DEFAULT_DT};
 use crate::mpm::backend::{Backend, CpuBackend, FramePlan};
 use crate::mpm::cpu::CpuSolver;
 use crate::mpm::gpu::{self, GpuError, GpuSetup, GpuSolver};
 use crate::mpm::grid::{Boundary, GridLayout, TableHold};
 use crate::mpm::guard::{GuardEvent, GuardPolicy};
-use crate::mpm::{timestep, Lame, MaterialParams, Particles, Vec3};
+use crate::mpm::{
+    timestep, Lame, MaterialParams, Method, Particles, PbMpmParams, SolverKind, Vec3,
+};
 use crate::sleep::{Aabb, SleepState};
 use crate::tools::{ContactModel, Shape, ToolKinematics, ToolPose, ToolVelocity, Trajectory};
 use nalgebra::{UnitQuaternion, Vector3};
@@ -274,6 +278,13 @@ impl World {
             })
             .collect();
         let max_speed = scene.solver.max_speed as f32;
+        let kind = match scene.solver.method {
+            Method::MlsMpm => SolverKind::MlsMpm,
+            Method::PbMpm => SolverKind::PbMpm(PbMpmParams {
+                iterations: scene.solver.iterations,
+                relaxation: scene.solver.relaxation as f32,
+            }),
+        };
         let backend = match gpu::adapter::select(scene.solver.backend)? {
             Some(ctx) => Backend::Gpu(Box::new(GpuSolver::new(
                 ctx,
@@ -286,11 +297,14 @@ impl World {
                     max_substeps: scene.solver.max_substeps_per_frame,
                     tool_count: tools.len(),
                     p2g: scene.solver.p2g_atomics,
+                    kind,
                 },
             )?)),
-            None => Backend::Cpu(Box::new(CpuBackend::new(CpuSolver::new(
-                layout, particles, materials, boundary, max_speed,
-            )))),
+            None => {
+                let mut solver = CpuSolver::new(layout, particles, materials, boundary, max_speed);
+                solver.kind = kind;
+                Backend::Cpu(Box::new(CpuBackend::new(solver)))
+            }
         };
         Ok(World {
             scene: scene.clone(),
@@ -339,15 +353,28 @@ impl World {
         1.0 / self.scene.frame_rate_hz
     }
 
-    /// Largest stable substep given current particle and tool speeds.
+    /// Largest stable substep given current particle and tool speeds: the elastic wave
+    /// bounds MLS-MPM too, PB-MPM only the advection.
     pub fn stable_dt(&self, tool_speed: f64) -> f64 {
         let speed = (self.last_max_speed as f64).max(tool_speed);
+        let wave_speed = match self.scene.solver.method {
+            Method::MlsMpm => self.wave_speed,
+            Method::PbMpm => 0.0,
+        };
         timestep::stable_dt(
             self.scene.solver.cfl,
             self.scene.domain.dx,
-            self.wave_speed,
+            wave_speed,
             speed,
         )
+    }
+
+    /// The substep the scene asks for: `solver.dt`, or for PB-MPM its default 1/240 s.
+    fn requested_dt(&self) -> Option<f64> {
+        match self.scene.solver.method {
+            Method::MlsMpm => self.scene.solver.dt,
+            Method::PbMpm => Some(self.scene.solver.dt.unwrap_or(PB_MPM_DEFAULT_DT)),
+        }
     }
 
     /// Makes tool `index` follow commanded poses: it reaches `pose` at the end of the next
@@ -473,9 +500,9 @@ impl World {
             })
             .fold(0.0, f64::max);
         let mut dt_limit = self.stable_dt(tool_speed);
-        if let Some(fixed) = self.scene.solver.dt {
+        if let Some(fixed) = self.requested_dt() {
             if fixed > dt_limit {
-                if !self.warned_fixed_dt {
+                if self.scene.solver.dt.is_some() && !self.warned_fixed_dt {
                     tracing::warn!(
                         "solver.dt = {fixed:.3e} s exceeds the stable bound {dt_limit:.3e} s; subdividing"
                     );

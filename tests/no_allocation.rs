@@ -64,3 +64,51 @@ fn substeps_do_not_allocate() {
     assert!(contacts > 0, "the gripper should be in contact");
     assert_eq!(allocations, 0, "50 substeps allocated {allocations} times");
 }
+
+#[test]
+fn pb_mpm_substeps_do_not_allocate() {
+    use dvrk_tissue_sim::mpm::{Method, PbMpmParams, SolverKind};
+    let mut scene = seed000_scene();
+    scene.solver.backend = BackendChoice::Cpu;
+    scene.solver.method = Method::PbMpm;
+    let mut world = World::new(&scene);
+    while world.time < 0.15 {
+        world.step_frame().unwrap();
+    }
+    let tool = &world.tools[0];
+    let pose = tool.pose_at(world.time);
+    let kinematics = [ToolKinematics::new(
+        tool.shape,
+        tool.contact,
+        &pose,
+        &ToolVelocity::default(),
+        scene.domain.dx as f32,
+    )];
+    let input = SubstepInput {
+        dt: 1.0 / 240.0,
+        gravity: nalgebra::Vector3::new(0.0, 0.0, -9.81),
+        tools: &kinematics,
+    };
+    let Backend::Cpu(cpu) = &mut world.backend else {
+        unreachable!("the scene asks for the CPU backend")
+    };
+    let solver = &mut cpu.solver;
+    assert_eq!(
+        solver.kind,
+        SolverKind::PbMpm(PbMpmParams {
+            iterations: 5,
+            relaxation: 1.5
+        })
+    );
+    let (contacts, allocations) = rayon::scope(|_| {
+        solver.substep(&input);
+        let before = ALLOCATIONS.load(Ordering::SeqCst);
+        let mut contacts = 0;
+        for _ in 0..10 {
+            contacts += solver.substep(&input).tool_impulses[0].contact_nodes;
+        }
+        (contacts, ALLOCATIONS.load(Ordering::SeqCst) - before)
+    });
+    assert!(contacts > 0, "the gripper should be in contact");
+    assert_eq!(allocations, 0, "10 substeps allocated {allocations} times");
+}

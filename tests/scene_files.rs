@@ -72,6 +72,41 @@ fn poisson_ratio_of_one_half_or_more_is_rejected() {
 }
 
 #[test]
+fn pb_mpm_settings_are_parsed_and_bad_ones_explained() {
+    let pb = "[table]\nheight = 0.004\n";
+    let scene = |solver: &str| GOOD.replacen(pb, &format!("[solver]\n{solver}\n{pb}"), 1);
+    let ok = config::from_str(
+        &scene("method = \"pb_mpm\"\niterations = 10\nrelaxation = 1.2\ndt = 0.004"),
+        Path::new("pb.toml"),
+    )
+    .unwrap();
+    assert_eq!(ok.solver.method, dvrk_tissue_sim::mpm::Method::PbMpm);
+    assert_eq!((ok.solver.iterations, ok.solver.relaxation), (10, 1.2));
+    let defaults = config::from_str(GOOD, Path::new("good.toml")).unwrap();
+    assert_eq!(defaults.solver.method, dvrk_tissue_sim::mpm::Method::MlsMpm);
+    assert_eq!(
+        (defaults.solver.iterations, defaults.solver.relaxation),
+        (5, 1.5)
+    );
+    assert_single(
+        &problems_of(&scene("method = \"pb_mpm\"\niterations = 0")),
+        "solver.iterations",
+        "1 ≤ iterations ≤ 100",
+    );
+    assert_single(
+        &problems_of(&scene("relaxation = 2.0")),
+        "solver.relaxation",
+        "0 < relaxation < 2",
+    );
+    let bad = config::from_str(&scene("method = \"implicit\""), Path::new("m.toml"));
+    let message = bad.unwrap_err().to_string();
+    assert!(
+        message.contains("pb_mpm") && message.contains("mls_mpm"),
+        "{message}"
+    );
+}
+
+#[test]
 fn non_positive_youngs_modulus_is_rejected() {
     let p = problems_with("youngs_modulus = 5400.0", "youngs_modulus = -1.0");
     assert_single(&p, "tissue[0].material.youngs_modulus", "0 < E");

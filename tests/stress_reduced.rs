@@ -26,8 +26,15 @@ fn reduced_stress_matrix_is_stable() {
         .skip(2)
         .map(|l| l.trim_matches('|').split('|').map(str::trim).collect())
         .collect();
-    assert_eq!(rows.len(), 12, "{table}");
-    for group in ["material", "time step", "tool speed", "scenario", "soak"] {
+    assert_eq!(rows.len(), 14, "{table}");
+    for group in [
+        "material",
+        "time step",
+        "tool speed",
+        "pb-mpm",
+        "scenario",
+        "soak",
+    ] {
         assert!(
             rows.iter().any(|r| r[0] == group),
             "{group} missing\n{table}"

@@ -5,7 +5,7 @@ mod validate;
 
 pub use scene::{
     Arm, ArmMode, Domain, Hold, Keyframe, Material, Outputs, Scene, Solver, Table, TeleopSettings,
-    Tissue, Tool,
+    Tissue, Tool, PB_MPM_DEFAULT_DT,
 };
 pub use validate::{validate, Problem};
 

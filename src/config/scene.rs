@@ -5,6 +5,7 @@
 use crate::mpm::backend::{BackendChoice, P2gAtomics};
 use crate::mpm::guard::GuardPolicy;
 use crate::mpm::material::MaterialModel;
+use crate::mpm::Method;
 use crate::output::strain::StrainMeasure;
 use crate::output::SurfaceKind;
 use crate::tools::{ContactModel, Shape};
@@ -92,6 +93,18 @@ pub struct Solver {
     /// `float` or `fixed` (i32 fixed-point atomics, as WebGPU and DX12 need).
     #[serde(default)]
     pub p2g_atomics: P2gAtomics,
+    /// `mls_mpm` (explicit, substeps bound by the elastic wave CFL) or `pb_mpm`
+    /// (position-based: substeps of `dt`, default 1/240 s, bound only by advection, each
+    /// solved by `iterations` constraint iterations).
+    #[serde(default)]
+    pub method: Method,
+    /// PB-MPM constraint iterations per substep (1–100). More iterations: stiffer and
+    /// closer to the material's E and ν, at proportional cost.
+    #[serde(default = "default_iterations")]
+    pub iterations: u32,
+    /// PB-MPM over-relaxation of the elastic constraint (0 < relaxation < 2).
+    #[serde(default = "default_relaxation")]
+    pub relaxation: f64,
 }
 
 fn default_cfl() -> f64 {
@@ -103,6 +116,16 @@ fn default_max_substeps() -> u32 {
 fn default_max_speed() -> f64 {
     20.0
 }
+fn default_iterations() -> u32 {
+    5
+}
+fn default_relaxation() -> f64 {
+    1.5
+}
+
+/// PB-MPM substep where the scene sets no `solver.dt`: the reference code's 1/240 s, four
+/// substeps per 60 Hz frame.
+pub const PB_MPM_DEFAULT_DT: f64 = 1.0 / 240.0;
 
 impl Default for Solver {
     fn default() -> Self {
@@ -114,6 +137,9 @@ impl Default for Solver {
             guard_policy: GuardPolicy::default(),
             backend: BackendChoice::default(),
             p2g_atomics: P2gAtomics::default(),
+            method: Method::default(),
+            iterations: default_iterations(),
+            relaxation: default_relaxation(),
         }
     }
 }

@@ -128,6 +128,18 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
     );
     c.positive("solver.max_speed", s.max_speed);
     c.require(
+        (1..=100).contains(&s.iterations),
+        "solver.iterations",
+        s.iterations,
+        "1 ≤ iterations ≤ 100 (PB-MPM constraint iterations per substep)",
+    );
+    c.require(
+        s.relaxation > 0.0 && s.relaxation < 2.0,
+        "solver.relaxation",
+        s.relaxation,
+        "0 < relaxation < 2 (PB-MPM over-relaxation; 2 and above overshoots without converging)",
+    );
+    c.require(
         scene.sleep.speed.is_finite() && scene.sleep.speed >= 0.0,
         "sleep.speed",
         scene.sleep.speed,

@@ -16,10 +16,41 @@ pub type Vec3 = nalgebra::Vector3<f32>;
 pub type IVec3 = nalgebra::Vector3<i32>;
 pub type Mat3 = nalgebra::Matrix3<f32>;
 
+use serde::{Deserialize, Serialize};
+
 pub use grid::{Boundary, GridLayout, TableHold};
 pub use guard::{GuardEvent, GuardKind};
 pub use material::{Lame, MaterialModel};
 pub use particles::{MaterialParams, Particles};
+
+/// Which MPM formulation steps the tissue (scene key `solver.method`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Method {
+    /// Explicit MLS-MPM: substeps bound by the elastic wave CFL, stiffness from E and ν.
+    #[default]
+    MlsMpm,
+    /// Position-based MPM (Lewin 2024; seed 002 eqs. 13–16): larger substeps solved by
+    /// constraint iterations; see [`cpu::pbmpm`] for how E and ν enter.
+    PbMpm,
+}
+
+/// How a solver advances a substep: the method and, for PB-MPM, its iteration settings.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum SolverKind {
+    #[default]
+    MlsMpm,
+    PbMpm(PbMpmParams),
+}
+
+/// PB-MPM settings (scene keys `solver.iterations`, `solver.relaxation`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PbMpmParams {
+    /// Constraint iterations (P2G–grid–G2P cycles) per substep.
+    pub iterations: u32,
+    /// Over-relaxation of the elastic constraint, 0 < relaxation < 2.
+    pub relaxation: f32,
+}
 
 /// Most tools one scene may hold: per-tool impulses are reduced in fixed-size arrays so
 /// that a substep never allocates.

@@ -509,8 +509,11 @@ fn run(
         let mut frame = frame_of(&setup, report.as_ref());
         frame.index = index;
         let record = state.recording.take().and_then(|(inputs, events)| {
-            (due.any() || !inputs.is_empty() || !events.is_empty())
-                .then_some((start, inputs, events, due))
+            (due.any() || !inputs.is_empty() || !events.is_empty()).then_some((
+                start,
+                (inputs, events),
+                due,
+            ))
         });
         let finished = HeldFrame {
             frame,
@@ -556,7 +559,7 @@ struct HeldFrame {
     frame: Frame,
     points: bool,
     surface: bool,
-    record: Option<(f64, Vec<RecordedInput>, Vec<(usize, ArmEvent)>, Due)>,
+    record: Option<(f64, FrameShare, Due)>,
 }
 
 /// Builds the frame's tissue outputs from the world's particles and hands it to the ROS side
@@ -578,7 +581,7 @@ fn publish(setup: &mut SimSetup, frames: &watch::Sender<Arc<Frame>>, held: HeldF
         frame.surface = Some(Arc::new(setup.surface.triangles(setup.world.particles())));
     }
     let frame = Arc::new(frame);
-    if let (Some(tap), Some((start, inputs, events, due))) = (&mut setup.recorder, record) {
+    if let (Some(tap), Some((start, (inputs, events), due))) = (&mut setup.recorder, record) {
         tap.send(FrameRecord {
             start,
             inputs,

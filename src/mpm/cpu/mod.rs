@@ -7,15 +7,18 @@
 //! 4. G2P: velocity and affine velocity back to particles, advect, update F, guard.
 //!
 //! Work is proportional to the occupied blocks, not to the domain volume, and a substep
-//! allocates nothing.
+//! allocates nothing. PB-MPM (`pbmpm`) reuses these stages with its constraint iterations.
 
 mod binning;
+pub mod pbmpm;
 
 use super::grid::{Boundary, GridLayout, Node, TableHold, NODES_PER_BLOCK, WALL_NODES};
 use super::guard::{GuardEvent, GuardKind};
 use super::kernel::Stencil;
 use super::material::kirchhoff_stress;
-use super::{Mat3, MaterialParams, Particles, SubstepStats, ToolImpulse, Vec3, MAX_TOOLS};
+use super::{
+    Mat3, MaterialParams, Particles, SolverKind, SubstepStats, ToolImpulse, Vec3, MAX_TOOLS,
+};
 use crate::tools::{contact, ToolKinematics};
 use binning::Binning;
 use rayon::prelude::*;
@@ -35,6 +38,8 @@ pub struct CpuSolver {
     pub boundary: Boundary,
     /// Speed above which the guard reports a runaway (m/s).
     pub max_speed: f32,
+    /// MLS-MPM or PB-MPM with its iteration settings.
+    pub kind: SolverKind,
     grid: Vec<Node>,
     bins: Binning,
 }
@@ -84,6 +89,7 @@ impl CpuSolver {
             materials,
             boundary,
             max_speed,
+            kind: SolverKind::MlsMpm,
             bins,
         }
     }
@@ -100,11 +106,15 @@ impl CpuSolver {
 
     pub fn substep(&mut self, input: &SubstepInput) -> SubstepStats {
         assert!(input.tools.len() <= MAX_TOOLS, "at most {MAX_TOOLS} tools");
+        if let SolverKind::PbMpm(params) = self.kind {
+            return self.pb_substep(input, params);
+        }
         self.bin_particles();
         self.clear_touched_blocks();
-        self.particle_to_grid(input.dt);
+        let stress_scale = -input.dt * 4.0 * self.layout.inv_dx * self.layout.inv_dx;
+        self.particle_to_grid(Some(stress_scale));
         let tool_impulses = self.update_grid(input);
-        let (max_speed, clamped_particles, guard) = self.grid_to_particle(input.dt);
+        let (max_speed, clamped_particles, guard) = self.grid_to_particle(input.dt, true);
         SubstepStats {
             tool_impulses,
             max_speed,
@@ -151,13 +161,14 @@ impl CpuSolver {
             });
     }
 
-    fn particle_to_grid(&mut self, dt: f32) {
+    /// Scatters APIC momentum and mass; with `stress_scale` (−dt·4/dx², MLS-MPM) the
+    /// Kirchhoff stress's force is fused in, without it (PB-MPM) only momentum moves.
+    fn particle_to_grid(&mut self, stress_scale: Option<f32>) {
         let layout = self.layout;
         let parts = &self.particles;
         let materials = &self.materials[..];
         let order = &self.bins.order[..];
         let grid = SharedMut(self.grid.as_mut_ptr());
-        let stress_scale = -dt * 4.0 * layout.inv_dx * layout.inv_dx;
         for color in &self.bins.by_color {
             color.par_iter().for_each(move |range| {
                 let grid = grid;
@@ -166,11 +177,14 @@ impl CpuSolver {
                     let s = Stencil::new((parts.x[p] - layout.origin) * layout.inv_dx);
                     let mat = materials[parts.material[p] as usize];
                     let m = parts.mass[p];
-                    let tau = kirchhoff_stress(mat.model, mat.lame, &parts.f[p]);
                     // MLS-MPM: force and APIC affine momentum fused in one matrix (seed 002
                     // eq. 10), scaled by dx because stencil offsets are in grid units.
-                    let q: Mat3 =
-                        (tau * (stress_scale * parts.volume0[p]) + parts.c[p] * m) * layout.dx;
+                    let mut q: Mat3 = parts.c[p] * m;
+                    if let Some(scale) = stress_scale {
+                        let tau = kirchhoff_stress(mat.model, mat.lame, &parts.f[p]);
+                        q += tau * (scale * parts.volume0[p]);
+                    }
+                    let q = q * layout.dx;
                     // Node momentum is w·(m v + Q (i − fx)); Q·i = a·Q₀ + b·Q₁ + c·Q₂ is built up
                     // axis by axis so that the inner loop only adds.
                     let momentum = parts.v[p] * m - q * s.fx;
@@ -257,7 +271,10 @@ impl CpuSolver {
             )
     }
 
-    fn grid_to_particle(&mut self, dt: f32) -> (f32, u32, Option<GuardEvent>) {
+    /// Gathers velocity and affine velocity. With `integrate` the particles also move, F
+    /// is updated and damping applies (the end of a substep); without it (PB-MPM's inner
+    /// iterations) only v and C are stored.
+    fn grid_to_particle(&mut self, dt: f32, integrate: bool) -> (f32, u32, Option<GuardEvent>) {
         let layout = self.layout;
         let grid = &self.grid[..];
         let materials = &self.materials[..];
@@ -307,16 +324,19 @@ impl CpuSolver {
                         let b = Mat3::from_columns(&[b0, b1, b2]) - v * s.fx.transpose();
                         // APIC: C = B·D⁻¹ with D = dx²/4·I; offsets are in grid units.
                         let c_new = b * (4.0 * layout.inv_dx);
-                        let mut g_new = g + v * (dt * layout.inv_dx);
-                        let inside = g_new.sup(&lo).inf(&hi);
-                        if inside != g_new {
-                            clamped += 1;
-                            g_new = inside;
-                        }
-                        let f_new = (Mat3::identity() + c_new * dt) * fs[i];
-                        let damping = materials[mats[i] as usize].damping;
-                        if damping > 0.0 {
-                            v /= 1.0 + damping * dt;
+                        let (mut g_new, mut f_new) = (g, fs[i]);
+                        if integrate {
+                            g_new += v * (dt * layout.inv_dx);
+                            let inside = g_new.sup(&lo).inf(&hi);
+                            if inside != g_new {
+                                clamped += 1;
+                                g_new = inside;
+                            }
+                            f_new = (Mat3::identity() + c_new * dt) * fs[i];
+                            let damping = materials[mats[i] as usize].damping;
+                            if damping > 0.0 {
+                                v /= 1.0 + damping * dt;
+                            }
                         }
                         let speed = v.norm();
                         let finite = speed.is_finite()
@@ -339,10 +359,12 @@ impl CpuSolver {
                             continue;
                         }
                         max_speed = max_speed.max(speed);
-                        xs[i] = layout.origin + g_new * layout.dx;
                         vs[i] = v;
                         cs[i] = c_new;
-                        fs[i] = f_new;
+                        if integrate {
+                            xs[i] = layout.origin + g_new * layout.dx;
+                            fs[i] = f_new;
+                        }
                     }
                     (max_speed, clamped, guard)
                 },

@@ -35,8 +35,8 @@ struct Sim {
 struct Step {
     dt: f32,
     substep: u32,
-    pad0: u32,
-    pad1: u32,
+    iteration: u32,   // PB-MPM constraint iteration (0 for MLS-MPM)
+    relaxation: f32,  // PB-MPM over-relaxation
     gravity: vec4<f32>,
 }
 
@@ -52,6 +52,10 @@ struct Material {
     mu: f32,
     lambda: f32,
     damping: f32,
+    density: f32,
+    pad0: f32,
+    pad1: f32,
+    pad2: f32,
 }
 
 struct Tool {
@@ -152,6 +156,32 @@ fn make_stencil(g: vec3<f32>) -> Stencil {
 
 fn grid_pos(x: vec3<f32>) -> vec3<f32> {
     return (x - sim.origin_dx.xyz) * sim.inv_dx;
+}
+
+// Velocity and affine velocity C gathered from the grid at grid position g (the first half
+// of cpu `grid_to_particle`).
+struct Gather {
+    v: vec3<f32>,
+    c: mat3x3<f32>,
+}
+
+fn gather(g: vec3<f32>) -> Gather {
+    let s = make_stencil(g);
+    let offs = node_offsets(s.base);
+    var v = vec3<f32>(0.0);
+    var bm = mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    for (var a = 0u; a < 3u; a++) {
+        for (var b = 0u; b < 3u; b++) {
+            for (var c = 0u; c < 3u; c++) {
+                let w = s.w[a].x * s.w[b].y * s.w[c].z;
+                let vi = grid_v[offs[a].x + offs[b].y + offs[c].z].xyz * w;
+                let o = vec3<f32>(f32(a), f32(b), f32(c)) - s.fx;
+                v += vi;
+                bm += mat3x3<f32>(vi * o.x, vi * o.y, vi * o.z);
+            }
+        }
+    }
+    return Gather(v, bm * (4.0 * sim.inv_dx));
 }
 
 // ---- constitutive models (material.rs) ----

@@ -29,22 +29,9 @@ fn g2p_particle(p: u32) {
     let part = particles[p];
     let dt = st.dt;
     let g = grid_pos(part.x.xyz);
-    let s = make_stencil(g);
-    let offs = node_offsets(s.base);
-    var v = vec3<f32>(0.0);
-    var bm = mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
-    for (var a = 0u; a < 3u; a++) {
-        for (var b = 0u; b < 3u; b++) {
-            for (var c = 0u; c < 3u; c++) {
-                let w = s.w[a].x * s.w[b].y * s.w[c].z;
-                let vi = grid_v[offs[a].x + offs[b].y + offs[c].z].xyz * w;
-                let o = vec3<f32>(f32(a), f32(b), f32(c)) - s.fx;
-                v += vi;
-                bm += mat3x3<f32>(vi * o.x, vi * o.y, vi * o.z);
-            }
-        }
-    }
-    let c_new = bm * (4.0 * sim.inv_dx);
+    let gathered = gather(g);
+    var v = gathered.v;
+    let c_new = gathered.c;
     var g_new = g + v * (dt * sim.inv_dx);
     let lo = vec3<f32>(1.0);
     let hi = vec3<f32>(sim.nodes.xyz) - vec3<f32>(2.0);

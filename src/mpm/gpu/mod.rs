@@ -1,4 +1,4 @@
-//! The MLS-MPM solver on wgpu: the CPU solver's math in WGSL compute shaders.
+//! The MLS-MPM and PB-MPM solvers on wgpu: the CPU solvers' math in WGSL compute shaders.
 //!
 //! Stages, one `.wgsl` each, all sharing `common.wgsl` (bindings, stencil, materials, tool
 //! SDFs, contact, boundary):
@@ -8,7 +8,11 @@
 //!   atomics where the adapter has no f32 atomics (`acc_float.wgsl` / `acc_fixed.wgsl`);
 //! - `grid_update.wgsl`: gravity, tools (SDF only inside each tool's bounding box),
 //!   friction, momentum exchange reduced per block into per-tool impulses, table, walls;
-//! - `g2p.wgsl`: interpolation back, advection, F update, damping and the guard.
+//! - `g2p.wgsl`: interpolation back, advection, F update, damping and the guard;
+//! - `pbmpm.wgsl`: PB-MPM's elastic constraint on C, momentum-only P2G and the inner
+//!   iterations' G2P; a PB-MPM substep records the stages above once per iteration, each
+//!   iteration with its own parameter entry (gravity in the first only), integrating in
+//!   the last (`record_pb_substep`).
 //!
 //! Particle and grid buffers live on the device for the solver's lifetime. A frame is one
 //! submission: the frame-start state is copied on the device (for the guard's restore),
@@ -29,7 +33,9 @@ mod pack;
 use super::backend::{FramePlan, FrameStats, P2gAtomics};
 use super::grid::NODES_PER_BLOCK;
 use super::guard::{GuardEvent, GuardKind};
-use super::{Boundary, GridLayout, MaterialParams, Particles, TableHold, Vec3, MAX_TOOLS};
+use super::{
+    Boundary, GridLayout, MaterialParams, Particles, SolverKind, TableHold, Vec3, MAX_TOOLS,
+};
 use adapter::GpuContext;
 use pack::{GpuParticle, GpuTool, SimUniform, StepUniform};
 use std::sync::mpsc;
@@ -59,6 +65,7 @@ pub struct GpuSetup {
     pub max_substeps: u32,
     pub tool_count: usize,
     pub p2g: P2gAtomics,
+    pub kind: SolverKind,
 }
 
 const WG: u32 = 64;
@@ -91,12 +98,17 @@ struct Pipelines {
     reduce: wgpu::ComputePipeline,
     finalize: wgpu::ComputePipeline,
     extract: wgpu::ComputePipeline,
+    pb_constrain: wgpu::ComputePipeline,
+    pb_p2g: wgpu::ComputePipeline,
+    pb_g2p: wgpu::ComputePipeline,
+    pb_next_iteration: wgpu::ComputePipeline,
 }
 
 pub struct GpuSolver {
     ctx: GpuContext,
     layout: GridLayout,
     float_p2g: bool,
+    kind: SolverKind,
     n: u32,
     tool_count: usize,
     max_substeps: u32,
@@ -239,6 +251,11 @@ impl GpuSolver {
         }
         let step_stride = (limits.min_uniform_buffer_offset_alignment as u64).max(256);
         let max_substeps = setup.max_substeps.max(1);
+        // One Step entry per substep, per constraint iteration with PB-MPM.
+        let steps_per_substep = match setup.kind {
+            SolverKind::MlsMpm => 1,
+            SolverKind::PbMpm(p) => p.iterations.max(1) as u64,
+        };
 
         let copy = wgpu::BufferUsages::COPY_SRC;
         let particles = storage(device, "particles", particle_bytes, copy);
@@ -248,7 +265,7 @@ impl GpuSolver {
         let materials = storage(
             device,
             "materials",
-            (setup.materials.len() * 16) as u64,
+            (setup.materials.len() * 32) as u64,
             copy,
         );
         let tools = storage(
@@ -274,7 +291,7 @@ impl GpuSolver {
         });
         let steps = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("substep parameters"),
-            size: step_stride * max_substeps as u64,
+            size: step_stride * max_substeps as u64 * steps_per_substep,
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
@@ -435,6 +452,7 @@ impl GpuSolver {
         let p2g = module("p2g", include_str!("p2g.wgsl"));
         let grid_update = module("grid_update", include_str!("grid_update.wgsl"));
         let g2p = module("g2p", include_str!("g2p.wgsl"));
+        let pbmpm = module("pbmpm", include_str!("pbmpm.wgsl"));
         let pipeline = |m: &wgpu::ShaderModule, entry: &str, l: &wgpu::PipelineLayout| {
             device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(entry),
@@ -456,10 +474,15 @@ impl GpuSolver {
             g2p: pipeline(&g2p, "g2p", &plain),
             finalize: pipeline(&g2p, "finalize_guard", &plain),
             extract: pipeline(&g2p, "extract_positions", &plain),
+            pb_constrain: pipeline(&pbmpm, "pb_constrain", &plain),
+            pb_p2g: pipeline(&pbmpm, "pb_p2g", &plain),
+            pb_g2p: pipeline(&pbmpm, "pb_g2p", &plain),
+            pb_next_iteration: pipeline(&pbmpm, "pb_next_iteration", &plain),
         };
         Ok(GpuSolver {
             layout,
             float_p2g,
+            kind: setup.kind,
             n: n as u32,
             tool_count: setup.tool_count,
             max_substeps,
@@ -558,18 +581,29 @@ impl GpuSolver {
         let queue = &self.ctx.queue;
         // Every substep's parameters and tool kinematics, written once for the frame.
         self.step_scratch.clear();
-        self.step_scratch
-            .resize(self.step_stride as usize * plan.substeps as usize, 0);
+        let (entries, relaxation) = match self.kind {
+            SolverKind::MlsMpm => (1, 0.0),
+            SolverKind::PbMpm(p) => (p.iterations.max(1), p.relaxation),
+        };
+        self.step_scratch.resize(
+            self.step_stride as usize * (plan.substeps * entries) as usize,
+            0,
+        );
         for s in 0..plan.substeps {
-            let u = StepUniform {
-                dt: plan.dt,
-                substep: s,
-                pad: [0; 2],
-                gravity: [plan.gravity.x, plan.gravity.y, plan.gravity.z, 0.0],
-            };
-            let at = s as usize * self.step_stride as usize;
-            self.step_scratch[at..at + std::mem::size_of::<StepUniform>()]
-                .copy_from_slice(bytemuck::bytes_of(&u));
+            for k in 0..entries {
+                // Gravity enters once per substep: in PB-MPM's first iteration.
+                let g = if k == 0 { plan.gravity } else { Vec3::zeros() };
+                let u = StepUniform {
+                    dt: plan.dt,
+                    substep: s,
+                    iteration: k,
+                    relaxation,
+                    gravity: [g.x, g.y, g.z, 0.0],
+                };
+                let at = (s * entries + k) as usize * self.step_stride as usize;
+                self.step_scratch[at..at + std::mem::size_of::<StepUniform>()]
+                    .copy_from_slice(bytemuck::bytes_of(&u));
+            }
         }
         if !self.step_scratch.is_empty() {
             queue.write_buffer(&self.steps, 0, &self.step_scratch);
@@ -599,24 +633,28 @@ impl GpuSolver {
             });
             pass.set_bind_group(1, &self.args_group, &[]);
             for s in 0..plan.substeps {
-                let offset = (s as u64 * self.step_stride) as u32;
-                pass.set_bind_group(0, &self.bind_group, &[offset]);
-                pass.set_pipeline(&p.begin);
-                pass.dispatch_workgroups(1, 1, 1);
-                pass.set_pipeline(&p.mark);
-                pass.dispatch_workgroups(particle_groups, 1, 1);
-                pass.set_pipeline(&p.compact);
-                pass.dispatch_workgroups(block_groups, 1, 1);
-                pass.set_pipeline(&p.clear);
-                pass.dispatch_workgroups_indirect(&self.args, 0);
-                pass.set_pipeline(&p.p2g);
-                pass.dispatch_workgroups(particle_groups, 1, 1);
-                pass.set_pipeline(&p.grid_update);
-                pass.dispatch_workgroups_indirect(&self.args, 0);
-                pass.set_pipeline(&p.g2p);
-                pass.dispatch_workgroups(particle_groups, 1, 1);
-                pass.set_pipeline(&p.reduce);
-                pass.dispatch_workgroups(1, 1, 1);
+                match self.kind {
+                    SolverKind::MlsMpm => {
+                        let offset = (s as u64 * self.step_stride) as u32;
+                        pass.set_bind_group(0, &self.bind_group, &[offset]);
+                        self.record_sparse(&mut pass, particle_groups, block_groups);
+                        pass.set_pipeline(&p.p2g);
+                        pass.dispatch_workgroups(particle_groups, 1, 1);
+                        pass.set_pipeline(&p.grid_update);
+                        pass.dispatch_workgroups_indirect(&self.args, 0);
+                        pass.set_pipeline(&p.g2p);
+                        pass.dispatch_workgroups(particle_groups, 1, 1);
+                        pass.set_pipeline(&p.reduce);
+                        pass.dispatch_workgroups(1, 1, 1);
+                    }
+                    SolverKind::PbMpm(params) => self.record_pb_substep(
+                        &mut pass,
+                        s,
+                        params.iterations.max(1),
+                        particle_groups,
+                        block_groups,
+                    ),
+                }
             }
             pass.set_bind_group(0, &self.bind_group, &[0]);
             pass.set_pipeline(&p.finalize);
@@ -693,6 +731,60 @@ impl GpuSolver {
         drop(bytes);
         staging.unmap();
         stats
+    }
+
+    /// Records the sparse-grid bookkeeping of a substep: the active block list, and the
+    /// clear of those blocks.
+    fn record_sparse(&self, pass: &mut wgpu::ComputePass, particle_groups: u32, block_groups: u32) {
+        let p = &self.pipelines;
+        pass.set_pipeline(&p.begin);
+        pass.dispatch_workgroups(1, 1, 1);
+        pass.set_pipeline(&p.mark);
+        pass.dispatch_workgroups(particle_groups, 1, 1);
+        pass.set_pipeline(&p.compact);
+        pass.dispatch_workgroups(block_groups, 1, 1);
+        pass.set_pipeline(&p.clear);
+        pass.dispatch_workgroups_indirect(&self.args, 0);
+    }
+
+    /// Records one PB-MPM substep (cpu `pb_substep`): the block list once, then per
+    /// iteration constraint → clear → P2G → grid update → G2P (integrating in the last) →
+    /// impulse reduction, each iteration with its own Step entry.
+    fn record_pb_substep(
+        &self,
+        pass: &mut wgpu::ComputePass,
+        s: u32,
+        iterations: u32,
+        particle_groups: u32,
+        block_groups: u32,
+    ) {
+        let p = &self.pipelines;
+        for k in 0..iterations {
+            let offset = ((s * iterations + k) as u64 * self.step_stride) as u32;
+            pass.set_bind_group(0, &self.bind_group, &[offset]);
+            if k == 0 {
+                self.record_sparse(pass, particle_groups, block_groups);
+            } else {
+                pass.set_pipeline(&p.clear);
+                pass.dispatch_workgroups_indirect(&self.args, 0);
+            }
+            pass.set_pipeline(&p.pb_constrain);
+            pass.dispatch_workgroups(particle_groups, 1, 1);
+            pass.set_pipeline(&p.pb_p2g);
+            pass.dispatch_workgroups(particle_groups, 1, 1);
+            pass.set_pipeline(&p.grid_update);
+            pass.dispatch_workgroups_indirect(&self.args, 0);
+            pass.set_pipeline(if k + 1 == iterations {
+                &p.g2p
+            } else {
+                &p.pb_g2p
+            });
+            pass.dispatch_workgroups(particle_groups, 1, 1);
+            pass.set_pipeline(&p.reduce);
+            pass.dispatch_workgroups(1, 1, 1);
+            pass.set_pipeline(&p.pb_next_iteration);
+            pass.dispatch_workgroups(1, 1, 1);
+        }
     }
 
     fn submit_copy(&self, from: &wgpu::Buffer, to: &wgpu::Buffer) {

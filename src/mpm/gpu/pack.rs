@@ -25,7 +25,10 @@ pub struct SimUniform {
 pub struct StepUniform {
     pub dt: f32,
     pub substep: u32,
-    pub pad: [u32; 2],
+    /// PB-MPM constraint iteration (0 for MLS-MPM).
+    pub iteration: u32,
+    /// PB-MPM over-relaxation.
+    pub relaxation: f32,
     pub gravity: [f32; 4],
 }
 
@@ -144,15 +147,24 @@ pub fn constants(p: &Particles) -> Vec<[f32; 4]> {
         .collect()
 }
 
-/// Per material: model, μ, λ, damping.
-pub fn materials(m: &[MaterialParams]) -> Vec<[f32; 4]> {
+/// Per material: model, μ, λ, damping, density, padding.
+pub fn materials(m: &[MaterialParams]) -> Vec<[f32; 8]> {
     m.iter()
         .map(|m| {
             let model = match m.model {
                 MaterialModel::NeoHookean => 0u32,
                 MaterialModel::FixedCorotated => 1,
             };
-            [f32::from_bits(model), m.lame.mu, m.lame.lambda, m.damping]
+            [
+                f32::from_bits(model),
+                m.lame.mu,
+                m.lame.lambda,
+                m.damping,
+                m.density,
+                0.0,
+                0.0,
+                0.0,
+            ]
         })
         .collect()
 }
