@@ -464,3 +464,57 @@ fn write_all(
     }
     Ok(summary)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ros::outputs::OutputRates;
+
+    fn record(inputs: usize) -> FrameRecord {
+        FrameRecord {
+            start: 0.0,
+            inputs: vec![
+                RecordedInput {
+                    topic: "PSM1/servo_jp".into(),
+                    type_name: "sensor_msgs/msg/JointState".into(),
+                    cdr: vec![0, 1, 0, 0],
+                };
+                inputs
+            ],
+            events: Vec::new(),
+            frame: Arc::new(Frame::default()),
+            due: Due::default(),
+        }
+    }
+
+    #[test]
+    fn a_writer_behind_costs_whole_frames_counted_never_a_wait() {
+        // A writer that never drains: the queue fills and every further frame is dropped
+        // whole (inputs with it) and counted, without blocking the caller.
+        let (tx, rx) = sync_channel(3);
+        let dropped = Arc::new(Dropped::default());
+        let rates = OutputRates {
+            arm: 60.0,
+            points: 30.0,
+            surface: 10.0,
+            wrench: 60.0,
+            tf: 50.0,
+        };
+        let mut tap = RecordTap {
+            tx,
+            schedule: SimSchedule::new(&rates),
+            dropped: dropped.clone(),
+            last_warning: None,
+        };
+        for _ in 0..10 {
+            tap.send(record(2));
+        }
+        assert_eq!(rx.try_iter().count(), 3, "the queue holds its capacity");
+        assert_eq!(dropped.frames.load(Ordering::Relaxed), 7);
+        assert_eq!(dropped.inputs.load(Ordering::Relaxed), 14);
+        // Once the writer catches up, frames are queued again.
+        tap.send(record(1));
+        assert_eq!(rx.try_iter().count(), 1);
+        assert_eq!(dropped.frames.load(Ordering::Relaxed), 7);
+    }
+}
