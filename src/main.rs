@@ -163,6 +163,14 @@ enum BenchCommand {
         #[arg(long, default_value_t = 2.0)]
         min_seconds: f64,
     },
+    /// A seed-000 output frame as the node runs it (substeps, readback, point cloud), per
+    /// backend: serially, and pipelined (the previous frame's cloud built while the next
+    /// frame computes).
+    Frame {
+        /// Frames to time each way (after one warm-up frame).
+        #[arg(long, default_value_t = 30)]
+        frames: u32,
+    },
     /// The tissue surface on a scene: the constant-topology mesh's deviation from the
     /// particles as the tissue deforms, and the per-frame cost of the mesh and isosurface.
     Surface {
@@ -178,6 +186,17 @@ enum BenchCommand {
         #[arg(long, value_enum)]
         backend: Option<BackendChoice>,
     },
+}
+
+/// The first GPU adapter, as the benchmark tables name it.
+fn adapter_name() -> String {
+    dvrk_tissue_sim::mpm::gpu::adapter::adapters()
+        .first()
+        .map(|a| {
+            let i = a.get_info();
+            format!("{} ({:?}, {:?})", i.name, i.backend, i.device_type)
+        })
+        .unwrap_or_else(|| "none".into())
 }
 
 fn main() {
@@ -358,15 +377,13 @@ fn run(cli: Cli) -> Result<()> {
                 min_seconds,
             } => {
                 let counts = counts.unwrap_or_else(|| bench::scaling::COUNTS.to_vec());
-                let adapter = dvrk_tissue_sim::mpm::gpu::adapter::adapters()
-                    .first()
-                    .map(|a| {
-                        let i = a.get_info();
-                        format!("{} ({:?}, {:?})", i.name, i.backend, i.device_type)
-                    })
-                    .unwrap_or_else(|| "none".into());
                 let rows = bench::scaling::run(&counts, min_seconds);
-                print!("{}", bench::scaling::table(&rows, &adapter));
+                print!("{}", bench::scaling::table(&rows, &adapter_name()));
+                Ok(())
+            }
+            BenchCommand::Frame { frames } => {
+                let rows = bench::frame::run(frames);
+                print!("{}", bench::frame::table(&rows, &adapter_name()));
                 Ok(())
             }
             BenchCommand::Surface {

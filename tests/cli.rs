@@ -173,3 +173,34 @@ fn headless_run_writes_snapshots_at_the_asked_interval() {
     assert!(!bad.status.success());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("--snapshot-every"));
 }
+
+#[test]
+fn bench_frame_prints_a_row_per_backend_with_both_timings() {
+    let out = bin()
+        .args(["bench", "frame", "--frames", "2"])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows: Vec<Vec<&str>> = stdout
+        .lines()
+        .filter(|l| l.starts_with("| cpu") || l.starts_with("| gpu"))
+        .map(|l| l.split('|').map(str::trim).collect())
+        .collect();
+    assert!(
+        rows.iter().any(|r| r[1] == "cpu"),
+        "no CPU row in\n{stdout}"
+    );
+    for r in &rows {
+        assert_eq!(r[2], "24000", "seed-000 particle count: {r:?}");
+        let serial: f64 = r[5].parse().unwrap();
+        let cloud: f64 = r[6].parse().unwrap();
+        let pipelined: f64 = r[7].parse().unwrap();
+        assert!(serial > 0.0 && pipelined > 0.0, "{r:?}");
+        assert!(cloud > 0.0 && cloud < serial, "{r:?}");
+    }
+}

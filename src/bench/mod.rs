@@ -2,6 +2,7 @@
 //! throughput and scaling, the tissue surface's fidelity and cost.
 
 pub mod analytic;
+pub mod frame;
 pub mod meter;
 pub mod plot;
 pub mod scaling;
