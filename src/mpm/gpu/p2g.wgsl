@@ -16,19 +16,5 @@ fn p2g(@builtin(global_invocation_id) gid: vec3<u32>) {
     let tau = kirchhoff_stress(mat, part.f);
     let stress_scale = -st.dt * 4.0 * sim.inv_dx * sim.inv_dx;
     let q = (tau * (stress_scale * pc.y) + part.c * m) * dx;
-    let momentum = part.v.xyz * m - q * s.fx;
-    let offs = node_offsets(s.base);
-    for (var a = 0u; a < 3u; a++) {
-        for (var b = 0u; b < 3u; b++) {
-            for (var c = 0u; c < 3u; c++) {
-                let w = s.w[a].x * s.w[b].y * s.w[c].z;
-                let contrib = (momentum + q * vec3<f32>(f32(a), f32(b), f32(c))) * w;
-                let i = 4u * (offs[a].x + offs[b].y + offs[c].z);
-                acc_add_p(i, contrib.x);
-                acc_add_p(i + 1u, contrib.y);
-                acc_add_p(i + 2u, contrib.z);
-                acc_add_m(i + 3u, w * m);
-            }
-        }
-    }
+    scatter_apic(s, m, part.v.xyz, q);
 }

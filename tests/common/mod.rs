@@ -1,0 +1,58 @@
+//! What the tests that start DDS participants share: where the project and its Python venv
+//! are, and whether this is a place where DDS may run (a loopback-only network namespace).
+//! Elsewhere, or without the venv, such tests print why and pass, unless `CI` is set, where
+//! a missing prerequisite fails them.
+
+use std::path::{Path, PathBuf};
+
+pub fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The venv `.ci/run` creates with the PyPI ROS 2 wheels and rosbags.
+pub fn python() -> PathBuf {
+    root().join(".venv/bin/python")
+}
+
+/// Prints why a test does not run here and lets it pass; panics under `CI`.
+pub fn skip_or_fail(reason: &str) {
+    if std::env::var_os("CI").is_some() {
+        panic!("CI is set but {reason}");
+    }
+    eprintln!("SKIPPED: {reason}");
+}
+
+/// Why DDS tests cannot run here, if they cannot.
+pub fn missing_network_prerequisite(need_python: bool) -> Option<String> {
+    let interfaces: Vec<String> = std::fs::read_dir("/sys/class/net")
+        .map(|d| {
+            d.filter_map(|e| e.ok())
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    if interfaces.iter().any(|i| i != "lo") {
+        return Some(format!(
+            "not inside a loopback-only network namespace (interfaces: {interfaces:?}); \
+             DDS tests run only there (see .ci/run)"
+        ));
+    }
+    if need_python && !python().exists() {
+        return Some(format!(
+            "{} not found: create the venv with the ROS 2 wheels (see .ci/run)",
+            python().display()
+        ));
+    }
+    None
+}
+
+/// True when a DDS test should go on; otherwise [`skip_or_fail`] with the reason.
+pub fn network_prerequisites(need_python: bool) -> bool {
+    match missing_network_prerequisite(need_python) {
+        None => true,
+        Some(reason) => {
+            skip_or_fail(&reason);
+            false
+        }
+    }
+}
