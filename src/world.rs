@@ -280,6 +280,7 @@ impl World {
         let max_speed = scene.solver.max_speed as f32;
         let kind = match scene.solver.method {
             Method::MlsMpm => SolverKind::MlsMpm,
+            Method::PicMpm => SolverKind::PicMpm,
             Method::PbMpm => SolverKind::PbMpm(PbMpmParams {
                 iterations: scene.solver.iterations,
                 relaxation: scene.solver.relaxation as f32,
@@ -358,7 +359,7 @@ impl World {
     pub fn stable_dt(&self, tool_speed: f64) -> f64 {
         let speed = (self.last_max_speed as f64).max(tool_speed);
         let wave_speed = match self.scene.solver.method {
-            Method::MlsMpm => self.wave_speed,
+            Method::MlsMpm | Method::PicMpm => self.wave_speed,
             Method::PbMpm => 0.0,
         };
         timestep::stable_dt(
@@ -372,7 +373,7 @@ impl World {
     /// The substep the scene asks for: `solver.dt`, or for PB-MPM its default 1/240 s.
     fn requested_dt(&self) -> Option<f64> {
         match self.scene.solver.method {
-            Method::MlsMpm => self.scene.solver.dt,
+            Method::MlsMpm | Method::PicMpm => self.scene.solver.dt,
             Method::PbMpm => Some(self.scene.solver.dt.unwrap_or(PB_MPM_DEFAULT_DT)),
         }
     }

@@ -23,9 +23,13 @@ fn quick_bench_meets_error_bounds_and_writes_its_files() {
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
     let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    assert_eq!(rows.len(), 9, "{csv}");
+    assert_eq!(rows.len(), 12, "{csv}");
     assert!(
         rows.iter().any(|r| r[column("solver")] == "PB-MPM"),
+        "{csv}"
+    );
+    assert!(
+        rows.iter().any(|r| r[column("solver")] == "PIC-MPM"),
         "{csv}"
     );
     for scene in ["hertz", "bar", "stretch"] {

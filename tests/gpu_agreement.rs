@@ -509,3 +509,27 @@ fn gpu_pb_mpm_slab_wrench_agrees_with_cpu_fixed_point() {
     // Measured 1.4e-8 m and 5.0e-5 of the force on llvmpipe.
     pb_slab_agrees(P2gAtomics::Fixed, 1e-6, 1e-3);
 }
+
+/// The PIC reference: the free block as above with PIC velocity transfer.
+fn pic_free_block_agrees(p2g: P2gAtomics, tolerance: f32) {
+    if !gpu_ready(p2g) {
+        return;
+    }
+    let mut scene = free_block_scene();
+    scene.solver.method = dvrk_tissue_sim::mpm::Method::PicMpm;
+    let (_, _, diff) = free_block_on_both(&scene, p2g);
+    println!("PIC {p2g:?}: largest position difference after 6 frames {diff:e} m");
+    assert!(diff < tolerance, "positions differ by {diff} m");
+}
+
+#[test]
+fn gpu_pic_free_block_agrees_with_cpu_f32_atomics() {
+    // Measured 8.3e-8 m on llvmpipe.
+    pic_free_block_agrees(P2gAtomics::Float, 1e-6);
+}
+
+#[test]
+fn gpu_pic_free_block_agrees_with_cpu_fixed_point() {
+    // Measured 1.76e-6 m on llvmpipe.
+    pic_free_block_agrees(P2gAtomics::Fixed, 5e-6);
+}

@@ -98,10 +98,14 @@ fn pb_mpm_settings_are_parsed_and_bad_ones_explained() {
         "solver.relaxation",
         "0 < relaxation < 2",
     );
+    let pic = config::from_str(&scene("method = \"pic_mpm\""), Path::new("pic.toml")).unwrap();
+    assert_eq!(pic.solver.method, dvrk_tissue_sim::mpm::Method::PicMpm);
     let bad = config::from_str(&scene("method = \"implicit\""), Path::new("m.toml"));
     let message = bad.unwrap_err().to_string();
     assert!(
-        message.contains("pb_mpm") && message.contains("mls_mpm"),
+        ["mls_mpm", "pb_mpm", "pic_mpm"]
+            .iter()
+            .all(|m| message.contains(m)),
         "{message}"
     );
 }

@@ -93,13 +93,14 @@ pub struct Solver {
     /// `float` or `fixed` (i32 fixed-point atomics, as WebGPU and DX12 need).
     #[serde(default)]
     pub p2g_atomics: P2gAtomics,
-    /// `mls_mpm` (explicit, substeps bound by the elastic wave CFL) or `pb_mpm`
+    /// `mls_mpm` (explicit, substeps bound by the elastic wave CFL), `pb_mpm`
     /// (position-based: substeps of `dt`, default 1/240 s, bound only by advection, each
-    /// solved by `iterations` constraint iterations).
+    /// solved by `iterations` constraint iterations) or `pic_mpm` (the standard-MPM
+    /// reference: MLS-MPM with PIC velocity transfer).
     #[serde(default)]
     pub method: Method,
-    /// PB-MPM constraint iterations per substep (1–100). More iterations: stiffer and
-    /// closer to the material's E and ν, at proportional cost.
+    /// PB-MPM constraint iterations per substep (1–100). More iterations: stiffer (the
+    /// stiffness follows iterations and step, not E), at proportional cost.
     #[serde(default = "default_iterations")]
     pub iterations: u32,
     /// PB-MPM over-relaxation of the elastic constraint (0 < relaxation < 2).

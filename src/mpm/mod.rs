@@ -33,6 +33,10 @@ pub enum Method {
     /// Position-based MPM (Lewin 2024; seed 002 eqs. 13–16): larger substeps solved by
     /// constraint iterations; see [`cpu::pbmpm`] for how E and ν enter.
     PbMpm,
+    /// The standard-MPM reference: MLS-MPM's forces and step with PIC velocity transfer
+    /// (P2G carries m·v without APIC's affine momentum m·C·(xᵢ − xₚ)), so it dissipates
+    /// rotation and shear motion that APIC keeps.
+    PicMpm,
 }
 
 /// How a solver advances a substep: the method and, for PB-MPM, its iteration settings.
@@ -41,6 +45,14 @@ pub enum SolverKind {
     #[default]
     MlsMpm,
     PbMpm(PbMpmParams),
+    PicMpm,
+}
+
+impl SolverKind {
+    /// Whether P2G carries APIC's affine momentum (all but the PIC reference).
+    pub fn affine_transfer(&self) -> bool {
+        !matches!(self, SolverKind::PicMpm)
+    }
 }
 
 /// PB-MPM settings (scene keys `solver.iterations`, `solver.relaxation`).

@@ -112,7 +112,7 @@ impl CpuSolver {
         self.bin_particles();
         self.clear_touched_blocks();
         let stress_scale = -input.dt * 4.0 * self.layout.inv_dx * self.layout.inv_dx;
-        self.particle_to_grid(Some(stress_scale));
+        self.particle_to_grid(Some(stress_scale), self.kind.affine_transfer());
         let tool_impulses = self.update_grid(input);
         let (max_speed, clamped_particles, guard) = self.grid_to_particle(input.dt, true);
         SubstepStats {
@@ -163,7 +163,9 @@ impl CpuSolver {
 
     /// Scatters APIC momentum and mass; with `stress_scale` (−dt·4/dx², MLS-MPM) the
     /// Kirchhoff stress's force is fused in, without it (PB-MPM) only momentum moves.
-    fn particle_to_grid(&mut self, stress_scale: Option<f32>) {
+    /// P2G of mass and momentum, with the MLS-MPM force when `stress_scale` is given and
+    /// APIC's affine momentum when `affine` (PIC without).
+    fn particle_to_grid(&mut self, stress_scale: Option<f32>, affine: bool) {
         let layout = self.layout;
         let parts = &self.particles;
         let materials = &self.materials[..];
@@ -179,7 +181,11 @@ impl CpuSolver {
                     let m = parts.mass[p];
                     // MLS-MPM: force and APIC affine momentum fused in one matrix (seed 002
                     // eq. 10), scaled by dx because stencil offsets are in grid units.
-                    let mut q: Mat3 = parts.c[p] * m;
+                    let mut q: Mat3 = if affine {
+                        parts.c[p] * m
+                    } else {
+                        Mat3::zeros()
+                    };
                     if let Some(scale) = stress_scale {
                         let tau = kirchhoff_stress(mat.model, mat.lame, &parts.f[p]);
                         q += tau * (scale * parts.volume0[p]);

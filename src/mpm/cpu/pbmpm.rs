@@ -73,7 +73,7 @@ impl CpuSolver {
         for k in 0..iterations {
             self.constrain(input.dt, params.relaxation);
             self.clear_touched_blocks();
-            self.particle_to_grid(None);
+            self.particle_to_grid(None, true);
             let impulses = self.update_grid(if k == 0 { input } else { &later });
             for (acc, imp) in tool_impulses.iter_mut().zip(&impulses) {
                 acc.add(imp);

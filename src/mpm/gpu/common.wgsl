@@ -30,6 +30,7 @@ struct Sim {
     blocks: vec4<u32>,  // blocks per axis; w: table (0 none, 1 bonded, 2 resting)
     table: vec4<f32>,   // x: height, y: friction
     fixed: vec4<f32>,   // x: scale, y: 1/scale, z: momentum unit, w: mass unit
+    transfer: vec4<f32>, // x: weight of APIC's affine momentum in P2G (1; 0 for PIC)
 }
 
 struct Step {

@@ -253,7 +253,7 @@ impl GpuSolver {
         let max_substeps = setup.max_substeps.max(1);
         // One Step entry per substep, per constraint iteration with PB-MPM.
         let steps_per_substep = match setup.kind {
-            SolverKind::MlsMpm => 1,
+            SolverKind::MlsMpm | SolverKind::PicMpm => 1,
             SolverKind::PbMpm(p) => p.iterations.max(1) as u64,
         };
 
@@ -338,6 +338,16 @@ impl GpuSolver {
             ],
             table: [table_height, table_friction, 0.0, 0.0],
             fixed: [FIXED_SCALE, 1.0 / FIXED_SCALE, momentum_unit, mass_unit],
+            transfer: [
+                if setup.kind.affine_transfer() {
+                    1.0
+                } else {
+                    0.0
+                },
+                0.0,
+                0.0,
+                0.0,
+            ],
         };
         let queue = &ctx.queue;
         queue.write_buffer(&sim, 0, bytemuck::bytes_of(&sim_uniform));
@@ -582,7 +592,7 @@ impl GpuSolver {
         // Every substep's parameters and tool kinematics, written once for the frame.
         self.step_scratch.clear();
         let (entries, relaxation) = match self.kind {
-            SolverKind::MlsMpm => (1, 0.0),
+            SolverKind::MlsMpm | SolverKind::PicMpm => (1, 0.0),
             SolverKind::PbMpm(p) => (p.iterations.max(1), p.relaxation),
         };
         self.step_scratch.resize(
@@ -634,7 +644,7 @@ impl GpuSolver {
             pass.set_bind_group(1, &self.args_group, &[]);
             for s in 0..plan.substeps {
                 match self.kind {
-                    SolverKind::MlsMpm => {
+                    SolverKind::MlsMpm | SolverKind::PicMpm => {
                         let offset = (s as u64 * self.step_stride) as u32;
                         pass.set_bind_group(0, &self.bind_group, &[offset]);
                         self.record_sparse(&mut pass, particle_groups, block_groups);

@@ -1,5 +1,5 @@
-// P2G: fused APIC momentum + MLS force transfer (cpu `particle_to_grid`), scattered with
-// atomics into the 27 stencil nodes.
+// P2G: fused APIC momentum + MLS force transfer (cpu `particle_to_grid`; the affine part
+// weighted by sim.transfer.x, 0 for PIC), scattered with atomics into the 27 stencil nodes.
 
 @compute @workgroup_size(64)
 fn p2g(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -15,6 +15,6 @@ fn p2g(@builtin(global_invocation_id) gid: vec3<u32>) {
     let s = make_stencil(grid_pos(part.x.xyz));
     let tau = kirchhoff_stress(mat, part.f);
     let stress_scale = -st.dt * 4.0 * sim.inv_dx * sim.inv_dx;
-    let q = (tau * (stress_scale * pc.y) + part.c * m) * dx;
+    let q = (tau * (stress_scale * pc.y) + part.c * (m * sim.transfer.x)) * dx;
     scatter_apic(s, m, part.v.xyz, q);
 }

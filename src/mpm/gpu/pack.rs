@@ -18,6 +18,8 @@ pub struct SimUniform {
     pub blocks: [u32; 4],
     pub table: [f32; 4],
     pub fixed: [f32; 4],
+    /// x: weight of APIC's affine momentum in P2G (1, or 0 for the PIC reference).
+    pub transfer: [f32; 4],
 }
 
 #[repr(C)]
@@ -56,7 +58,7 @@ pub struct GpuTool {
 
 const _: () = assert!(std::mem::size_of::<GpuParticle>() == 128);
 const _: () = assert!(std::mem::size_of::<GpuTool>() == 160);
-const _: () = assert!(std::mem::size_of::<SimUniform>() == 96);
+const _: () = assert!(std::mem::size_of::<SimUniform>() == 112);
 const _: () = assert!(std::mem::size_of::<StepUniform>() == 32);
 
 fn v4(v: Vec3, w: f32) -> [f32; 4] {
