@@ -8,6 +8,7 @@ use dvrk_tissue_sim::tools::{ToolKinematics, ToolVelocity};
 use dvrk_tissue_sim::world::World;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
 
 struct CountingAllocator;
 static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
@@ -25,10 +26,14 @@ unsafe impl GlobalAlloc for CountingAllocator {
 #[global_allocator]
 static GLOBAL: CountingAllocator = CountingAllocator;
 
+static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
+
 /// Steps the seed-000 scene (with `method`) until the gripper touches the tissue, then runs
 /// `substeps` substeps of `dt` by hand on a pool thread, as `World::step_frame` does; returns
 /// the solver kind, the contact nodes summed over them and the allocations they made.
 fn allocations_in_contact(method: Method, dt: f32, substeps: u32) -> (SolverKind, u32, usize) {
+    // The count is process-wide: one measurement at a time, none beside another test's setup.
+    let _alone = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let mut scene = seed000_scene();
     scene.solver.backend = BackendChoice::Cpu;
     scene.solver.method = method;
