@@ -95,7 +95,7 @@ fn block_settles_on_the_table_at_steps_far_above_the_mls_bound() {
         "particle below the table: {lowest}"
     );
     // At rest: kinetic energy far below what a fall of 0.1 mm would give.
-    let mass: f64 = p.mass.iter().map(|&m| m as f64).sum();
+    let mass = p.total_mass();
     assert!(ke < 0.01 * mass * 9.81 * 1e-4, "kinetic energy {ke} J");
 }
 
@@ -137,13 +137,7 @@ fn block_resting_on_a_tool_loads_it_with_its_weight() {
         vec![key(0.0, [0.0, 0.0, TABLE - 0.002], [0.0; 3], 0.0)],
     )];
     let mut world = World::new(&scene);
-    let weight = world
-        .particles()
-        .mass
-        .iter()
-        .map(|&m| m as f64)
-        .sum::<f64>()
-        * 9.81;
+    let weight = world.particles().total_mass() * 9.81;
     let mut forces = Vec::new();
     while world.time < 1.0 {
         let r = world.step_frame().unwrap();

@@ -43,14 +43,7 @@ fn free_flying_block_conserves_momentum() {
     assert!(drift < 1e-4, "momentum drift {drift:e}: {p0:?} → {p1:?}");
     // The centre of mass moves with the initial mean velocity.
     let com1 = world.particles().centre_of_mass();
-    let expected = com0
-        + p0 / world
-            .particles()
-            .mass
-            .iter()
-            .map(|&m| m as f64)
-            .sum::<f64>()
-            * world.time;
+    let expected = com0 + p0 / world.particles().total_mass() * world.time;
     assert!((com1 - expected).norm() < 1e-6, "{com1:?} vs {expected:?}");
 }
 
@@ -63,13 +56,7 @@ fn closed_gripper_lifts_the_tissue_and_carries_its_weight() {
     let scene = grasp_scene();
     let mut world = World::new(&scene);
     let z0 = world.particles().centre_of_mass().z;
-    let weight = world
-        .particles()
-        .mass
-        .iter()
-        .map(|&m| m as f64)
-        .sum::<f64>()
-        * 9.81;
+    let weight = world.particles().total_mass() * 9.81;
     let mut lift_forces = Vec::new();
     while world.time < 1.15 {
         let r = world.step_frame().unwrap();

@@ -447,7 +447,7 @@ pub fn run_case(case: &StressCase) -> StressResult {
     let table = case.scene.table.as_ref().map(|t| t.height);
     let e_start = mechanical_energy(&world, &materials);
     // Energy scale: the tissue's weight times its own height, plus all tool work done.
-    let mass: f64 = world.particles().mass.iter().map(|&m| m as f64).sum();
+    let mass = world.particles().total_mass();
     let height = case
         .scene
         .tissues

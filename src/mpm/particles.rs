@@ -94,9 +94,14 @@ impl Particles {
             .sum()
     }
 
+    /// Total mass (kg), f64.
+    pub fn total_mass(&self) -> f64 {
+        self.mass.iter().map(|&m| m as f64).sum()
+    }
+
     /// Centre of mass (m), f64.
     pub fn centre_of_mass(&self) -> nalgebra::Vector3<f64> {
-        let total: f64 = self.mass.iter().map(|&m| m as f64).sum();
+        let total = self.total_mass();
         let weighted: nalgebra::Vector3<f64> = self
             .x
             .iter()

@@ -161,10 +161,9 @@ impl CpuSolver {
             });
     }
 
-    /// Scatters APIC momentum and mass; with `stress_scale` (−dt·4/dx², MLS-MPM) the
-    /// Kirchhoff stress's force is fused in, without it (PB-MPM) only momentum moves.
-    /// P2G of mass and momentum, with the MLS-MPM force when `stress_scale` is given and
-    /// APIC's affine momentum when `affine` (PIC without).
+    /// Scatters mass and momentum: with `stress_scale` (−dt·4/dx², MLS-MPM and PIC) the
+    /// Kirchhoff stress's force is fused in, without it (PB-MPM) only momentum moves; with
+    /// `affine` the momentum carries APIC's affine part m·C·(xᵢ − xₚ) (PIC without).
     fn particle_to_grid(&mut self, stress_scale: Option<f32>, affine: bool) {
         let layout = self.layout;
         let parts = &self.particles;

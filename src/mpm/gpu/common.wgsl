@@ -36,7 +36,7 @@ struct Sim {
 struct Step {
     dt: f32,
     substep: u32,
-    iteration: u32,   // PB-MPM constraint iteration (0 for MLS-MPM)
+    pad: u32,
     relaxation: f32,  // PB-MPM over-relaxation
     gravity: vec4<f32>,
 }

@@ -606,7 +606,7 @@ impl GpuSolver {
                 let u = StepUniform {
                     dt: plan.dt,
                     substep: s,
-                    iteration: k,
+                    pad: 0,
                     relaxation,
                     gravity: [g.x, g.y, g.z, 0.0],
                 };

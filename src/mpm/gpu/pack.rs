@@ -27,8 +27,7 @@ pub struct SimUniform {
 pub struct StepUniform {
     pub dt: f32,
     pub substep: u32,
-    /// PB-MPM constraint iteration (0 for MLS-MPM).
-    pub iteration: u32,
+    pub pad: u32,
     /// PB-MPM over-relaxation.
     pub relaxation: f32,
     pub gravity: [f32; 4],
