@@ -294,7 +294,7 @@ fn run(cli: Cli) -> Result<()> {
         } => {
             let loaded = config::load(&scene)?;
             let mut world = World::try_new(&loaded)?;
-            while world.time < time - 1e-9 {
+            while world.time() < time - 1e-9 {
                 world
                     .step_frame()
                     .context("simulating up to the snapshot time")?;
@@ -316,7 +316,7 @@ fn run(cli: Cli) -> Result<()> {
                 "{}: scene \"{}\" at t = {:.3} s, colour scale 0 … {:.3} ({measure:?} strain)",
                 out.display(),
                 loaded.name,
-                world.time,
+                world.time(),
                 picture.strain_range
             );
             Ok(())
@@ -576,14 +576,14 @@ fn run_headless(
         world.layout().nodes[1],
         world.layout().nodes[2],
         scene.domain.dx,
-        world.tools.len(),
+        world.tools().len(),
         frames,
         world.frame_dt(),
-        world.backend.name()
+        world.backend().name()
     );
     let start = Instant::now();
     let mut total_substeps: u64 = 0;
-    let mut peak_force = vec![0.0f64; world.tools.len()];
+    let mut peak_force = vec![0.0f64; world.tools().len()];
     let mut peak_speed = 0.0f32;
     for frame in 0..frames {
         let t0 = Instant::now();
@@ -609,7 +609,7 @@ fn run_headless(
         }
         if frame % print_every == 0 || frame + 1 == frames {
             let forces: Vec<String> = world
-                .tools
+                .tools()
                 .iter()
                 .zip(&report.wrenches)
                 .map(|(t, w)| {
@@ -637,15 +637,15 @@ fn run_headless(
     let n = world.particles().len() as f64;
     println!(
         "summary: {frames} frames, {:.3} s simulated in {wall:.2} s wall (real-time factor {:.3})",
-        world.time,
-        world.time / wall
+        world.time(),
+        world.time() / wall
     );
     println!(
         "summary: {total_substeps} substeps ({:.1} per frame), {:.2} M particle-substeps/s",
         total_substeps as f64 / frames as f64,
         n * total_substeps as f64 / wall / 1e6
     );
-    for (t, f) in world.tools.iter().zip(&peak_force) {
+    for (t, f) in world.tools().iter().zip(&peak_force) {
         println!("summary: tool {} peak contact force {f:.4} N", t.name);
     }
     println!("summary: peak particle speed {peak_speed:.4} m/s");

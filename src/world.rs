@@ -12,6 +12,7 @@ use crate::mpm::guard::{GuardEvent, GuardPolicy};
 use crate::mpm::{
     timestep, Lame, MaterialParams, Method, Particles, PbMpmParams, SolverKind, Vec3,
 };
+use crate::sleep::SleepSettings;
 use crate::sleep::{Aabb, SleepState};
 use crate::tools::{ContactModel, Shape, ToolKinematics, ToolPose, ToolVelocity, Trajectory};
 use nalgebra::{UnitQuaternion, Vector3};
@@ -92,10 +93,15 @@ pub struct WorldTool {
     pub name: String,
     pub shape: Shape,
     pub contact: ContactModel,
-    pub driver: ToolDriver,
+    /// Set through [`World::command_tool_pose`] and [`World::hold_tool`].
+    driver: ToolDriver,
 }
 
 impl WorldTool {
+    pub fn driver(&self) -> &ToolDriver {
+        &self.driver
+    }
+
     /// Box that every grid node this tool can touch between `t0` and `t1` lies in: its
     /// contact bounding box at both ends and at every keyframe between them, since it moves
     /// linearly from one to the next.
@@ -137,15 +143,63 @@ impl WorldTool {
     }
 }
 
+/// How a world steps, fixed when it is built from its scene (the scene file is not read
+/// again while stepping).
+#[derive(Clone, Debug)]
+pub struct StepParams {
+    /// Length of one output frame (s).
+    pub frame_dt: f64,
+    /// Grid cell size (m).
+    pub dx: f64,
+    /// Gravity (m/s²).
+    pub gravity: Vec3,
+    /// Fraction of a cell a wave or particle may cross per substep.
+    pub cfl: f64,
+    /// Elastic wave speed that bounds the substep (m/s): the fastest P-wave of any material
+    /// for MLS-MPM and PIC, zero for PB-MPM, whose constraint solve is bound by advection only.
+    pub bounding_wave_speed: f64,
+    /// The substep the scene asks for: `solver.dt`, or PB-MPM's default 1/240 s.
+    pub requested_dt: Option<f64>,
+    /// Whether `requested_dt` was written in the scene (subdividing it is then worth a warning).
+    pub dt_from_scene: bool,
+    /// Substeps one frame may take at most.
+    pub max_substeps: u32,
+    pub guard_policy: GuardPolicy,
+    pub sleep: SleepSettings,
+}
+
+impl StepParams {
+    /// The step parameters of a validated scene; `wave_speed` is the fastest P-wave of its
+    /// materials (m/s).
+    pub fn new(scene: &Scene, wave_speed: f64) -> Self {
+        let s = &scene.solver;
+        let (bounding_wave_speed, requested_dt) = match s.method {
+            Method::MlsMpm | Method::PicMpm => (wave_speed, s.dt),
+            Method::PbMpm => (0.0, Some(s.dt.unwrap_or(PB_MPM_DEFAULT_DT))),
+        };
+        StepParams {
+            frame_dt: 1.0 / scene.frame_rate_hz,
+            dx: scene.domain.dx,
+            gravity: Vector3::from(scene.domain.gravity).cast(),
+            cfl: s.cfl,
+            bounding_wave_speed,
+            requested_dt,
+            dt_from_scene: s.dt.is_some(),
+            max_substeps: s.max_substeps_per_frame.max(1),
+            guard_policy: s.guard_policy,
+            sleep: scene.sleep.clone(),
+        }
+    }
+}
+
 pub struct World {
-    pub scene: Scene,
-    pub backend: Backend,
-    pub tools: Vec<WorldTool>,
+    /// The scene this world was built from, for describing it (never read while stepping).
+    scene: Scene,
+    params: StepParams,
+    backend: Backend,
+    tools: Vec<WorldTool>,
     /// Simulated time (s).
-    pub time: f64,
-    gravity: Vec3,
-    /// Fastest elastic wave of any material (m/s), for the CFL bound.
-    wave_speed: f64,
+    time: f64,
     last_max_speed: f32,
     warned_fixed_dt: bool,
     /// This frame's tool kinematics, substep-major (capacity reused across frames).
@@ -309,8 +363,7 @@ impl World {
         };
         Ok(World {
             scene: scene.clone(),
-            gravity: Vector3::from(d.gravity).cast(),
-            wave_speed,
+            params: StepParams::new(scene, wave_speed),
             last_max_speed: 0.0,
             backend,
             tools,
@@ -320,6 +373,35 @@ impl World {
             sleep: SleepState::default(),
             in_flight: None,
         })
+    }
+
+    /// The scene this world was built from.
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// How this world steps.
+    pub fn params(&self) -> &StepParams {
+        &self.params
+    }
+
+    /// Simulated time (s).
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// The tools, scene order.
+    pub fn tools(&self) -> &[WorldTool] {
+        &self.tools
+    }
+
+    /// The solver backend stepping the tissue.
+    pub fn backend(&self) -> &Backend {
+        &self.backend
+    }
+
+    pub fn backend_mut(&mut self) -> &mut Backend {
+        &mut self.backend
     }
 
     /// Particle state on the host (see [`Backend::particles`] for what is current on the
@@ -351,31 +433,35 @@ impl World {
 
     /// Length of one frame (s).
     pub fn frame_dt(&self) -> f64 {
-        1.0 / self.scene.frame_rate_hz
+        self.params.frame_dt
     }
 
     /// Largest stable substep given current particle and tool speeds: the elastic wave
     /// bounds MLS-MPM too, PB-MPM only the advection.
     pub fn stable_dt(&self, tool_speed: f64) -> f64 {
         let speed = (self.last_max_speed as f64).max(tool_speed);
-        let wave_speed = match self.scene.solver.method {
-            Method::MlsMpm | Method::PicMpm => self.wave_speed,
-            Method::PbMpm => 0.0,
-        };
-        timestep::stable_dt(
-            self.scene.solver.cfl,
-            self.scene.domain.dx,
-            wave_speed,
-            speed,
-        )
+        let p = &self.params;
+        timestep::stable_dt(p.cfl, p.dx, p.bounding_wave_speed, speed)
     }
 
-    /// The substep the scene asks for: `solver.dt`, or for PB-MPM its default 1/240 s.
-    fn requested_dt(&self) -> Option<f64> {
-        match self.scene.solver.method {
-            Method::MlsMpm | Method::PicMpm => self.scene.solver.dt,
-            Method::PbMpm => Some(self.scene.solver.dt.unwrap_or(PB_MPM_DEFAULT_DT)),
+    /// Holds tool `index` still at `pose` until it is commanded again (an arm's tool starts
+    /// where the arm is, not where the scene's keyframes are).
+    pub fn hold_tool(&mut self, index: usize, pose: ToolPose) -> Result<(), CommandError> {
+        let time = self.time;
+        let tool = self
+            .tools
+            .get_mut(index)
+            .ok_or(CommandError::NoSuchTool(index))?;
+        if !pose.is_finite() {
+            return Err(CommandError::NonFinitePose(tool.name.clone()));
         }
+        tool.driver = ToolDriver::Commanded {
+            from: pose,
+            to: pose,
+            t0: time,
+            t1: time,
+        };
+        Ok(())
     }
 
     /// Makes tool `index` follow commanded poses: it reaches `pose` at the end of the next
@@ -427,7 +513,7 @@ impl World {
             return;
         }
         let planned = self.plan_frame(t_start, frame_dt);
-        let plan = planned.plan(self.gravity, self.tools.len(), &self.kinematics);
+        let plan = planned.plan(self.params.gravity, self.tools.len(), &self.kinematics);
         self.backend.begin_frame(&plan);
         self.in_flight = Some(InFlight::Stepped(planned));
     }
@@ -462,7 +548,7 @@ impl World {
     /// or `None` (waking the tissue) when one can.
     fn skip_sleeping_frame(&mut self, t_start: f64, t_end: f64) -> Option<FrameReport> {
         let tissue = self.sleep.tissue_box()?;
-        let dx = self.scene.domain.dx as f32;
+        let dx = self.params.dx as f32;
         if self
             .tools
             .iter()
@@ -501,9 +587,9 @@ impl World {
             })
             .fold(0.0, f64::max);
         let mut dt_limit = self.stable_dt(tool_speed);
-        if let Some(fixed) = self.requested_dt() {
+        if let Some(fixed) = self.params.requested_dt {
             if fixed > dt_limit {
-                if self.scene.solver.dt.is_some() && !self.warned_fixed_dt {
+                if self.params.dt_from_scene && !self.warned_fixed_dt {
                     tracing::warn!(
                         "solver.dt = {fixed:.3e} s exceeds the stable bound {dt_limit:.3e} s; subdividing"
                     );
@@ -515,9 +601,9 @@ impl World {
         }
         let dt = timestep::even_substep(frame_dt, dt_limit);
         let needed = (frame_dt / dt).round().max(1.0) as u32;
-        let max_substeps = self.scene.solver.max_substeps_per_frame.max(1);
+        let max_substeps = self.params.max_substeps;
         let substeps = needed.min(max_substeps);
-        let dx = self.scene.domain.dx as f32;
+        let dx = self.params.dx as f32;
         self.kinematics.clear();
         for s in 0..substeps {
             let t0 = t_start + s as f64 * dt;
@@ -544,7 +630,7 @@ impl World {
     }
 
     fn finish_stepped(&mut self, planned: PlannedFrame) -> Result<FrameReport, StepError> {
-        let plan = planned.plan(self.gravity, self.tools.len(), &self.kinematics);
+        let plan = planned.plan(self.params.gravity, self.tools.len(), &self.kinematics);
         let stats = self.backend.finish_frame(&plan);
         let PlannedFrame {
             t_start,
@@ -553,7 +639,7 @@ impl World {
             substeps,
             truncated,
         } = planned;
-        let dx = self.scene.domain.dx as f32;
+        let dx = self.params.dx as f32;
         let mut report = FrameReport {
             time: t_start,
             substeps: stats.substeps_done,
@@ -571,7 +657,7 @@ impl World {
             self.sleep.wake();
             self.backend.restore_frame_start();
             self.last_max_speed = 0.0;
-            match self.scene.solver.guard_policy {
+            match self.params.guard_policy {
                 GuardPolicy::Stop => {
                     self.time = t_start;
                     return Err(StepError::Guard {
@@ -595,7 +681,7 @@ impl World {
                 .iter()
                 .any(|i| i.contact_nodes > 0);
             self.sleep.observe(
-                &self.scene.sleep,
+                &self.params.sleep,
                 stats.max_speed,
                 any_contact,
                 &self.backend.particles().x,

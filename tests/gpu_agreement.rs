@@ -46,7 +46,7 @@ fn on(scene: &Scene, backend: BackendChoice, p2g: P2gAtomics) -> World {
     s.solver.backend = backend;
     s.solver.p2g_atomics = p2g;
     let w = World::new(&s);
-    let name = w.backend.name();
+    let name = w.backend().name();
     assert!(
         (backend == BackendChoice::Cpu) == (name == "cpu"),
         "asked for {backend:?}, got {name}"
@@ -216,7 +216,7 @@ fn grasp_agrees(p2g: P2gAtomics, position_tolerance: f32) {
     let mut cpu = on(&scene, BackendChoice::Cpu, p2g);
     let mut gpu = on(&scene, BackendChoice::Gpu, p2g);
     let (mut worst_force, mut worst_torque, mut peak) = (0.0f64, 0.0f64, 0.0f64);
-    while cpu.time < 0.55 {
+    while cpu.time() < 0.55 {
         let rc = cpu.step_frame().unwrap();
         let rg = gpu.step_frame().unwrap();
         assert_eq!(rc.substeps, rg.substeps);
@@ -303,7 +303,7 @@ fn gpu_guard_stops_and_restores_the_frame_start_on_the_device() {
     world.step_frame().unwrap();
     world.sync_particles();
     let good = world.particles().x.clone();
-    let t_good = world.time;
+    let t_good = world.time();
     world.particles_mut().f[17] = Mat3::from_element(f32::NAN);
     match world.step_frame() {
         Err(StepError::Guard { event, .. }) => {
@@ -311,7 +311,7 @@ fn gpu_guard_stops_and_restores_the_frame_start_on_the_device() {
         }
         other => panic!("expected a guard stop, got {other:?}"),
     }
-    assert_eq!(world.time, t_good);
+    assert_eq!(world.time(), t_good);
     assert_eq!(
         world.particles().x,
         good,
@@ -346,10 +346,10 @@ fn backend_choice_auto_and_gpu_log_and_pick_as_documented() {
     let mut s = free_block_scene();
     s.solver.backend = BackendChoice::Auto;
     let auto = World::new(&s);
-    assert_eq!(auto.backend.name() != "cpu", hardware);
+    assert_eq!(auto.backend().name() != "cpu", hardware);
     s.solver.backend = BackendChoice::Gpu;
     match World::try_new(&s) {
-        Ok(w) => assert_ne!(w.backend.name(), "cpu"),
+        Ok(w) => assert_ne!(w.backend().name(), "cpu"),
         Err(e) => {
             assert!(adapters.is_empty(), "{e}");
             assert!(e.to_string().contains("mesa-vulkan-drivers"), "{e}");

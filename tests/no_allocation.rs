@@ -38,11 +38,11 @@ fn allocations_in_contact(method: Method, dt: f32, substeps: u32) -> (SolverKind
     scene.solver.backend = BackendChoice::Cpu;
     scene.solver.method = method;
     let mut world = World::new(&scene);
-    while world.time < 0.15 {
+    while world.time() < 0.15 {
         world.step_frame().unwrap();
     }
-    let tool = &world.tools[0];
-    let pose = tool.pose_at(world.time);
+    let tool = &world.tools()[0];
+    let pose = tool.pose_at(world.time());
     let kinematics = [ToolKinematics::new(
         tool.shape,
         tool.contact,
@@ -55,7 +55,7 @@ fn allocations_in_contact(method: Method, dt: f32, substeps: u32) -> (SolverKind
         gravity: nalgebra::Vector3::new(0.0, 0.0, -9.81),
         tools: &kinematics,
     };
-    let Backend::Cpu(cpu) = &mut world.backend else {
+    let Backend::Cpu(cpu) = world.backend_mut() else {
         unreachable!("the scene asks for the CPU backend")
     };
     let solver = &mut cpu.solver;

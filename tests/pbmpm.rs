@@ -72,7 +72,7 @@ fn block_settles_on_the_table_at_steps_far_above_the_mls_bound() {
     let mut world = World::new(&scene);
     let z0 = world.particles().centre_of_mass().z;
     let mut dt_max: f64 = 0.0;
-    while world.time < 1.0 {
+    while world.time() < 1.0 {
         let r = world.step_frame().unwrap();
         dt_max = dt_max.max(r.dt_max);
     }
@@ -103,10 +103,10 @@ fn block_settles_on_the_table_at_steps_far_above_the_mls_bound() {
 fn pressing_tool_feels_a_force_opposing_the_press() {
     let mut world = World::new(&block_scene(0.0015));
     let mut held = Vec::new();
-    while world.time < 0.8 {
+    while world.time() < 0.8 {
         let r = world.step_frame().unwrap();
         assert!(r.wrenches[0].force.iter().all(|f| f.is_finite()));
-        if world.time > 0.6 {
+        if world.time() > 0.6 {
             held.push(r.wrenches[0].force);
         }
     }
@@ -139,9 +139,9 @@ fn block_resting_on_a_tool_loads_it_with_its_weight() {
     let mut world = World::new(&scene);
     let weight = world.particles().total_mass() * 9.81;
     let mut forces = Vec::new();
-    while world.time < 1.0 {
+    while world.time() < 1.0 {
         let r = world.step_frame().unwrap();
-        if world.time > 0.7 {
+        if world.time() > 0.7 {
             forces.push(r.wrenches[0].force);
         }
     }
@@ -171,7 +171,7 @@ fn free_flying_block_conserves_momentum() {
     }
     let p1 = world.particles().momentum();
     // Damping (2 /s) takes its share: v /(1 + α dt) per substep.
-    let steps = (world.time / dvrk_tissue_sim::config::PB_MPM_DEFAULT_DT).round() as i32;
+    let steps = (world.time() / dvrk_tissue_sim::config::PB_MPM_DEFAULT_DT).round() as i32;
     let damped = p0 / (1.0 + 2.0 * dvrk_tissue_sim::config::PB_MPM_DEFAULT_DT).powi(steps);
     let drift = (p1 - damped).norm() / p0.norm();
     assert!(

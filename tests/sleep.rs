@@ -45,7 +45,7 @@ fn resting_then_probed(sleep: bool) -> Scene {
 fn run(scene: &Scene, seconds: f64) -> (Vec<FrameReport>, World) {
     let mut world = World::new(scene);
     let mut reports = Vec::new();
-    while world.time < seconds - 1e-9 {
+    while world.time() < seconds - 1e-9 {
         reports.push(world.step_frame().unwrap());
     }
     (reports, world)
@@ -94,7 +94,10 @@ fn skipped_frames_leave_the_tissue_untouched() {
     let mut world = World::new(&scene);
     while !world.is_asleep() {
         world.step_frame().unwrap();
-        assert!(world.time < 1.0, "never fell asleep before the probe moved");
+        assert!(
+            world.time() < 1.0,
+            "never fell asleep before the probe moved"
+        );
     }
     let before = world.particles().x.clone();
     let report = world.step_frame().unwrap();
@@ -119,7 +122,7 @@ fn a_larger_domain_adds_no_grid_work() {
         }
         let mut world = World::new(&scene);
         world.step_frame().unwrap();
-        match &world.backend {
+        match world.backend() {
             dvrk_tissue_sim::mpm::backend::Backend::Cpu(c) => {
                 (c.solver.active_blocks(), world.layout().node_count())
             }

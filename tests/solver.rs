@@ -43,7 +43,7 @@ fn free_flying_block_conserves_momentum() {
     assert!(drift < 1e-4, "momentum drift {drift:e}: {p0:?} → {p1:?}");
     // The centre of mass moves with the initial mean velocity.
     let com1 = world.particles().centre_of_mass();
-    let expected = com0 + p0 / world.particles().total_mass() * world.time;
+    let expected = com0 + p0 / world.particles().total_mass() * world.time();
     assert!((com1 - expected).norm() < 1e-6, "{com1:?} vs {expected:?}");
 }
 
@@ -58,9 +58,9 @@ fn closed_gripper_lifts_the_tissue_and_carries_its_weight() {
     let z0 = world.particles().centre_of_mass().z;
     let weight = world.particles().total_mass() * 9.81;
     let mut lift_forces = Vec::new();
-    while world.time < 1.15 {
+    while world.time() < 1.15 {
         let r = world.step_frame().unwrap();
-        if world.time > 1.05 {
+        if world.time() > 1.05 {
             lift_forces.push(r.wrenches[0].force.z);
         }
     }
@@ -83,7 +83,7 @@ fn closed_gripper_lifts_the_tissue_and_carries_its_weight() {
         k.jaw_deg = 70.0;
     }
     let mut world = World::new(&open);
-    while world.time < 1.15 {
+    while world.time() < 1.15 {
         world.step_frame().unwrap();
     }
     let rise = world.particles().centre_of_mass().z - z0;
@@ -142,7 +142,7 @@ fn needle_scene(sideways: bool) -> Scene {
 fn displacement_near_needle(sideways: bool) -> f64 {
     let mut world = World::new(&needle_scene(sideways));
     let x0 = world.particles().x.clone();
-    while world.time < 0.45 {
+    while world.time() < 0.45 {
         world.step_frame().unwrap();
     }
     // The arc (radius 8 mm about (0, 0, 13 mm), in the xz plane, lower half).
@@ -187,7 +187,7 @@ fn guard_stops_on_non_finite_state_and_restores_the_last_good_frame() {
     let mut world = World::new(&free_block_scene());
     world.step_frame().unwrap();
     let good = world.particles().x.clone();
-    let t_good = world.time;
+    let t_good = world.time();
     world.particles_mut().f[17] = dvrk_tissue_sim::mpm::Mat3::from_element(f32::NAN);
     match world.step_frame() {
         Err(StepError::Guard { event, .. }) => {
@@ -195,7 +195,7 @@ fn guard_stops_on_non_finite_state_and_restores_the_last_good_frame() {
         }
         other => panic!("expected a guard stop, got {other:?}"),
     }
-    assert_eq!(world.time, t_good);
+    assert_eq!(world.time(), t_good);
     assert_eq!(
         world.particles().x,
         good,
@@ -256,14 +256,14 @@ fn too_large_fixed_dt_is_subdivided_never_run_as_given() {
 fn commanded_tool_poses_move_the_tool_smoothly_and_refuse_nan() {
     use dvrk_tissue_sim::world::CommandError;
     let mut world = World::new(&grasp_scene());
-    let start = world.tools[0].pose_at(0.0);
+    let start = world.tools()[0].pose_at(0.0);
     let mut target = start;
     target.position.z += 0.006;
     world.command_tool_pose(0, target).unwrap();
-    let mid = world.tools[0].pose_at(0.5 * world.frame_dt());
+    let mid = world.tools()[0].pose_at(0.5 * world.frame_dt());
     assert!((mid.position.z - (start.position.z + 0.003)).abs() < 1e-12);
     world.step_frame().unwrap();
-    assert!((world.tools[0].pose_at(world.time).position - target.position).norm() < 1e-12);
+    assert!((world.tools()[0].pose_at(world.time()).position - target.position).norm() < 1e-12);
     // A NaN command is refused and the last valid target holds.
     let mut bad = target;
     bad.position.x = f64::NAN;
@@ -276,7 +276,7 @@ fn commanded_tool_poses_move_the_tool_smoothly_and_refuse_nan() {
         Err(CommandError::NoSuchTool(7))
     );
     world.step_frame().unwrap();
-    assert!((world.tools[0].pose_at(world.time).position - target.position).norm() < 1e-12);
+    assert!((world.tools()[0].pose_at(world.time()).position - target.position).norm() < 1e-12);
 }
 
 /// Angular momentum about the centre of mass carried by the particles' velocities (kg·m²/s).

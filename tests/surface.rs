@@ -20,7 +20,7 @@ fn mesh_keeps_its_topology_and_stays_on_the_particles_through_a_squeeze_and_lift
     let radius = 4.0 * spacing;
     let rest_gaps = mesh.particle_gaps(&mesh.rest, &rest.x, radius);
     let mut worst = 0.0f32;
-    while world.time < 0.6 {
+    while world.time() < 0.6 {
         world.step_frame().unwrap();
         mesh.update(&world.particles().x);
         assert_eq!(mesh.vertices.len(), vertices);

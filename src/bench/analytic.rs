@@ -153,9 +153,9 @@ pub fn hertz_run(cells_per_radius: f64, scene: &Scene, meter: &mut Meter) -> Her
     let (_, top, duration) = hertz_scene(cells_per_radius);
     let mut world = World::new(scene);
     let mut samples = Vec::new();
-    while world.time < duration - 1e-9 {
+    while world.time() < duration - 1e-9 {
         let report = meter.step(&mut world).expect("Hertz scene is stable");
-        let pose = world.tools[0].pose_at(world.time);
+        let pose = world.tools()[0].pose_at(world.time());
         let depth = top - (pose.position.z - HERTZ_RADIUS);
         let d_over_r = depth / HERTZ_RADIUS;
         if (0.05..=0.3).contains(&d_over_r) {
@@ -276,10 +276,10 @@ pub fn bar_run(cells_across: u32, scene: &Scene, meter: &mut Meter) -> BarResult
     };
     // Downward zero crossings of the velocity, interpolated linearly in time.
     let mut crossings = Vec::new();
-    let mut prev = (world.time, probe_velocity(&mut world));
-    while world.time < 2.6 * analytic_period && crossings.len() < 3 {
+    let mut prev = (world.time(), probe_velocity(&mut world));
+    while world.time() < 2.6 * analytic_period && crossings.len() < 3 {
         meter.step(&mut world).expect("bar scene is stable");
-        let now = (world.time, probe_velocity(&mut world));
+        let now = (world.time(), probe_velocity(&mut world));
         if prev.1 > 0.0 && now.1 <= 0.0 {
             crossings.push(prev.0 + (now.0 - prev.0) * prev.1 / (prev.1 - now.1));
         }
@@ -395,9 +395,9 @@ pub fn stretch_run(
     let mut world = World::new(scene);
     // Average the reaction over the settled tail of the run.
     let (mut sum, mut n) = (0.0, 0);
-    while world.time < duration - 1e-9 {
+    while world.time() < duration - 1e-9 {
         let report = meter.step(&mut world).expect("stretch scene is stable");
-        if world.time > 0.9 * duration {
+        if world.time() > 0.9 * duration {
             // The fixed grip is pulled towards +x by a stretched block.
             sum += report.wrenches[0].force.x;
             n += 1;

@@ -75,7 +75,7 @@ pub fn run(frames: u32) -> Vec<Row> {
 
         let per_frame = |s: f64| 1e3 * s / frames as f64;
         let row = Row {
-            backend: serial.backend.name().to_string(),
+            backend: serial.backend().name().to_string(),
             particles: serial.particles().len(),
             frames,
             substeps: substeps as f64 / frames as f64,

@@ -19,16 +19,16 @@ pub struct Meter {
 impl Meter {
     /// Steps `world` one frame and counts it.
     pub fn step(&mut self, world: &mut World) -> Result<FrameReport, StepError> {
-        let t0 = world.time;
+        let t0 = world.time();
         let start = Instant::now();
         let result = world.step_frame();
         self.wall += start.elapsed();
         self.frames += 1;
         self.particles = world.particles().len();
-        self.backend = world.backend.name();
+        self.backend = world.backend().name();
         if let Ok(report) = &result {
             self.substeps += report.substeps as u64;
-            self.simulated += world.time - t0;
+            self.simulated += world.time() - t0;
         }
         result
     }

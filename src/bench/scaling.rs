@@ -83,7 +83,7 @@ fn time_world(label: &str, mut world: World, min_wall_s: f64) -> Row {
     }
     Row {
         scene: label.to_string(),
-        backend: world.backend.name().to_string(),
+        backend: world.backend().name().to_string(),
         particles: world.particles().len(),
         grid: world.layout().nodes,
         substeps,

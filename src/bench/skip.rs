@@ -85,7 +85,7 @@ pub fn run(backend: BackendChoice, frames: u32) -> anyhow::Result<Vec<SkipRow>> 
             // Step (untimed) until the tissue has come to rest and fallen asleep.
             while !world.is_asleep() {
                 world.step_frame().expect("bench scene is stable");
-                anyhow::ensure!(world.time < 10.0, "{case}: tissue never came to rest");
+                anyhow::ensure!(world.time() < 10.0, "{case}: tissue never came to rest");
             }
         }
         let frame_s = time_frames(&mut world, 1, frames);
@@ -97,7 +97,7 @@ pub fn run(backend: BackendChoice, frames: u32) -> anyhow::Result<Vec<SkipRow>> 
         });
         rows.push(SkipRow {
             case,
-            backend: world.backend.name(),
+            backend: world.backend().name(),
             particles: world.particles().len(),
             grid_nodes: world.layout().node_count(),
             frames,
@@ -194,7 +194,7 @@ mod tests {
             let world = World::new(&scene);
             let dx = scene.domain.dx as f32;
             let tissue = crate::sleep::Aabb::of_points(&world.particles().x).grown(2.0 * dx);
-            for t in &world.tools {
+            for t in world.tools() {
                 assert!(
                     !t.reach_between(0.0, 2.0, dx).intersects(&tissue),
                     "{} within reach",

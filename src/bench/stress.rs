@@ -394,7 +394,7 @@ fn soak_case(seconds: f64) -> StressCase {
 /// Total mechanical energy: kinetic + gravitational (relative to the origin) + elastic (J).
 fn mechanical_energy(world: &World, materials: &[(crate::mpm::MaterialModel, Lame)]) -> f64 {
     let p = world.particles();
-    let g: nalgebra::Vector3<f64> = nalgebra::Vector3::from(world.scene.domain.gravity);
+    let g: nalgebra::Vector3<f64> = nalgebra::Vector3::from(world.scene().domain.gravity);
     let mut e = p.kinetic_energy();
     for i in 0..p.len() {
         let (model, lame) = materials[p.material[i] as usize];
@@ -459,9 +459,9 @@ pub fn run_case(case: &StressCase) -> StressResult {
     let mut tool_work_abs = 0.0;
     let start = Instant::now();
     let mut e_now = e_start;
-    while world.time < case.duration - 1e-9 {
-        let t0 = world.time;
-        let poses: Vec<_> = world.tools.iter().map(|t| t.pose_at(t0)).collect();
+    while world.time() < case.duration - 1e-9 {
+        let t0 = world.time();
+        let poses: Vec<_> = world.tools().iter().map(|t| t.pose_at(t0)).collect();
         match world.step_frame() {
             Ok(report) => {
                 result.substeps += report.substeps as u64;
@@ -474,9 +474,10 @@ pub fn run_case(case: &StressCase) -> StressResult {
                         result.subdivided_frames += 1;
                     }
                 }
-                let elapsed = world.time - t0;
-                for ((tool, pose), wrench) in world.tools.iter().zip(&poses).zip(&report.wrenches) {
-                    let v = ToolVelocity::between(pose, &tool.pose_at(world.time), elapsed);
+                let elapsed = world.time() - t0;
+                for ((tool, pose), wrench) in world.tools().iter().zip(&poses).zip(&report.wrenches)
+                {
+                    let v = ToolVelocity::between(pose, &tool.pose_at(world.time()), elapsed);
                     // The tissue feels the opposite of the tool's contact wrench.
                     let power = -(wrench.force.dot(&v.linear) + wrench.torque.dot(&v.angular));
                     tool_work += power * elapsed;
@@ -510,7 +511,7 @@ pub fn run_case(case: &StressCase) -> StressResult {
             .max((e_now - e_start - tool_work) / scale);
     }
     result.wall_s = start.elapsed().as_secs_f64();
-    result.simulated = world.time;
+    result.simulated = world.time();
     let scale = (weight_scale + tool_work_abs).max(f64::MIN_POSITIVE);
     result.energy_drift = (e_now - e_start - tool_work) / scale;
     if let Some(h) = table {
@@ -528,13 +529,13 @@ pub fn run_case(case: &StressCase) -> StressResult {
 /// Deepest particle inside any solid tool at the world's current time (m); curve tools
 /// (the needle) act through a fattened contact band and are left out.
 fn max_penetration(world: &World) -> f64 {
-    let dx = world.scene.domain.dx as f32;
+    let dx = world.scene().domain.dx as f32;
     let mut deepest = 0.0f32;
-    for tool in &world.tools {
+    for tool in world.tools() {
         if tool.shape.solid_thickness().is_none() {
             continue;
         }
-        let pose = tool.pose_at(world.time);
+        let pose = tool.pose_at(world.time());
         let k = ToolKinematics::new(
             tool.shape,
             tool.contact,

@@ -81,7 +81,7 @@ pub fn run(scene: &Scene, seconds: f64, every: f64) -> Result<SurfaceBench, Surf
         iso_s += t1.elapsed().as_secs_f64();
         iso_triangles = s.corners.len() / 3;
         std::hint::black_box(m);
-        if world.time >= next_sample - 1e-9 || frame + 1 == frames {
+        if world.time() >= next_sample - 1e-9 || frame + 1 == frames {
             next_sample += every;
             let max_displacement = particles
                 .x
@@ -90,7 +90,7 @@ pub fn run(scene: &Scene, seconds: f64, every: f64) -> Result<SurfaceBench, Surf
                 .map(|(x, x0)| (x - x0).norm())
                 .fold(0.0, f32::max);
             samples.push(DeviationSample {
-                time: world.time,
+                time: world.time(),
                 deviation: {
                     probe.update(&particles.x);
                     probe.deviation(&particles.x, &rest_gaps, radius)
@@ -101,7 +101,7 @@ pub fn run(scene: &Scene, seconds: f64, every: f64) -> Result<SurfaceBench, Surf
     }
     Ok(SurfaceBench {
         scene: scene.name.clone(),
-        backend: world.backend.name(),
+        backend: world.backend().name(),
         particles: rest.len(),
         spacing,
         vertices: probe.rest.len(),

@@ -80,14 +80,14 @@ impl SnapshotSchedule {
     /// Writes a picture if the world's time has reached the next one, and returns its path.
     /// On the GPU the particle state is downloaded first (the picture's strain needs F).
     pub fn take_if_due(&mut self, world: &mut World) -> std::io::Result<Option<PathBuf>> {
-        if world.time + 1e-9 < self.next {
+        if world.time() + 1e-9 < self.next {
             return Ok(None);
         }
-        while self.next <= world.time + 1e-9 {
+        while self.next <= world.time() + 1e-9 {
             self.next += self.every;
         }
         world.sync_particles();
-        let path = self.dir.join(format!("t{:08.3}.png", world.time));
+        let path = self.dir.join(format!("t{:08.3}.png", world.time()));
         render(world, &self.options).write_png(&path)?;
         Ok(Some(path))
     }
@@ -161,10 +161,10 @@ pub fn render(world: &World, opts: &SnapshotOptions) -> Snapshot {
     let (w, h) = (opts.width as usize, opts.height as usize);
     let particles = world.particles();
     let tools: Vec<DrawnTool> = world
-        .tools
+        .tools()
         .iter()
         .map(|t| {
-            let pose = t.pose_at(world.time);
+            let pose = t.pose_at(world.time());
             DrawnTool {
                 shape: t.shape,
                 rotation: pose.rotation.to_rotation_matrix().into_inner().cast(),
@@ -219,7 +219,7 @@ pub fn render(world: &World, opts: &SnapshotOptions) -> Snapshot {
     }
 
     // Table: checkerboard of 5 mm squares at the table height.
-    if let Some(table) = &world.scene.table {
+    if let Some(table) = &world.scene().table {
         let z0 = table.height as f32;
         for y in 0..h {
             for x in 0..w {
@@ -253,7 +253,7 @@ pub fn render(world: &World, opts: &SnapshotOptions) -> Snapshot {
     let spacing = particles
         .volume0
         .first()
-        .map_or(world.scene.domain.dx as f32, |v| v.cbrt());
+        .map_or(world.scene().domain.dx as f32, |v| v.cbrt());
     let r_world = 0.65 * spacing;
     for (x, strain) in particles.x.iter().zip(&strains) {
         let Some((sx, sy, z)) = cam.project(*x) else {

@@ -79,7 +79,7 @@ pub fn load_psm(arm: &crate::config::Arm) -> Result<Psm, NodeError> {
 
 /// The simulation side of a scene: world, arms at home, teleop.
 pub fn build_setup(scene: &Scene) -> Result<SimSetup, NodeError> {
-    let world = World::new(scene);
+    let world = World::try_new(scene).map_err(|e| NodeError(e.to_string()))?;
     let mut arms = Vec::new();
     let mut arm_tools = Vec::new();
     for arm in &scene.arms {

@@ -26,7 +26,7 @@ use crate::ros::outputs::Due;
 use crate::ros::recorder::{nanos, FrameRecord, RecordTap, RecordedInput};
 use crate::ros::replay::ReplayInput;
 use crate::tools::ToolPose;
-use crate::world::{ToolDriver, World, Wrench};
+use crate::world::{World, Wrench};
 
 /// Commands waiting for the next frame; beyond this, new ones are dropped (and logged).
 pub const INPUT_CAPACITY: usize = 1024;
@@ -200,12 +200,10 @@ pub fn spawn(mut setup: SimSetup) -> SimHandle {
     // Tools driven by arms start where the arm is, not where their keyframes are.
     for (arm, &tool) in setup.arms.iter().zip(&setup.arm_tools) {
         let pose = arm.tool_pose();
-        setup.world.tools[tool].driver = ToolDriver::Commanded {
-            from: pose,
-            to: pose,
-            t0: setup.world.time,
-            t1: setup.world.time,
-        };
+        setup
+            .world
+            .hold_tool(tool, pose)
+            .expect("arm tools are scene tools with finite poses");
     }
     let first = Arc::new(frame_of(&setup, None));
     let (frame_tx, frame_rx) = watch::channel(first);
@@ -231,11 +229,11 @@ pub fn spawn(mut setup: SimSetup) -> SimHandle {
 fn frame_of(setup: &SimSetup, report: Option<&crate::world::FrameReport>) -> Frame {
     let world = &setup.world;
     let tools = world
-        .tools
+        .tools()
         .iter()
         .enumerate()
         .map(|(i, t)| {
-            let pose = t.pose_at(world.time);
+            let pose = t.pose_at(world.time());
             let frame_id = setup
                 .arm_tools
                 .iter()
@@ -256,7 +254,7 @@ fn frame_of(setup: &SimSetup, report: Option<&crate::world::FrameReport>) -> Fra
         .collect();
     Frame {
         index: 0,
-        time: world.time,
+        time: world.time(),
         arms: setup.arms.iter().map(|a| a.status()).collect(),
         tools,
         cloud: None,
@@ -332,7 +330,7 @@ impl Loop {
     }
 
     fn apply(&mut self, setup: &mut SimSetup, input: SimInput) {
-        let now = setup.world.time;
+        let now = setup.world.time();
         match input {
             SimInput::Arm { arm, command } => {
                 let Some(a) = setup.arms.get_mut(arm) else {
@@ -426,10 +424,13 @@ fn run(
     // behind real time, they are built during the next frame's GPU work instead of before it.
     let mut held: Option<HeldFrame> = None;
     'frames: while !stop.load(Ordering::Relaxed) {
-        if setup.stop_at.is_some_and(|t| setup.world.time >= t - 1e-9) {
+        if setup
+            .stop_at
+            .is_some_and(|t| setup.world.time() >= t - 1e-9)
+        {
             break;
         }
-        let start = setup.world.time;
+        let start = setup.world.time();
         if setup.recorder.is_some() {
             state.recording = Some(Default::default());
         }
@@ -455,7 +456,7 @@ fn run(
             }
         }
         state.teleoperate(&mut setup, frame_dt);
-        let t_next = setup.world.time + frame_dt;
+        let t_next = setup.world.time() + frame_dt;
         for (a, arm) in setup.arms.iter_mut().enumerate() {
             arm.advance(t_next);
             let tool = setup.arm_tools[a];
@@ -542,7 +543,7 @@ fn run(
             if now.duration_since(since) > Duration::from_secs(10) {
                 tracing::info!(
                     "simulation runs slower than real time (t = {:.3} s simulated)",
-                    setup.world.time
+                    setup.world.time()
                 );
                 lagging_since = Some(now);
             }
