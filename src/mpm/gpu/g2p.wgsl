@@ -44,7 +44,8 @@ fn g2p_particle(p: u32) {
     let f_new = (id + c_new * dt) * part.f;
     let damping = materials[bitcast<u32>(pconst[p].z)].damping;
     if (damping > 0.0) {
-        v *= exp(-damping * dt);
+        // Implicit damping, as the CPU: v ← v / (1 + α·dt), stable for any α·dt.
+        v /= 1.0 + damping * dt;
     }
     let speed = length(v);
     let finite = is_finite(speed) && is_finite_m(c_new) && is_finite_m(f_new) && is_finite3(g_new);
