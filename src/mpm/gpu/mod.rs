@@ -33,9 +33,7 @@ mod pack;
 use super::backend::{FramePlan, FrameStats, P2gAtomics};
 use super::grid::NODES_PER_BLOCK;
 use super::guard::{GuardEvent, GuardKind};
-use super::{
-    Boundary, GridLayout, MaterialParams, Particles, SolverKind, TableHold, Vec3, MAX_TOOLS,
-};
+use super::{GridLayout, Method, Particles, PbMpmParams, SolverSetup, TableHold, Vec3, MAX_TOOLS};
 use adapter::GpuContext;
 use pack::{GpuParticle, GpuTool, SimUniform, StepUniform};
 use std::sync::mpsc;
@@ -53,19 +51,6 @@ pub enum GpuError {
     Device(String),
     #[error("scene too large for the GPU backend: {0}")]
     TooLarge(String),
-}
-
-/// What the GPU solver is built from.
-pub struct GpuSetup {
-    pub layout: GridLayout,
-    pub particles: Particles,
-    pub materials: Vec<MaterialParams>,
-    pub boundary: Boundary,
-    pub max_speed: f32,
-    pub max_substeps: u32,
-    pub tool_count: usize,
-    pub p2g: P2gAtomics,
-    pub kind: SolverKind,
 }
 
 const WG: u32 = 64;
@@ -108,7 +93,8 @@ pub struct GpuSolver {
     ctx: GpuContext,
     layout: GridLayout,
     float_p2g: bool,
-    kind: SolverKind,
+    method: Method,
+    pb_mpm: PbMpmParams,
     n: u32,
     tool_count: usize,
     max_substeps: u32,
@@ -204,7 +190,7 @@ fn shader_source(stage: &str, float_p2g: bool) -> String {
 }
 
 impl GpuSolver {
-    pub fn new(ctx: GpuContext, setup: GpuSetup) -> Result<Self, GpuError> {
+    pub fn new(ctx: GpuContext, setup: SolverSetup) -> Result<Self, GpuError> {
         let float_p2g = match setup.p2g {
             P2gAtomics::Auto => ctx.float_atomics,
             P2gAtomics::Float if !ctx.float_atomics => {
@@ -252,9 +238,9 @@ impl GpuSolver {
         let step_stride = (limits.min_uniform_buffer_offset_alignment as u64).max(256);
         let max_substeps = setup.max_substeps.max(1);
         // One Step entry per substep, per constraint iteration with PB-MPM.
-        let steps_per_substep = match setup.kind {
-            SolverKind::MlsMpm | SolverKind::PicMpm => 1,
-            SolverKind::PbMpm(p) => p.iterations.max(1) as u64,
+        let steps_per_substep = match setup.method {
+            Method::MlsMpm | Method::PicMpm => 1,
+            Method::PbMpm => setup.pb_mpm.iterations.max(1) as u64,
         };
 
         let copy = wgpu::BufferUsages::COPY_SRC;
@@ -339,7 +325,7 @@ impl GpuSolver {
             table: [table_height, table_friction, 0.0, 0.0],
             fixed: [FIXED_SCALE, 1.0 / FIXED_SCALE, momentum_unit, mass_unit],
             transfer: [
-                if setup.kind.affine_transfer() {
+                if setup.method.affine_transfer() {
                     1.0
                 } else {
                     0.0
@@ -492,7 +478,8 @@ impl GpuSolver {
         Ok(GpuSolver {
             layout,
             float_p2g,
-            kind: setup.kind,
+            method: setup.method,
+            pb_mpm: setup.pb_mpm,
             n: n as u32,
             tool_count: setup.tool_count,
             max_substeps,
@@ -591,9 +578,9 @@ impl GpuSolver {
         let queue = &self.ctx.queue;
         // Every substep's parameters and tool kinematics, written once for the frame.
         self.step_scratch.clear();
-        let (entries, relaxation) = match self.kind {
-            SolverKind::MlsMpm | SolverKind::PicMpm => (1, 0.0),
-            SolverKind::PbMpm(p) => (p.iterations.max(1), p.relaxation),
+        let (entries, relaxation) = match self.method {
+            Method::MlsMpm | Method::PicMpm => (1, 0.0),
+            Method::PbMpm => (self.pb_mpm.iterations.max(1), self.pb_mpm.relaxation),
         };
         self.step_scratch.resize(
             self.step_stride as usize * (plan.substeps * entries) as usize,
@@ -643,8 +630,8 @@ impl GpuSolver {
             });
             pass.set_bind_group(1, &self.args_group, &[]);
             for s in 0..plan.substeps {
-                match self.kind {
-                    SolverKind::MlsMpm | SolverKind::PicMpm => {
+                match self.method {
+                    Method::MlsMpm | Method::PicMpm => {
                         let offset = (s as u64 * self.step_stride) as u32;
                         pass.set_bind_group(0, &self.bind_group, &[offset]);
                         self.record_sparse(&mut pass, particle_groups, block_groups);
@@ -657,10 +644,10 @@ impl GpuSolver {
                         pass.set_pipeline(&p.reduce);
                         pass.dispatch_workgroups(1, 1, 1);
                     }
-                    SolverKind::PbMpm(params) => self.record_pb_substep(
+                    Method::PbMpm => self.record_pb_substep(
                         &mut pass,
                         s,
-                        params.iterations.max(1),
+                        self.pb_mpm.iterations.max(1),
                         particle_groups,
                         block_groups,
                     ),
