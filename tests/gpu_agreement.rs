@@ -164,11 +164,14 @@ fn damped_free_block_agrees(p2g: P2gAtomics, tolerance: f32) {
 
 #[test]
 fn gpu_damping_dominated_free_block_agrees_with_cpu_f32_atomics() {
+    // Measured 8.4e-8 m on llvmpipe. With exp(−α·dt) in the GPU's G2P the first frame's
+    // max speed is 0.046777 m/s against the CPU's 0.047401 (1.3 %; the check allows 0.1 %).
     damped_free_block_agrees(P2gAtomics::Float, 1e-6);
 }
 
 #[test]
 fn gpu_damping_dominated_free_block_agrees_with_cpu_fixed_point() {
+    // Measured 3.0e-7 m on llvmpipe (0.046777 against 0.047401 m/s with exp(−α·dt)).
     damped_free_block_agrees(P2gAtomics::Fixed, 5e-6);
 }
 
