@@ -6,11 +6,11 @@
 use crate::config::{Hold, Scene, PB_MPM_DEFAULT_DT};
 use crate::mpm::backend::{Backend, CpuBackend, FramePlan};
 use crate::mpm::cpu::CpuSolver;
-use crate::mpm::gpu::{self, GpuError, GpuSetup, GpuSolver};
+use crate::mpm::gpu::{self, GpuError, GpuSolver};
 use crate::mpm::grid::{Boundary, GridLayout, TableHold};
 use crate::mpm::guard::{GuardEvent, GuardPolicy};
 use crate::mpm::{
-    timestep, Lame, MaterialParams, Method, Particles, PbMpmParams, SolverKind, Vec3,
+    timestep, Lame, MaterialParams, Method, Particles, PbMpmParams, SolverSetup, Vec3,
 };
 use crate::sleep::SleepSettings;
 use crate::sleep::{Aabb, SleepState};
@@ -331,35 +331,24 @@ impl World {
                 )),
             })
             .collect();
-        let max_speed = scene.solver.max_speed as f32;
-        let kind = match scene.solver.method {
-            Method::MlsMpm => SolverKind::MlsMpm,
-            Method::PicMpm => SolverKind::PicMpm,
-            Method::PbMpm => SolverKind::PbMpm(PbMpmParams {
+        let setup = SolverSetup {
+            layout,
+            particles,
+            materials,
+            boundary,
+            max_speed: scene.solver.max_speed as f32,
+            max_substeps: scene.solver.max_substeps_per_frame,
+            tool_count: tools.len(),
+            p2g: scene.solver.p2g_atomics,
+            method: scene.solver.method,
+            pb_mpm: PbMpmParams {
                 iterations: scene.solver.iterations,
                 relaxation: scene.solver.relaxation as f32,
-            }),
+            },
         };
         let backend = match gpu::adapter::select(scene.solver.backend)? {
-            Some(ctx) => Backend::Gpu(Box::new(GpuSolver::new(
-                ctx,
-                GpuSetup {
-                    layout,
-                    particles,
-                    materials,
-                    boundary,
-                    max_speed,
-                    max_substeps: scene.solver.max_substeps_per_frame,
-                    tool_count: tools.len(),
-                    p2g: scene.solver.p2g_atomics,
-                    kind,
-                },
-            )?)),
-            None => {
-                let mut solver = CpuSolver::new(layout, particles, materials, boundary, max_speed);
-                solver.kind = kind;
-                Backend::Cpu(Box::new(CpuBackend::new(solver)))
-            }
+            Some(ctx) => Backend::Gpu(Box::new(GpuSolver::new(ctx, setup)?)),
+            None => Backend::Cpu(Box::new(CpuBackend::new(CpuSolver::new(setup)))),
         };
         Ok(World {
             scene: scene.clone(),

@@ -129,7 +129,8 @@ pub fn rotation_of(a: &Mat3) -> Mat3 {
     q.to_rotation_matrix().into_inner()
 }
 
-const ROTATION_ITERATIONS: usize = 20;
+/// Iterations of `rotation_of` (the GPU runs as many).
+pub const ROTATION_ITERATIONS: usize = 20;
 
 #[cfg(test)]
 mod tests {

@@ -18,6 +18,7 @@ pub type Mat3 = nalgebra::Matrix3<f32>;
 
 use serde::{Deserialize, Serialize};
 
+pub use backend::P2gAtomics;
 pub use grid::{Boundary, GridLayout, TableHold};
 pub use guard::{GuardEvent, GuardKind};
 pub use material::{Lame, MaterialModel};
@@ -39,19 +40,10 @@ pub enum Method {
     PicMpm,
 }
 
-/// How a solver advances a substep: the method and, for PB-MPM, its iteration settings.
-#[derive(Clone, Copy, Debug, PartialEq, Default)]
-pub enum SolverKind {
-    #[default]
-    MlsMpm,
-    PbMpm(PbMpmParams),
-    PicMpm,
-}
-
-impl SolverKind {
+impl Method {
     /// Whether P2G carries APIC's affine momentum (all but the PIC reference).
     pub fn affine_transfer(&self) -> bool {
-        !matches!(self, SolverKind::PicMpm)
+        !matches!(self, Method::PicMpm)
     }
 }
 
@@ -62,6 +54,25 @@ pub struct PbMpmParams {
     pub iterations: u32,
     /// Over-relaxation of the elastic constraint, 0 < relaxation < 2.
     pub relaxation: f32,
+}
+
+/// What a solver is built from: the same for the CPU and the GPU backend.
+pub struct SolverSetup {
+    pub layout: GridLayout,
+    pub particles: Particles,
+    pub materials: Vec<MaterialParams>,
+    pub boundary: Boundary,
+    /// Speed above which the guard reports a runaway (m/s).
+    pub max_speed: f32,
+    /// Most substeps one frame may hold (the GPU sizes its per-substep buffers by it).
+    pub max_substeps: u32,
+    /// Tools of the scene (the GPU sizes its per-substep tool buffer by it).
+    pub tool_count: usize,
+    /// How the GPU's P2G accumulates (the CPU ignores it).
+    pub p2g: P2gAtomics,
+    pub method: Method,
+    /// Iteration settings, read when `method` is PB-MPM.
+    pub pb_mpm: PbMpmParams,
 }
 
 /// Most tools one scene may hold: per-tool impulses are reduced in fixed-size arrays so

@@ -17,7 +17,8 @@ use super::guard::{GuardEvent, GuardKind};
 use super::kernel::Stencil;
 use super::material::kirchhoff_stress;
 use super::{
-    Mat3, MaterialParams, Particles, SolverKind, SubstepStats, ToolImpulse, Vec3, MAX_TOOLS,
+    Mat3, MaterialParams, Method, Particles, PbMpmParams, SolverSetup, SubstepStats, ToolImpulse,
+    Vec3, MAX_TOOLS,
 };
 use crate::tools::{contact, ToolKinematics};
 use binning::Binning;
@@ -38,8 +39,10 @@ pub struct CpuSolver {
     pub boundary: Boundary,
     /// Speed above which the guard reports a runaway (m/s).
     pub max_speed: f32,
-    /// MLS-MPM or PB-MPM with its iteration settings.
-    pub kind: SolverKind,
+    /// MLS-MPM, PB-MPM or the PIC reference.
+    pub method: Method,
+    /// PB-MPM's iteration settings.
+    pub pb_mpm: PbMpmParams,
     grid: Vec<Node>,
     bins: Binning,
 }
@@ -74,22 +77,18 @@ fn axis_offsets(layout: &GridLayout, base: super::IVec3) -> [[usize; 3]; 3] {
 }
 
 impl CpuSolver {
-    pub fn new(
-        layout: GridLayout,
-        particles: Particles,
-        materials: Vec<MaterialParams>,
-        boundary: Boundary,
-        max_speed: f32,
-    ) -> Self {
-        let bins = Binning::new(&layout, particles.len());
+    pub fn new(setup: SolverSetup) -> Self {
+        let layout = setup.layout;
+        let bins = Binning::new(&layout, setup.particles.len());
         CpuSolver {
             grid: vec![[0.0; 4]; layout.node_count()],
             layout,
-            particles,
-            materials,
-            boundary,
-            max_speed,
-            kind: SolverKind::MlsMpm,
+            particles: setup.particles,
+            materials: setup.materials,
+            boundary: setup.boundary,
+            max_speed: setup.max_speed,
+            method: setup.method,
+            pb_mpm: setup.pb_mpm,
             bins,
         }
     }
@@ -106,13 +105,13 @@ impl CpuSolver {
 
     pub fn substep(&mut self, input: &SubstepInput) -> SubstepStats {
         assert!(input.tools.len() <= MAX_TOOLS, "at most {MAX_TOOLS} tools");
-        if let SolverKind::PbMpm(params) = self.kind {
-            return self.pb_substep(input, params);
+        if self.method == Method::PbMpm {
+            return self.pb_substep(input, self.pb_mpm);
         }
         self.bin_particles();
         self.clear_touched_blocks();
         let stress_scale = -input.dt * 4.0 * self.layout.inv_dx * self.layout.inv_dx;
-        self.particle_to_grid(Some(stress_scale), self.kind.affine_transfer());
+        self.particle_to_grid(Some(stress_scale), self.method.affine_transfer());
         let tool_impulses = self.update_grid(input);
         let (max_speed, clamped_particles, guard) = self.grid_to_particle(input.dt, true);
         SubstepStats {

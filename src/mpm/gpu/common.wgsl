@@ -1,97 +1,29 @@
-// Shared declarations of every MPM stage: bindings, state layout, the B-spline stencil, the
-// constitutive models, tool SDFs and contact, and the grid boundary. Line for line the math
-// of the CPU solver (src/mpm/{kernel,material,grid}.rs, src/tools/{sdf,contact}.rs).
+// Shared functions of every MPM stage: the guard, the B-spline stencil, the constitutive
+// models, tool SDFs and contact, and the grid boundary. Line for line the math of the CPU
+// solver (src/mpm/{kernel,material,grid}.rs, src/tools/{sdf,contact}.rs). The constants,
+// structs and bindings they use come before them, in the prelude generated from Rust
+// (prelude.rs).
 
-const MAX_TOOLS: u32 = 8u;
 const NO_TOOL: u32 = 0xffffffffu;
-const J_MIN: f32 = 1e-4;
-const ROTATION_ITERATIONS: i32 = 20;
 const TAU: f32 = 6.28318530717958647692;
 
-// Word indices of the per-frame statistics buffer.
-const S_GUARD: u32 = 0u;           // substep + 1 of the first guard event, 0 when none
-const S_GUARD_PARTICLE: u32 = 1u;  // lowest offending particle of that substep
-const S_MAX_SPEED: u32 = 2u;       // f32 bits (non-negative, so u32 order is f32 order)
-const S_CLAMPED: u32 = 3u;
-const S_SUBSTEPS: u32 = 4u;        // substeps started
-const S_CONTACT_BLOCKS: u32 = 5u;  // blocks with tool contact in this substep
-const S_GUARD_KIND: u32 = 6u;      // 0 non-finite, 1 runaway
-const S_GUARD_SPEED: u32 = 7u;
-const S_GUARD_POS: u32 = 8u;       // 3 words
-const S_IMPULSE: u32 = 16u;        // MAX_TOOLS × (linear xyz, angular xyz, contact nodes, 0)
-
-struct Sim {
-    origin_dx: vec4<f32>,
-    inv_dx: f32,
-    n_particles: u32,
-    max_speed: f32,
-    n_tools: u32,
-    nodes: vec4<u32>,   // nodes per axis; w: block count
-    blocks: vec4<u32>,  // blocks per axis; w: table (0 none, 1 bonded, 2 resting)
-    table: vec4<f32>,   // x: height, y: friction
-    fixed: vec4<f32>,   // x: scale, y: 1/scale, z: momentum unit, w: mass unit
-    transfer: vec4<f32>, // x: weight of APIC's affine momentum in P2G (1; 0 for PIC)
+// True once the guard has tripped in this frame: the rest of the frame does nothing, and
+// the host restores the state.
+fn guard_tripped() -> bool {
+    return atomicLoad(&stats[S_GUARD]) != 0u;
 }
 
-struct Step {
-    dt: f32,
-    substep: u32,
-    pad: u32,
-    relaxation: f32,  // PB-MPM over-relaxation
-    gravity: vec4<f32>,
-}
-
-struct Particle {
-    x: vec4<f32>,
-    v: vec4<f32>,  // w: 0, or what tripped the guard (speed, −1 for non-finite)
-    c: mat3x3<f32>,
-    f: mat3x3<f32>,
-}
-
-struct Material {
-    model: u32,  // 0 Neo-Hookean, 1 fixed-corotated
-    mu: f32,
-    lambda: f32,
-    damping: f32,
-    density: f32,
-    pad0: f32,
-    pad1: f32,
-    pad2: f32,
-}
-
-struct Tool {
-    rot: mat3x3<f32>,
-    trans: vec4<f32>,     // w: contact threshold
-    lin: vec4<f32>,       // w: jaw opening
-    ang: vec4<f32>,       // w: jaw rate
-    aabb_min: vec4<f32>,  // w: friction
-    aabb_max: vec4<f32>,  // w: drag
-    shape: vec4<f32>,
-    kind: vec4<u32>,      // x: shape (0 sphere, 1 capsule, 2 box, 3 gripper, 4 needle); y: 1 sticky
-}
-
-@group(0) @binding(0) var<uniform> sim: Sim;
-@group(0) @binding(1) var<uniform> st: Step;
-@group(0) @binding(2) var<storage, read_write> particles: array<Particle>;
-@group(0) @binding(3) var<storage, read_write> pconst: array<vec4<f32>>;  // mass, volume0, material
-@group(0) @binding(4) var<storage, read_write> materials: array<Material>;
-@group(0) @binding(5) var<storage, read_write> tools: array<Tool>;
-@group(0) @binding(6) var<storage, read_write> grid_acc: array<ACC_ATOMIC>;
-@group(0) @binding(7) var<storage, read_write> grid_v: array<vec4<f32>>;
-@group(0) @binding(8) var<storage, read_write> block_flags: array<atomic<u32>>;
-@group(0) @binding(9) var<storage, read_write> active_blocks: array<u32>;
-@group(0) @binding(10) var<storage, read_write> stats: array<atomic<u32>>;
-@group(0) @binding(11) var<storage, read_write> partials: array<f32>;
-@group(0) @binding(12) var<storage, read_write> out_pos: array<vec4<f32>>;
-// Indirect dispatch arguments: a group of their own, bound only by the stages that write
-// them, so that the indirect dispatches never see them as storage.
-@group(1) @binding(0) var<storage, read_write> args: array<atomic<u32>>;
-
-// True when a guard event happened in an earlier substep of this frame: the rest of the
-// frame does nothing, and the host restores the state.
+// True when the guard tripped in an earlier substep of this frame. The G2P of the substep
+// that trips it runs to the end, so that the lowest offending particle is the one reported.
 fn guard_before() -> bool {
     let g = atomicLoad(&stats[S_GUARD]);
     return g != 0u && g != st.substep + 1u;
+}
+
+// The prologue of the per-particle stages: whether invocation `p` has a particle to work
+// on (it is one of them and the guard has not tripped).
+fn particle_live(p: u32) -> bool {
+    return p < sim.n_particles && !guard_tripped();
 }
 
 fn is_finite(x: f32) -> bool {
@@ -106,7 +38,7 @@ fn is_finite_m(m: mat3x3<f32>) -> bool {
     return is_finite3(m[0]) && is_finite3(m[1]) && is_finite3(m[2]);
 }
 
-// ---- grid layout (4³-node blocks, as GridLayout) ----
+// ---- grid layout (BLOCK³-node blocks, as GridLayout) ----
 
 fn block_index(b: vec3<u32>) -> u32 {
     return (b.x * sim.blocks.y + b.y) * sim.blocks.z + b.z;
@@ -116,18 +48,19 @@ fn node_coords(b: u32, local: u32) -> vec3<u32> {
     let bz = b % sim.blocks.z;
     let rest = b / sim.blocks.z;
     let bb = vec3<u32>(rest / sim.blocks.y, rest % sim.blocks.y, bz);
-    return bb * 4u + vec3<u32>(local / 16u, (local / 4u) % 4u, local % 4u);
+    return bb * BLOCK + vec3<u32>(local / (BLOCK * BLOCK), (local / BLOCK) % BLOCK, local % BLOCK);
 }
 
 // Storage offsets of the three stencil nodes along each axis: node (a, b, c) is at
 // offs[a].x + offs[b].y + offs[c].z.
 fn node_offsets(base: vec3<i32>) -> array<vec3<u32>, 3> {
-    let stride = vec3<u32>(sim.blocks.y * sim.blocks.z * 64u, sim.blocks.z * 64u, 64u);
-    let local = vec3<u32>(16u, 4u, 1u);
+    let stride = vec3<u32>(sim.blocks.y * sim.blocks.z * NODES_PER_BLOCK, sim.blocks.z * NODES_PER_BLOCK,
+                           NODES_PER_BLOCK);
+    let local = vec3<u32>(BLOCK * BLOCK, BLOCK, 1u);
     var out: array<vec3<u32>, 3>;
     for (var a = 0u; a < 3u; a++) {
         let n = vec3<u32>(base) + vec3<u32>(a);
-        out[a] = (n / 4u) * stride + (n % 4u) * local;
+        out[a] = (n / BLOCK) * stride + (n % BLOCK) * local;
     }
     return out;
 }
@@ -167,7 +100,7 @@ fn scatter_apic(s: Stencil, m: f32, v: vec3<f32>, q: mat3x3<f32>) {
             for (var c = 0u; c < 3u; c++) {
                 let w = s.w[a].x * s.w[b].y * s.w[c].z;
                 let contrib = (momentum + q * vec3<f32>(f32(a), f32(b), f32(c))) * w;
-                let i = 4u * (offs[a].x + offs[b].y + offs[c].z);
+                let i = NODE_WORDS * (offs[a].x + offs[b].y + offs[c].z);
                 acc_add_p(i, contrib.x);
                 acc_add_p(i + 1u, contrib.y);
                 acc_add_p(i + 2u, contrib.z);
@@ -442,7 +375,7 @@ fn apply_boundary(ijk: vec3<u32>, x: vec3<f32>, v_in: vec3<f32>) -> vec3<f32> {
             v = resolve(false, sim.table.y, 0.0, v, vec3<f32>(0.0), vec3<f32>(0.0, 0.0, 1.0), vec3<f32>(0.0));
         }
     }
-    let walls = 2;
+    let walls = i32(WALL_NODES);
     for (var a = 0u; a < 3u; a++) {
         let i = i32(ijk[a]);
         if (i < walls && v[a] < 0.0) {

@@ -4,7 +4,7 @@
 var<workgroup> wg_max: atomic<u32>;
 var<workgroup> wg_clamped: atomic<u32>;
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WG)
 fn g2p(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     if (lid == 0u) {
         atomicStore(&wg_max, 0u);
@@ -44,7 +44,8 @@ fn g2p_particle(p: u32) {
     let f_new = (id + c_new * dt) * part.f;
     let damping = materials[bitcast<u32>(pconst[p].z)].damping;
     if (damping > 0.0) {
-        v *= exp(-damping * dt);
+        // Implicit damping, as the CPU: v ← v / (1 + α·dt), stable for any α·dt.
+        v /= 1.0 + damping * dt;
     }
     let speed = length(v);
     let finite = is_finite(speed) && is_finite_m(c_new) && is_finite_m(f_new) && is_finite3(g_new);
@@ -65,7 +66,7 @@ fn g2p_particle(p: u32) {
 // One invocation at the end of a frame: fills in the guard event's details.
 @compute @workgroup_size(1)
 fn finalize_guard() {
-    if (atomicLoad(&stats[S_GUARD]) == 0u) {
+    if (!guard_tripped()) {
         return;
     }
     let part = particles[atomicLoad(&stats[S_GUARD_PARTICLE])];
@@ -79,7 +80,7 @@ fn finalize_guard() {
 // One invocation per particle at the end of a frame: what the readback needs, positions
 // in the first n entries, then the deformation gradient's columns (three entries a
 // particle), read back only when an output asks for it.
-@compute @workgroup_size(64)
+@compute @workgroup_size(WG)
 fn extract_positions(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = gid.x;
     if (p < sim.n_particles) {

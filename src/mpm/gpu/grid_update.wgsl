@@ -7,21 +7,22 @@ var<workgroup> wg_guard: u32;
 var<workgroup> wg_contacts: atomic<u32>;
 var<workgroup> wg_any: u32;
 var<workgroup> wg_slot: u32;
-var<workgroup> wg_tool: array<u32, 64>;
-var<workgroup> wg_val: array<f32, 512>;
+var<workgroup> wg_tool: array<u32, NODES_PER_BLOCK>;
+var<workgroup> wg_val: array<f32, NODES_PER_BLOCK * IMPULSE_WORDS>;
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(NODES_PER_BLOCK)
 fn grid_update(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     if (lid == 0u) {
-        wg_guard = atomicLoad(&stats[S_GUARD]);
+        wg_guard = select(0u, 1u, guard_tripped());
         atomicStore(&wg_contacts, 0u);
     }
     if (workgroupUniformLoad(&wg_guard) != 0u) {
         return;
     }
     let b = active_blocks[wid.x];
-    let node = b * 64u + lid;
-    let m = acc_load_m(4u * node + 3u);
+    let node = b * NODES_PER_BLOCK + lid;
+    let at_node = NODE_WORDS * node;
+    let m = acc_load_m(at_node + 3u);
     var out = vec4<f32>(0.0);
     var hit_tool = NO_TOOL;
     var dp = vec3<f32>(0.0);
@@ -29,7 +30,7 @@ fn grid_update(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_
     if (m > 0.0) {
         let ijk = node_coords(b, lid);
         let x = sim.origin_dx.xyz + vec3<f32>(ijk) * sim.origin_dx.w;
-        let p = vec3<f32>(acc_load_p(4u * node), acc_load_p(4u * node + 1u), acc_load_p(4u * node + 2u));
+        let p = vec3<f32>(acc_load_p(at_node), acc_load_p(at_node + 1u), acc_load_p(at_node + 2u));
         var v = p / m + st.gravity.xyz * st.dt;
         // Nearest tool the node is inside of.
         var best_depth = 0.0;
@@ -61,14 +62,15 @@ fn grid_update(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_
     }
     grid_v[node] = out;
     wg_tool[lid] = hit_tool;
-    wg_val[lid * 8u] = dp.x;
-    wg_val[lid * 8u + 1u] = dp.y;
-    wg_val[lid * 8u + 2u] = dp.z;
-    wg_val[lid * 8u + 3u] = dl.x;
-    wg_val[lid * 8u + 4u] = dl.y;
-    wg_val[lid * 8u + 5u] = dl.z;
-    wg_val[lid * 8u + 6u] = select(0.0, 1.0, hit_tool != NO_TOOL);
-    wg_val[lid * 8u + 7u] = 0.0;
+    let at = lid * IMPULSE_WORDS;
+    wg_val[at] = dp.x;
+    wg_val[at + 1u] = dp.y;
+    wg_val[at + 2u] = dp.z;
+    wg_val[at + 3u] = dl.x;
+    wg_val[at + 4u] = dl.y;
+    wg_val[at + 5u] = dl.z;
+    wg_val[at + 6u] = select(0.0, 1.0, hit_tool != NO_TOOL);
+    wg_val[at + 7u] = 0.0;
     workgroupBarrier();
     if (lid == 0u) {
         wg_any = atomicLoad(&wg_contacts);
@@ -80,28 +82,28 @@ fn grid_update(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_
         return;
     }
     // Thread (tool t, component k) sums its component over the block's nodes.
-    let t = lid / 8u;
-    let k = lid % 8u;
+    let t = lid / IMPULSE_WORDS;
+    let k = lid % IMPULSE_WORDS;
     var sum = 0.0;
-    for (var n = 0u; n < 64u; n++) {
+    for (var n = 0u; n < NODES_PER_BLOCK; n++) {
         if (wg_tool[n] == t) {
-            sum += wg_val[n * 8u + k];
+            sum += wg_val[n * IMPULSE_WORDS + k];
         }
     }
-    partials[wg_slot * 64u + lid] = sum;
+    partials[wg_slot * MAX_TOOLS * IMPULSE_WORDS + lid] = sum;
 }
 
 // One workgroup: adds this substep's per-block contact sums to the frame's tool impulses.
 // Runs after G2P so that a substep the guard rejects contributes nothing, as on the CPU.
-@compute @workgroup_size(64)
+@compute @workgroup_size(MAX_TOOLS * IMPULSE_WORDS)
 fn reduce_impulses(@builtin(local_invocation_index) lid: u32) {
-    if (atomicLoad(&stats[S_GUARD]) != 0u) {
+    if (guard_tripped()) {
         return;
     }
     let n = atomicLoad(&stats[S_CONTACT_BLOCKS]);
     var sum = 0.0;
     for (var i = 0u; i < n; i++) {
-        sum += partials[i * 64u + lid];
+        sum += partials[i * MAX_TOOLS * IMPULSE_WORDS + lid];
     }
     let w = S_IMPULSE + lid;
     atomicStore(&stats[w], bitcast<u32>(bitcast<f32>(atomicLoad(&stats[w])) + sum));

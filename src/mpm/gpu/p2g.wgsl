@@ -1,10 +1,10 @@
 // P2G: fused APIC momentum + MLS force transfer (cpu `particle_to_grid`; the affine part
 // weighted by sim.transfer.x, 0 for PIC), scattered with atomics into the 27 stencil nodes.
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WG)
 fn p2g(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = gid.x;
-    if (p >= sim.n_particles || atomicLoad(&stats[S_GUARD]) != 0u) {
+    if (!particle_live(p)) {
         return;
     }
     let part = particles[p];

@@ -1,61 +1,143 @@
-//! Host-side images of the WGSL structs in `common.wgsl` (std430/uniform layout: vec3 and
-//! mat3x3 columns padded to 16 bytes).
+//! The structs Rust and WGSL share, declared once here (std430/uniform layout: vec3 and
+//! mat3x3 columns padded to 16 bytes), and the packing of the host state into them.
 
 use crate::mpm::material::MaterialModel;
 use crate::mpm::{Mat3, MaterialParams, Particles, Vec3};
 use crate::tools::{ContactModel, Shape, ToolKinematics};
 use bytemuck::{Pod, Zeroable};
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-pub struct SimUniform {
-    pub origin_dx: [f32; 4],
-    pub inv_dx: f32,
-    pub n_particles: u32,
-    pub max_speed: f32,
-    pub n_tools: u32,
-    pub nodes: [u32; 4],
-    pub blocks: [u32; 4],
-    pub table: [f32; 4],
-    pub fixed: [f32; 4],
-    /// x: weight of APIC's affine momentum in P2G (1, or 0 for the PIC reference).
-    pub transfer: [f32; 4],
+/// Declares a struct shared with WGSL once: the `#[repr(C)]` Rust struct, and its WGSL
+/// declaration as `WGSL` (field names and order the same, each Rust type mapped by
+/// `wgsl_type!`), which the shader prelude carries.
+macro_rules! shared_struct {
+    ($(#[$meta:meta])* pub struct $name:ident as $wgsl:literal {
+        $($(#[$field_meta:meta])* pub $field:ident: $ty:tt,)*
+    }) => {
+        $(#[$meta])*
+        #[repr(C)]
+        #[derive(Clone, Copy, Pod, Zeroable)]
+        pub struct $name {
+            $($(#[$field_meta])* pub $field: $ty,)*
+        }
+
+        impl $name {
+            /// The same struct declared in WGSL.
+            pub const WGSL: &'static str = concat!(
+                "struct ", $wgsl, " {\n",
+                $("    ", stringify!($field), ": ", wgsl_type!($ty), ",\n",)*
+                "}\n"
+            );
+        }
+    };
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-pub struct StepUniform {
-    pub dt: f32,
-    pub substep: u32,
-    pub pad: u32,
-    /// PB-MPM over-relaxation.
-    pub relaxation: f32,
-    pub gravity: [f32; 4],
+/// The WGSL type with the layout of a Rust field type (vec3 and mat3x3 columns padded to
+/// 16 bytes, so only 4-wide vectors appear).
+macro_rules! wgsl_type {
+    (f32) => {
+        "f32"
+    };
+    (u32) => {
+        "u32"
+    };
+    ([f32; 4]) => {
+        "vec4<f32>"
+    };
+    ([u32; 4]) => {
+        "vec4<u32>"
+    };
+    ([[f32; 4]; 3]) => {
+        "mat3x3<f32>"
+    };
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-pub struct GpuParticle {
-    pub x: [f32; 4],
-    pub v: [f32; 4],
-    pub c: [[f32; 4]; 3],
-    pub f: [[f32; 4]; 3],
+shared_struct! {
+    /// Per-solver constants (uniform `sim`).
+    pub struct SimUniform as "Sim" {
+        pub origin_dx: [f32; 4],
+        pub inv_dx: f32,
+        pub n_particles: u32,
+        pub max_speed: f32,
+        pub n_tools: u32,
+        /// Nodes per axis; w: block count.
+        pub nodes: [u32; 4],
+        /// Blocks per axis; w: table (0 none, 1 bonded, 2 resting).
+        pub blocks: [u32; 4],
+        /// x: table height, y: table friction.
+        pub table: [f32; 4],
+        /// x: fixed-point scale, y: 1/scale, z: momentum unit, w: mass unit.
+        pub fixed: [f32; 4],
+        /// x: weight of APIC's affine momentum in P2G (1, or 0 for the PIC reference).
+        pub transfer: [f32; 4],
+    }
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-pub struct GpuTool {
-    pub rot: [[f32; 4]; 3],
-    pub trans: [f32; 4],
-    pub lin: [f32; 4],
-    pub ang: [f32; 4],
-    pub aabb_min: [f32; 4],
-    pub aabb_max: [f32; 4],
-    pub shape: [f32; 4],
-    pub kind: [u32; 4],
+shared_struct! {
+    /// One substep's (with PB-MPM: one iteration's) parameters (uniform `st`, dynamic offset).
+    pub struct StepUniform as "Step" {
+        pub dt: f32,
+        pub substep: u32,
+        pub pad: u32,
+        /// PB-MPM over-relaxation.
+        pub relaxation: f32,
+        pub gravity: [f32; 4],
+    }
 }
+
+shared_struct! {
+    pub struct GpuParticle as "Particle" {
+        pub x: [f32; 4],
+        /// w: 0, or what tripped the guard (speed, −1 for non-finite).
+        pub v: [f32; 4],
+        pub c: [[f32; 4]; 3],
+        pub f: [[f32; 4]; 3],
+    }
+}
+
+shared_struct! {
+    pub struct GpuMaterial as "Material" {
+        /// 0 Neo-Hookean, 1 fixed-corotated.
+        pub model: u32,
+        pub mu: f32,
+        pub lambda: f32,
+        pub damping: f32,
+        pub density: f32,
+        pub pad0: f32,
+        pub pad1: f32,
+        pub pad2: f32,
+    }
+}
+
+shared_struct! {
+    pub struct GpuTool as "Tool" {
+        pub rot: [[f32; 4]; 3],
+        /// w: contact threshold.
+        pub trans: [f32; 4],
+        /// w: jaw opening.
+        pub lin: [f32; 4],
+        /// w: jaw rate.
+        pub ang: [f32; 4],
+        /// w: friction.
+        pub aabb_min: [f32; 4],
+        /// w: drag.
+        pub aabb_max: [f32; 4],
+        pub shape: [f32; 4],
+        /// x: shape (0 sphere, 1 capsule, 2 box, 3 gripper, 4 needle); y: 1 sticky.
+        pub kind: [u32; 4],
+    }
+}
+
+/// Every shared struct's WGSL declaration, for the prelude.
+pub const WGSL_STRUCTS: [&str; 5] = [
+    SimUniform::WGSL,
+    StepUniform::WGSL,
+    GpuParticle::WGSL,
+    GpuMaterial::WGSL,
+    GpuTool::WGSL,
+];
 
 const _: () = assert!(std::mem::size_of::<GpuParticle>() == 128);
+const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuTool>() == 160);
 const _: () = assert!(std::mem::size_of::<SimUniform>() == 112);
 const _: () = assert!(std::mem::size_of::<StepUniform>() == 32);
@@ -148,24 +230,21 @@ pub fn constants(p: &Particles) -> Vec<[f32; 4]> {
         .collect()
 }
 
-/// Per material: model, μ, λ, damping, density, padding.
-pub fn materials(m: &[MaterialParams]) -> Vec<[f32; 8]> {
+/// Per material: model, μ, λ, damping, density.
+pub fn materials(m: &[MaterialParams]) -> Vec<GpuMaterial> {
     m.iter()
-        .map(|m| {
-            let model = match m.model {
-                MaterialModel::NeoHookean => 0u32,
+        .map(|m| GpuMaterial {
+            model: match m.model {
+                MaterialModel::NeoHookean => 0,
                 MaterialModel::FixedCorotated => 1,
-            };
-            [
-                f32::from_bits(model),
-                m.lame.mu,
-                m.lame.lambda,
-                m.damping,
-                m.density,
-                0.0,
-                0.0,
-                0.0,
-            ]
+            },
+            mu: m.lame.mu,
+            lambda: m.lame.lambda,
+            damping: m.damping,
+            density: m.density,
+            pad0: 0.0,
+            pad1: 0.0,
+            pad2: 0.0,
         })
         .collect()
 }

@@ -13,10 +13,10 @@ fn constraint_step(mat: Material, dt: f32) -> f32 {
 }
 
 // One invocation per particle: C ← C + step·((R(F*)·F⁻¹ − I)/dt − C), F* = (I + C·dt)F.
-@compute @workgroup_size(64)
+@compute @workgroup_size(WG)
 fn pb_constrain(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = gid.x;
-    if (p >= sim.n_particles || atomicLoad(&stats[S_GUARD]) != 0u) {
+    if (!particle_live(p)) {
         return;
     }
     let part = particles[p];
@@ -35,10 +35,10 @@ fn pb_constrain(@builtin(global_invocation_id) gid: vec3<u32>) {
 }
 
 // P2G of APIC momentum and mass only (cpu `particle_to_grid(None)`).
-@compute @workgroup_size(64)
+@compute @workgroup_size(WG)
 fn pb_p2g(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = gid.x;
-    if (p >= sim.n_particles || atomicLoad(&stats[S_GUARD]) != 0u) {
+    if (!particle_live(p)) {
         return;
     }
     let part = particles[p];
@@ -49,10 +49,10 @@ fn pb_p2g(@builtin(global_invocation_id) gid: vec3<u32>) {
 }
 
 // G2P of an inner iteration: v and C only; the guard looks at the last, integrating G2P.
-@compute @workgroup_size(64)
+@compute @workgroup_size(WG)
 fn pb_g2p(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = gid.x;
-    if (p >= sim.n_particles || atomicLoad(&stats[S_GUARD]) != 0u) {
+    if (!particle_live(p)) {
         return;
     }
     let gathered = gather(grid_pos(particles[p].x.xyz));

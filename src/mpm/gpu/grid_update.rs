@@ -1,0 +1,47 @@
+//! Host side of `grid_update.wgsl`: the grid update over the active blocks (one workgroup
+//! a block) and the reduction of the blocks' contact sums into per-tool impulses.
+
+use super::prelude::StageBuilder;
+use super::{Groups, WG};
+use crate::mpm::grid::NODES_PER_BLOCK;
+use crate::mpm::MAX_TOOLS;
+
+// One workgroup a block, one invocation a node.
+const _: () = assert!(WG as usize == NODES_PER_BLOCK);
+// A block's workgroup reduces its contact sums with one invocation per (tool, word), and
+// `reduce_impulses` is one workgroup of that size.
+const _: () = assert!(MAX_TOOLS * IMPULSE_WORDS == NODES_PER_BLOCK);
+
+/// The stage's WGSL (after the prelude, `common.wgsl` and the P2G variant).
+pub const SOURCE: &str = include_str!("grid_update.wgsl");
+
+/// Words of one tool's impulse sums (linear xyz, angular xyz, contact nodes, 0), in the
+/// grid update's per-block partials and in the frame statistics.
+pub const IMPULSE_WORDS: usize = 8;
+
+pub struct GridUpdateStage {
+    grid_update: wgpu::ComputePipeline,
+    reduce: wgpu::ComputePipeline,
+}
+
+impl GridUpdateStage {
+    pub fn new(b: &StageBuilder) -> Self {
+        let module = b.module("grid_update", SOURCE);
+        GridUpdateStage {
+            grid_update: b.pipeline(&module, "grid_update", false),
+            reduce: b.pipeline(&module, "reduce_impulses", false),
+        }
+    }
+
+    pub fn record(&self, pass: &mut wgpu::ComputePass, groups: &Groups) {
+        pass.set_pipeline(&self.grid_update);
+        pass.dispatch_workgroups_indirect(groups.active_blocks, 0);
+    }
+
+    /// Records the impulse reduction; after G2P, so that a substep the guard rejects
+    /// contributes nothing.
+    pub fn record_reduce(&self, pass: &mut wgpu::ComputePass) {
+        pass.set_pipeline(&self.reduce);
+        pass.dispatch_workgroups(1, 1, 1);
+    }
+}

@@ -1,0 +1,168 @@
+//! The WGSL every stage starts with, generated from Rust: the constants, struct layouts and
+//! resource bindings that host and shaders share are defined once, on the Rust side, and
+//! reach the shaders only through this prelude.
+//!
+//! - Constants (`MAX_TOOLS`, `J_MIN`, block size, workgroup size, the statistics buffer's
+//!   word indices, ...) are written as `const NAME: type = value;` from the Rust constants.
+//! - Structs are declared by `shared_struct!` (`pack.rs`), which makes the Rust struct and
+//!   its WGSL text from one field list.
+//! - Bindings: WGSL needs a literal number in `@binding(N)` (neither a `const` nor an
+//!   `override` may stand there), so the declarations themselves are generated. [`Binding`]
+//!   (`resources.rs`) lists group 0's resources in binding order; the bind group layout,
+//!   the bind group and the `@group(0) @binding(N) var<…> name: type;` lines here are all
+//!   made from it. Shaders name a resource, never its number.
+//!
+//! A stage's source is then the prelude, `common.wgsl` (stencil, materials, tool SDFs,
+//! contact, boundary, the guard), the P2G accumulation variant, and the stage's own file.
+
+use super::grid_update::IMPULSE_WORDS;
+use super::pack::WGSL_STRUCTS;
+use super::readback::word;
+use super::resources::{Binding, ARGS_GROUP};
+use super::WG;
+use crate::mpm::grid::{Node, BLOCK, NODES_PER_BLOCK, WALL_NODES};
+use crate::mpm::material::{J_MIN, ROTATION_ITERATIONS};
+use crate::mpm::MAX_TOOLS;
+use std::fmt::Write;
+
+/// The shared declarations for a P2G variant (f32 or i32 fixed-point accumulators).
+fn prelude(float_p2g: bool) -> String {
+    let mut out = String::from("// Generated from Rust (src/mpm/gpu/prelude.rs).\n\n");
+    let u32s: [(&str, usize); 7] = [
+        ("WG", WG as usize),
+        ("BLOCK", BLOCK),
+        ("NODES_PER_BLOCK", NODES_PER_BLOCK),
+        ("NODE_WORDS", std::mem::size_of::<Node>() / 4),
+        ("MAX_TOOLS", MAX_TOOLS),
+        ("IMPULSE_WORDS", IMPULSE_WORDS),
+        ("WALL_NODES", WALL_NODES as usize),
+    ];
+    for (name, value) in u32s {
+        writeln!(out, "const {name}: u32 = {value}u;").unwrap();
+    }
+    writeln!(out, "const J_MIN: f32 = {J_MIN:?};").unwrap();
+    writeln!(
+        out,
+        "const ROTATION_ITERATIONS: i32 = {ROTATION_ITERATIONS};"
+    )
+    .unwrap();
+    out.push_str("\n// Word indices of the per-frame statistics buffer (readback.rs).\n");
+    for (name, value) in word::ALL {
+        writeln!(out, "const S_{name}: u32 = {value}u;").unwrap();
+    }
+    out.push('\n');
+    for s in WGSL_STRUCTS {
+        out.push_str(s);
+        out.push('\n');
+    }
+    for b in Binding::ALL {
+        writeln!(
+            out,
+            "@group(0) @binding({}) var<{}> {}: {};",
+            b as u32,
+            b.address_space(),
+            b.name(),
+            b.wgsl_type(float_p2g)
+        )
+        .unwrap();
+    }
+    // Indirect dispatch arguments: a group of their own, bound only by the stages that
+    // write them, so that the indirect dispatches never see them as storage.
+    writeln!(
+        out,
+        "@group({ARGS_GROUP}) @binding(0) var<storage, read_write> args: array<atomic<u32>>;"
+    )
+    .unwrap();
+    out
+}
+
+/// Full source of one stage: the prelude, the shared functions, the P2G accumulation
+/// variant, and the stage itself.
+fn shader_source(stage: &str, float_p2g: bool) -> String {
+    let acc = if float_p2g {
+        include_str!("acc_float.wgsl")
+    } else {
+        include_str!("acc_fixed.wgsl")
+    };
+    format!(
+        "{}\n{}\n{acc}\n{stage}",
+        prelude(float_p2g),
+        include_str!("common.wgsl")
+    )
+}
+
+/// Builds the stages' shader modules and compute pipelines on the solver's two pipeline
+/// layouts (`resources.rs`).
+pub struct StageBuilder<'a> {
+    pub device: &'a wgpu::Device,
+    pub float_p2g: bool,
+    /// Group 0 only.
+    pub plain: &'a wgpu::PipelineLayout,
+    /// Group 0 and the indirect arguments.
+    pub with_args: &'a wgpu::PipelineLayout,
+}
+
+impl StageBuilder<'_> {
+    pub fn module(&self, label: &str, stage: &str) -> wgpu::ShaderModule {
+        self.device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(label),
+                source: wgpu::ShaderSource::Wgsl(shader_source(stage, self.float_p2g).into()),
+            })
+    }
+
+    /// The pipeline of `entry`; `writes_args` for the stages that fill the indirect
+    /// arguments (they see group 1).
+    pub fn pipeline(
+        &self,
+        module: &wgpu::ShaderModule,
+        entry: &str,
+        writes_args: bool,
+    ) -> wgpu::ComputePipeline {
+        self.device
+            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(if writes_args {
+                    self.with_args
+                } else {
+                    self.plain
+                }),
+                module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::shader_source;
+    use wgpu::naga;
+
+    /// Every stage's full source parses and validates, with either P2G variant (no device
+    /// needed: a mismatch between the prelude and a stage shows here first).
+    #[test]
+    fn every_stage_source_validates() {
+        let stages = [
+            ("sparse", super::super::sparse::SOURCE),
+            ("p2g", super::super::p2g::SOURCE),
+            ("grid_update", super::super::grid_update::SOURCE),
+            ("g2p", super::super::g2p::SOURCE),
+            ("pbmpm", super::super::pbmpm::SOURCE),
+        ];
+        for float_p2g in [false, true] {
+            for (name, stage) in stages {
+                let source = shader_source(stage, float_p2g);
+                let module = naga::front::wgsl::parse_str(&source)
+                    .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&source)));
+                naga::valid::Validator::new(
+                    naga::valid::ValidationFlags::all(),
+                    naga::valid::Capabilities::all(),
+                )
+                .validate(&module)
+                .unwrap_or_else(|e| panic!("{name} (float P2G {float_p2g}): {e:?}"));
+            }
+        }
+    }
+}

@@ -1,0 +1,264 @@
+//! What comes back from the device: the per-frame statistics words and the end-of-frame
+//! extract (positions, deformation gradients while asked for), through two staging buffers
+//! used in turn, and the blocking full download of the particles.
+
+use super::grid_update::IMPULSE_WORDS;
+use super::pack::{self, GpuParticle};
+use crate::mpm::backend::FrameStats;
+use crate::mpm::guard::{GuardEvent, GuardKind};
+use crate::mpm::{Particles, Vec3, MAX_TOOLS};
+use std::sync::mpsc;
+
+/// Word indices of the per-frame statistics buffer (atomic u32 words; f32 stored as bits).
+pub mod word {
+    /// Substep + 1 of the first guard event, 0 when none.
+    pub const GUARD: usize = 0;
+    /// Lowest offending particle of that substep.
+    pub const GUARD_PARTICLE: usize = 1;
+    /// f32 bits (non-negative, so u32 order is f32 order).
+    pub const MAX_SPEED: usize = 2;
+    pub const CLAMPED: usize = 3;
+    /// Substeps started.
+    pub const SUBSTEPS: usize = 4;
+    /// Blocks with tool contact in this substep.
+    pub const CONTACT_BLOCKS: usize = 5;
+    /// 0 non-finite, 1 runaway.
+    pub const GUARD_KIND: usize = 6;
+    pub const GUARD_SPEED: usize = 7;
+    /// 3 words.
+    pub const GUARD_POS: usize = 8;
+    /// MAX_TOOLS × IMPULSE_WORDS: linear xyz, angular xyz, contact nodes, 0.
+    pub const IMPULSE: usize = 16;
+
+    /// Names (without the `S_` the shaders prefix) and indices, for the shader prelude.
+    pub const ALL: [(&str, usize); 10] = [
+        ("GUARD", GUARD),
+        ("GUARD_PARTICLE", GUARD_PARTICLE),
+        ("MAX_SPEED", MAX_SPEED),
+        ("CLAMPED", CLAMPED),
+        ("SUBSTEPS", SUBSTEPS),
+        ("CONTACT_BLOCKS", CONTACT_BLOCKS),
+        ("GUARD_KIND", GUARD_KIND),
+        ("GUARD_SPEED", GUARD_SPEED),
+        ("GUARD_POS", GUARD_POS),
+        ("IMPULSE", IMPULSE),
+    ];
+}
+
+pub const STATS_WORDS: usize = word::IMPULSE + MAX_TOOLS * IMPULSE_WORDS;
+pub const STATS_BYTES: u64 = 512;
+/// Bytes per particle of the end-of-frame extract: a position and three F columns, vec4 each.
+pub const EXTRACT_BYTES: usize = 64;
+
+const _: () = assert!(word::GUARD_POS + 3 <= word::IMPULSE);
+const _: () = assert!(STATS_WORDS * 4 <= STATS_BYTES as usize);
+
+/// The statistics words a frame starts from.
+pub fn stats_at_frame_start() -> [u32; STATS_WORDS] {
+    let mut init = [0u32; STATS_WORDS];
+    init[word::GUARD_PARTICLE] = u32::MAX;
+    init
+}
+
+/// The readback ring: frame k reads back through `staging[k % 2]`.
+pub struct Readback {
+    staging: [wgpu::Buffer; 2],
+    frame: u64,
+    /// The frame submitted and not collected yet.
+    pending: Option<PendingFrame>,
+}
+
+/// A submitted frame whose readback is under way.
+struct PendingFrame {
+    /// Staging buffer its statistics and extract are copied into.
+    slot: usize,
+    /// Bytes of the extract after the statistics.
+    extract_bytes: usize,
+    /// Answered once the staging buffer is mapped.
+    mapped: mpsc::Receiver<Result<(), wgpu::BufferAsyncError>>,
+}
+
+/// Copies recorded into a frame's encoder, to be mapped once it is submitted.
+pub struct RecordedCopies {
+    slot: usize,
+    extract_bytes: usize,
+}
+
+impl Readback {
+    pub fn new(device: &wgpu::Device, n: usize) -> Self {
+        let staging = [0, 1].map(|i| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(if i == 0 { "readback 0" } else { "readback 1" }),
+                size: STATS_BYTES + (n * EXTRACT_BYTES).max(16) as u64,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        });
+        Readback {
+            staging,
+            frame: 0,
+            pending: None,
+        }
+    }
+
+    pub fn in_flight(&self) -> bool {
+        self.pending.is_some()
+    }
+
+    /// Records the copies of the frame's statistics and extract (positions, and the
+    /// deformation gradients with `deformation`) into the next staging buffer.
+    pub fn record(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        stats: &wgpu::Buffer,
+        extract: &wgpu::Buffer,
+        n: usize,
+        deformation: bool,
+    ) -> RecordedCopies {
+        let slot = (self.frame % 2) as usize;
+        self.frame += 1;
+        let staging = &self.staging[slot];
+        encoder.copy_buffer_to_buffer(stats, 0, staging, 0, STATS_BYTES);
+        let extract_bytes = if deformation {
+            n * EXTRACT_BYTES
+        } else {
+            n * 16
+        };
+        if n > 0 {
+            encoder.copy_buffer_to_buffer(extract, 0, staging, STATS_BYTES, extract_bytes as u64);
+        }
+        RecordedCopies {
+            slot,
+            extract_bytes,
+        }
+    }
+
+    /// Asks for the staging buffer of a submitted frame to be mapped, without waiting.
+    pub fn request(&mut self, copies: RecordedCopies) {
+        let (tx, mapped) = mpsc::channel();
+        self.staging[copies.slot].map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        self.pending = Some(PendingFrame {
+            slot: copies.slot,
+            extract_bytes: copies.extract_bytes,
+            mapped,
+        });
+    }
+
+    /// Waits for the frame in flight, copies its positions (and deformation gradients
+    /// when read back) into `host` and returns its statistics.
+    ///
+    /// # Panics
+    /// When no frame was submitted, or the device is lost.
+    pub fn collect(&mut self, device: &wgpu::Device, host: &mut Particles) -> FrameStats {
+        let pending = self
+            .pending
+            .take()
+            .expect("collect_frame called with no frame in flight");
+        device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .expect("GPU device lost while waiting for a frame");
+        pending
+            .mapped
+            .recv()
+            .expect("map callback ran")
+            .expect("GPU readback mapping failed");
+        let staging = &self.staging[pending.slot];
+        let bytes = staging.get_mapped_range(..);
+        let n = host.len();
+        let extract_bytes = pending.extract_bytes;
+        let words: &[u32] = bytemuck::cast_slice(&bytes[..STATS_BYTES as usize]);
+        let extract: &[[f32; 4]] = bytemuck::cast_slice(
+            &bytes[STATS_BYTES as usize..STATS_BYTES as usize + extract_bytes],
+        );
+        let (positions, gradients) = extract.split_at(n.min(extract.len()));
+        for (x, p) in host.x.iter_mut().zip(positions) {
+            *x = Vec3::new(p[0], p[1], p[2]);
+        }
+        for (f, cols) in host.f.iter_mut().zip(gradients.chunks_exact(3)) {
+            *f = pack::unpack_mat3(cols);
+        }
+        let stats = parse_stats(words);
+        drop(bytes);
+        staging.unmap();
+        stats
+    }
+}
+
+/// Blocking download of every particle field of `particles` into `host`.
+pub fn download_particles(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    particles: &wgpu::Buffer,
+    host: &mut Particles,
+) {
+    let size = (host.len() * std::mem::size_of::<GpuParticle>()) as u64;
+    let staging = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("particle download"),
+        size,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder =
+        device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+    encoder.copy_buffer_to_buffer(particles, 0, &staging, 0, size);
+    queue.submit([encoder.finish()]);
+    let bytes = map_read(device, &staging);
+    pack::unpack_particles(bytemuck::cast_slice(&bytes), host);
+    drop(bytes);
+    staging.unmap();
+}
+
+/// Maps `buffer` for reading once the queue's work is done.
+fn map_read(device: &wgpu::Device, buffer: &wgpu::Buffer) -> wgpu::BufferView {
+    let (tx, rx) = mpsc::channel();
+    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+        let _ = tx.send(r);
+    });
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .expect("GPU device lost while waiting for a frame");
+    rx.recv()
+        .expect("map callback ran")
+        .expect("GPU readback mapping failed");
+    buffer.get_mapped_range(..)
+}
+
+fn parse_stats(w: &[u32]) -> FrameStats {
+    let mut out = FrameStats {
+        max_speed: f32::from_bits(w[word::MAX_SPEED]),
+        clamped_particles: w[word::CLAMPED],
+        substeps_done: w[word::SUBSTEPS],
+        ..Default::default()
+    };
+    for (t, imp) in out.tool_impulses.iter_mut().enumerate() {
+        let f = |k: usize| f32::from_bits(w[word::IMPULSE + t * IMPULSE_WORDS + k]) as f64;
+        imp.linear = nalgebra::Vector3::new(f(0), f(1), f(2));
+        imp.angular = nalgebra::Vector3::new(f(3), f(4), f(5));
+        imp.contact_nodes = f(6).round() as u32;
+    }
+    if w[word::GUARD] != 0 {
+        out.substeps_done = w[word::GUARD] - 1;
+        let non_finite = w[word::GUARD_KIND] == 0;
+        out.guard = Some(GuardEvent {
+            kind: if non_finite {
+                GuardKind::NonFinite
+            } else {
+                GuardKind::Runaway
+            },
+            particle: w[word::GUARD_PARTICLE],
+            position: Vec3::new(
+                f32::from_bits(w[word::GUARD_POS]),
+                f32::from_bits(w[word::GUARD_POS + 1]),
+                f32::from_bits(w[word::GUARD_POS + 2]),
+            ),
+            speed: if non_finite {
+                f32::NAN
+            } else {
+                f32::from_bits(w[word::GUARD_SPEED])
+            },
+        });
+    }
+    out
+}
