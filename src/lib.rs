@@ -12,6 +12,7 @@ pub mod mpm;
 pub mod output;
 pub mod robot;
 pub mod ros;
+pub mod sim;
 pub mod sleep;
 pub mod tools;
 pub mod world;
