@@ -1,12 +1,12 @@
 //! dvrk-tissue-sim: MPM soft-tissue simulation for da Vinci Research Kit arms.
 //!
-//! Module map (see DESIGN.md): `config` (scene files), `tools` (rigid tool SDFs and
-//! contact), `mpm` (particles, grid, materials, solvers), `world` (one scene's simulation),
-//! `robot` (PSM URDF, kinematics, teleoperation mapping), `output` (point cloud, surface),
-//! `ros` (the ROS 2 node), `sleep` (resting tissue skips frames), `bench` (analytic scenes,
-//! runtime-against-error sweep, stability matrix, throughput).
+//! Module map (see DESIGN.md): `config` (scene files and scene builders), `tools` (rigid
+//! tool SDFs and contact), `mpm` (particles, grid, materials, solvers), `world` (one
+//! scene's simulation), `robot` (PSM URDF, kinematics, teleoperation mapping), `output`
+//! (point cloud, surface, pictures), `ros` (the ROS 2 node), `sleep` (resting tissue skips
+//! frames), `validation` (scenes with analytic answers). The command line, benchmarks and
+//! stress sweeps are the binary's (`src/cli/`).
 
-pub mod bench;
 pub mod config;
 pub mod mpm;
 pub mod output;
@@ -15,4 +15,5 @@ pub mod ros;
 pub mod sim;
 pub mod sleep;
 pub mod tools;
+pub mod validation;
 pub mod world;

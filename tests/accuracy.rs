@@ -1,7 +1,7 @@
 //! Accuracy against analytic answers, and convergence as dx shrinks. Bounds are what the
 //! solver reaches (see `bench accuracy`) plus margin.
 
-use dvrk_tissue_sim::bench::analytic;
+use dvrk_tissue_sim::validation::analytic;
 
 #[test]
 fn hertz_indentation_force_converges_to_hertz() {

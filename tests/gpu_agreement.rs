@@ -4,8 +4,7 @@
 //! skipped (with the reason printed) otherwise; on a plain CI machine Mesa's llvmpipe
 //! (software Vulkan) is the adapter.
 
-use dvrk_tissue_sim::bench::analytic;
-use dvrk_tissue_sim::bench::scenes::*;
+use dvrk_tissue_sim::config::builders::*;
 use dvrk_tissue_sim::config::Scene;
 use dvrk_tissue_sim::mpm::backend::{BackendChoice, P2gAtomics};
 use dvrk_tissue_sim::mpm::gpu::adapter;
@@ -13,6 +12,7 @@ use dvrk_tissue_sim::mpm::guard::GuardPolicy;
 use dvrk_tissue_sim::mpm::{Mat3, Vec3};
 use dvrk_tissue_sim::output::strain::StrainMeasure;
 use dvrk_tissue_sim::output::{CloudOptions, TissueCloud};
+use dvrk_tissue_sim::validation::analytic;
 use dvrk_tissue_sim::world::{StepError, World};
 
 /// Whether the P2G variant can run here; panics under CI when there is no adapter at all.
@@ -203,7 +203,7 @@ fn gpu_cloud_scalars_agree_with_cpu_fixed_point() {
 
 /// The CPU solver test's grasp, faster: jaws close on a block resting on the table, then lift.
 fn grasp_scene() -> Scene {
-    dvrk_tissue_sim::bench::scenes::grasp_scene(0.1, 0.3, 0.6, 0.005)
+    dvrk_tissue_sim::config::builders::grasp_scene(0.1, 0.3, 0.6, 0.005)
 }
 
 /// Jaws closing (jaw velocity), friction, resting table, lifting: positions and the

@@ -1,6 +1,6 @@
 //! A substep allocates nothing: buffers are sized when the solver is built.
 
-use dvrk_tissue_sim::bench::throughput::seed000_scene;
+use dvrk_tissue_sim::config::builders::seed000_scene;
 use dvrk_tissue_sim::mpm::backend::{Backend, BackendChoice};
 use dvrk_tissue_sim::mpm::cpu::SubstepInput;
 use dvrk_tissue_sim::mpm::{Method, PbMpmParams, SolverKind};

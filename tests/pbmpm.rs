@@ -1,7 +1,7 @@
 //! PB-MPM behaviour on the CPU: large steps stay stable, tools feel physical forces,
 //! momentum is conserved.
 
-use dvrk_tissue_sim::bench::scenes::*;
+use dvrk_tissue_sim::config::builders::*;
 use dvrk_tissue_sim::config::{Hold, Scene, Table};
 use dvrk_tissue_sim::mpm::backend::BackendChoice;
 use dvrk_tissue_sim::mpm::{timestep, Lame, Method, Vec3};

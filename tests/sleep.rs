@@ -1,7 +1,7 @@
 //! Resting tissue sleeps while no tool can reach it and never misses a contact: a run with
 //! sleep on sees the same contacts at the same frames as a run with sleep off.
 
-use dvrk_tissue_sim::bench::scenes::*;
+use dvrk_tissue_sim::config::builders::*;
 use dvrk_tissue_sim::config::Scene;
 use dvrk_tissue_sim::mpm::backend::BackendChoice;
 use dvrk_tissue_sim::tools::{ContactModel, Shape};

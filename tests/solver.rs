@@ -1,6 +1,6 @@
 //! Whole-solver behaviour: conservation, grasping, needle contact, guard, time step.
 
-use dvrk_tissue_sim::bench::scenes::*;
+use dvrk_tissue_sim::config::builders::*;
 use dvrk_tissue_sim::config::Scene;
 use dvrk_tissue_sim::mpm::guard::GuardPolicy;
 use dvrk_tissue_sim::mpm::{timestep, Lame, Method, Vec3};
@@ -48,7 +48,7 @@ fn free_flying_block_conserves_momentum() {
 }
 
 fn grasp_scene() -> Scene {
-    dvrk_tissue_sim::bench::scenes::grasp_scene(0.2, 0.5, 1.0, 0.010)
+    dvrk_tissue_sim::config::builders::grasp_scene(0.2, 0.5, 1.0, 0.010)
 }
 
 #[test]

@@ -1,7 +1,7 @@
 //! The tissue surface through a large deformation: the grasp scene's jaws squeeze a 6 mm
 //! block to about half its width and lift it (CPU backend).
 
-use dvrk_tissue_sim::bench::scenes::grasp_scene;
+use dvrk_tissue_sim::config::builders::grasp_scene;
 use dvrk_tissue_sim::mpm::backend::BackendChoice;
 use dvrk_tissue_sim::output::isosurface::{self, is_closed};
 use dvrk_tissue_sim::output::mesh::TissueMesh;

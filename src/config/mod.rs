@@ -1,5 +1,6 @@
 //! Scene files: the serde model, loading, and validation with clear errors.
 
+pub mod builders;
 mod scene;
 mod validate;
 

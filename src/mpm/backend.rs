@@ -13,7 +13,7 @@ use crate::tools::ToolKinematics;
 use serde::{Deserialize, Serialize};
 
 /// Which backend a scene asks for.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum BackendChoice {
     /// A hardware GPU adapter when one exists, the CPU backend otherwise.
@@ -26,7 +26,7 @@ pub enum BackendChoice {
 }
 
 /// How the GPU's P2G scatter accumulates into the grid.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum P2gAtomics {
     /// f32 atomics where the adapter has `SHADER_FLOAT32_ATOMIC`, fixed point otherwise.

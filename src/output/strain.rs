@@ -3,7 +3,7 @@
 use crate::mpm::{Mat3, Vec3};
 use serde::{Deserialize, Serialize};
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum StrainMeasure {
     /// Volume change J − 1 (negative: compressed, positive: expanded).

@@ -3,14 +3,14 @@
 //! dx = 1 mm, dt from CFL, 10 substeps per frame (positions read back every frame), plus
 //! the seed-000 scene (≈24,000 particles, 64³ grid).
 
-use super::scenes::*;
-use super::throughput::seed000_scene;
-use crate::config::Scene;
-use crate::mpm::backend::{BackendChoice, P2gAtomics};
-use crate::mpm::timestep;
-use crate::mpm::Lame;
-use crate::tools::{ContactModel, Shape};
-use crate::world::World;
+use dvrk_tissue_sim::config::builders::seed000_scene;
+use dvrk_tissue_sim::config::builders::*;
+use dvrk_tissue_sim::config::Scene;
+use dvrk_tissue_sim::mpm::backend::{BackendChoice, P2gAtomics};
+use dvrk_tissue_sim::mpm::timestep;
+use dvrk_tissue_sim::mpm::Lame;
+use dvrk_tissue_sim::tools::{ContactModel, Shape};
+use dvrk_tissue_sim::world::World;
 use std::time::Instant;
 
 pub const COUNTS: [usize; 5] = [10_000, 30_000, 100_000, 300_000, 1_000_000];
@@ -94,7 +94,7 @@ fn time_world(label: &str, mut world: World, min_wall_s: f64) -> Row {
 /// The backends to compare: the CPU, and the GPU with each P2G variant it can run.
 pub fn variants() -> Vec<(BackendChoice, P2gAtomics)> {
     let mut v = vec![(BackendChoice::Cpu, P2gAtomics::Auto)];
-    if let Some(a) = crate::mpm::gpu::adapter::adapters().first() {
+    if let Some(a) = dvrk_tissue_sim::mpm::gpu::adapter::adapters().first() {
         if a.features().contains(wgpu::Features::SHADER_FLOAT32_ATOMIC) {
             v.push((BackendChoice::Gpu, P2gAtomics::Float));
         }
@@ -163,9 +163,9 @@ mod tests {
         for n in [10_000, 100_000] {
             let s = block_scene(n);
             assert!(
-                crate::config::validate(&s).is_empty(),
+                dvrk_tissue_sim::config::validate(&s).is_empty(),
                 "{:?}",
-                crate::config::validate(&s)
+                dvrk_tissue_sim::config::validate(&s)
             );
             let mut cpu = s.clone();
             cpu.solver.backend = BackendChoice::Cpu;

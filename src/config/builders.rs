@@ -1,5 +1,6 @@
-//! Small builders for scenes made in code (benchmarks and accuracy scenes), so that they
-//! run through exactly the same `World` as scene files do.
+//! Small builders for scenes made in code (tests, benchmarks and the analytic scenes), so
+//! that they run through exactly the same `World` as scene files do; and the scenes that
+//! tests and benchmarks share.
 
 use crate::config::{Domain, Hold, Keyframe, Material, Scene, Solver, Table, Tissue, Tool};
 use crate::mpm::material::MaterialModel;
@@ -132,4 +133,46 @@ pub fn grasp_scene(open_until: f64, closed_at: f64, lifted_at: f64, lift: f64) -
     );
     s.solver.max_substeps_per_frame = 400;
     s
+}
+
+/// The seed-000 benchmark scene: a 0.1 m domain on a 64³ grid, a 24×25×5-cell block with
+/// 8 particles per cell (24,000 particles), liver-like Neo-Hookean material, gripper lift.
+pub fn seed000_scene() -> Scene {
+    let dx = 0.1 / 64.0;
+    let size = [24.0 * dx, 25.0 * dx, 5.0 * dx];
+    let table = 4.0 * dx;
+    let top = table + size[2];
+    let gripper = Shape::Gripper {
+        jaw_length: 0.01,
+        jaw_width: 0.005,
+        jaw_thickness: 0.0032,
+    };
+    let x = 0.5 * size[0] - 0.004;
+    let rpy = [180.0, 0.0, 90.0];
+    let frames = vec![
+        key(0.0, [x, 0.0, top + 0.004], rpy, 60.0),
+        key(0.1, [x, 0.0, top + 0.006], rpy, 60.0),
+        key(0.2, [x, 0.0, top + 0.006], rpy, 5.0),
+        key(1.0, [x, 0.0, top + 0.03], rpy, 5.0),
+    ];
+    scene(
+        "seed000-retraction",
+        40.0,
+        domain([-0.05, -0.05, 0.0], [0.1, 0.1, 0.1], dx, [0.0, 0.0, -9.81]),
+        Some(bonded_table(table)),
+        vec![tissue(
+            [0.0, 0.0, table + 0.5 * size[2]],
+            size,
+            material(5000.0, 0.4, 1000.0, 2.0),
+        )],
+        vec![tool(
+            "gripper",
+            gripper,
+            ContactModel::Coulomb {
+                friction: 2.0,
+                drag: 0.0,
+            },
+            frames,
+        )],
+    )
 }

@@ -5,10 +5,10 @@
 //! the node's simulation thread does when it runs behind real time.
 
 use super::scaling::variants;
-use super::throughput::seed000_scene;
-use crate::mpm::backend::{BackendChoice, P2gAtomics};
-use crate::output::{CloudOptions, TissueCloud};
-use crate::world::World;
+use dvrk_tissue_sim::config::builders::seed000_scene;
+use dvrk_tissue_sim::mpm::backend::{BackendChoice, P2gAtomics};
+use dvrk_tissue_sim::output::{CloudOptions, TissueCloud};
+use dvrk_tissue_sim::world::World;
 use std::time::Instant;
 
 pub struct Row {

@@ -9,13 +9,13 @@
 //! A case inside the documented safe envelope (see README, "Stability") must pass every
 //! check; cases outside it are there to show where the envelope ends.
 
-use super::scenes::*;
-use crate::config::{Hold, Scene, Table};
-use crate::mpm::backend::BackendChoice;
-use crate::mpm::material::energy_density;
-use crate::mpm::{timestep, Lame, Method};
-use crate::tools::{ContactModel, Shape, ToolKinematics, ToolVelocity};
-use crate::world::{StepError, World};
+use dvrk_tissue_sim::config::builders::*;
+use dvrk_tissue_sim::config::{Hold, Scene, Table};
+use dvrk_tissue_sim::mpm::backend::BackendChoice;
+use dvrk_tissue_sim::mpm::material::energy_density;
+use dvrk_tissue_sim::mpm::{timestep, Lame, Method};
+use dvrk_tissue_sim::tools::{ContactModel, Shape, ToolKinematics, ToolVelocity};
+use dvrk_tissue_sim::world::{StepError, World};
 use std::fmt::Write as _;
 use std::time::Instant;
 
@@ -147,7 +147,7 @@ pub fn with_backend(mut cases: Vec<StressCase>, backend: BackendChoice) -> Vec<S
 }
 
 /// Block 16 × 16 × 8 mm bonded to the table at dx = 2 mm.
-fn block_scene(name: &str, e: f64, nu: f64, tools: Vec<crate::config::Tool>) -> Scene {
+fn block_scene(name: &str, e: f64, nu: f64, tools: Vec<dvrk_tissue_sim::config::Tool>) -> Scene {
     let mut s = scene(
         name,
         60.0,
@@ -392,7 +392,10 @@ fn soak_case(seconds: f64) -> StressCase {
 }
 
 /// Total mechanical energy: kinetic + gravitational (relative to the origin) + elastic (J).
-fn mechanical_energy(world: &World, materials: &[(crate::mpm::MaterialModel, Lame)]) -> f64 {
+fn mechanical_energy(
+    world: &World,
+    materials: &[(dvrk_tissue_sim::mpm::MaterialModel, Lame)],
+) -> f64 {
     let p = world.particles();
     let g: nalgebra::Vector3<f64> = nalgebra::Vector3::from(world.scene().domain.gravity);
     let mut e = p.kinetic_energy();
@@ -667,7 +670,7 @@ mod tests {
     #[test]
     fn every_case_scene_is_valid() {
         for case in cases(Matrix::Full) {
-            let problems = crate::config::validate(&case.scene);
+            let problems = dvrk_tissue_sim::config::validate(&case.scene);
             assert!(problems.is_empty(), "{}: {problems:?}", case.name);
         }
     }

@@ -1,10 +1,10 @@
 //! The tissue surface on a scene: how far the constant-topology mesh drifts from the
 //! particles as the tissue deforms, and what each surface kind costs per frame.
 
-use crate::config::Scene;
-use crate::output::mesh::{MeshDeviation, TissueMesh};
-use crate::output::{SurfaceKind, TissueSurface};
-use crate::world::{StepError, World, WorldError};
+use dvrk_tissue_sim::config::Scene;
+use dvrk_tissue_sim::output::mesh::{MeshDeviation, TissueMesh};
+use dvrk_tissue_sim::output::{SurfaceKind, TissueSurface};
+use dvrk_tissue_sim::world::{StepError, World, WorldError};
 use std::fmt::Write;
 use std::time::Instant;
 
@@ -19,7 +19,7 @@ pub enum SurfaceBenchError {
     #[error(transparent)]
     Step(#[from] StepError),
     #[error("{0}")]
-    Mesh(#[from] crate::output::mesh::MeshError),
+    Mesh(#[from] dvrk_tissue_sim::output::mesh::MeshError),
 }
 
 /// The mesh's deviation at one time.

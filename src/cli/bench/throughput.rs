@@ -1,53 +1,9 @@
 //! Throughput on the seed-000 scene size: ≈24,000 particles, a 64³ grid over the domain,
 //! dt from CFL, a gripper retracting the tissue (SurRoL's benchmark setting).
 
-use super::scenes::*;
-use crate::config::Scene;
-use crate::tools::{ContactModel, Shape};
-use crate::world::World;
+use dvrk_tissue_sim::config::builders::*;
+use dvrk_tissue_sim::world::World;
 use std::time::Instant;
-
-/// The seed-000 benchmark scene: a 0.1 m domain on a 64³ grid, a 24×25×5-cell block with
-/// 8 particles per cell (24,000 particles), liver-like Neo-Hookean material, gripper lift.
-pub fn seed000_scene() -> Scene {
-    let dx = 0.1 / 64.0;
-    let size = [24.0 * dx, 25.0 * dx, 5.0 * dx];
-    let table = 4.0 * dx;
-    let top = table + size[2];
-    let gripper = Shape::Gripper {
-        jaw_length: 0.01,
-        jaw_width: 0.005,
-        jaw_thickness: 0.0032,
-    };
-    let x = 0.5 * size[0] - 0.004;
-    let rpy = [180.0, 0.0, 90.0];
-    let frames = vec![
-        key(0.0, [x, 0.0, top + 0.004], rpy, 60.0),
-        key(0.1, [x, 0.0, top + 0.006], rpy, 60.0),
-        key(0.2, [x, 0.0, top + 0.006], rpy, 5.0),
-        key(1.0, [x, 0.0, top + 0.03], rpy, 5.0),
-    ];
-    scene(
-        "seed000-retraction",
-        40.0,
-        domain([-0.05, -0.05, 0.0], [0.1, 0.1, 0.1], dx, [0.0, 0.0, -9.81]),
-        Some(bonded_table(table)),
-        vec![tissue(
-            [0.0, 0.0, table + 0.5 * size[2]],
-            size,
-            material(5000.0, 0.4, 1000.0, 2.0),
-        )],
-        vec![tool(
-            "gripper",
-            gripper,
-            ContactModel::Coulomb {
-                friction: 2.0,
-                drag: 0.0,
-            },
-            frames,
-        )],
-    )
-}
 
 pub struct ThroughputResult {
     pub backend: &'static str,
@@ -118,9 +74,9 @@ mod tests {
     fn seed000_scene_matches_the_paper_setting() {
         let scene = seed000_scene();
         assert!(
-            crate::config::validate(&scene).is_empty(),
+            dvrk_tissue_sim::config::validate(&scene).is_empty(),
             "{:?}",
-            crate::config::validate(&scene)
+            dvrk_tissue_sim::config::validate(&scene)
         );
         let world = World::new(&scene);
         assert_eq!(world.particles().len(), 24_000);

@@ -5,7 +5,7 @@
 //! can check error bounds and that errors shrink as dx shrinks.
 
 use super::meter::Meter;
-use super::scenes::*;
+use crate::config::builders::*;
 use crate::config::Scene;
 use crate::mpm::Lame;
 use crate::tools::{ContactModel, Shape};
@@ -410,42 +410,6 @@ pub fn stretch_run(
         force: sum / n.max(1) as f64,
         analytic: neo_hookean_uniaxial_stress(STRETCH_E, STRETCH_NU, stretch) * area,
     }
-}
-
-/// Markdown table of all three scenes at two resolutions.
-pub fn accuracy_table() -> String {
-    let mut out = String::from("| scene | resolution | particles / samples | simulated | analytic | relative error |\n|---|---|---|---|---|---|\n");
-    for cells in [4.0, 6.0] {
-        let h = hertz(cells);
-        let last = h.samples.last().cloned();
-        out += &format!(
-            "| Hertz, d/R 0.05–0.3 | R = {cells} dx | {} particles, {} samples | F(0.3R) = {:.4} N | {:.4} N | RMS {:.1}% |\n",
-            h.particles,
-            h.samples.len(),
-            last.as_ref().map_or(f64::NAN, |s| s.force),
-            last.as_ref().map_or(f64::NAN, |s| s.analytic),
-            100.0 * h.rms_relative_error()
-        );
-    }
-    for cells in [4, 8] {
-        let b = vibrating_bar(cells);
-        out += &format!(
-            "| vibrating bar, L = 10 h | h = {cells} dx | — | T = {:.5} s | {:.5} s | {:+.1}% |\n",
-            b.period,
-            b.analytic_period,
-            100.0 * b.relative_error()
-        );
-    }
-    for cells in [4, 8] {
-        let s = large_stretch(cells, 1.3);
-        out += &format!(
-            "| Neo-Hookean stretch 1.3× | h = {cells} dx | — | F = {:.5} N | {:.5} N | {:+.1}% |\n",
-            s.force,
-            s.analytic,
-            100.0 * s.relative_error()
-        );
-    }
-    out
 }
 
 #[cfg(test)]

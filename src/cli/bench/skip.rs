@@ -4,10 +4,10 @@
 //! - the same tissue in a domain 4× larger along each axis (64× the volume and grid nodes);
 //! - tools parked out of reach (a gripper, a needle, a second probe) against no tools.
 
-use super::throughput::seed000_scene;
-use crate::config::Scene;
-use crate::mpm::backend::BackendChoice;
-use crate::world::World;
+use dvrk_tissue_sim::config::builders::seed000_scene;
+use dvrk_tissue_sim::config::Scene;
+use dvrk_tissue_sim::mpm::backend::BackendChoice;
+use dvrk_tissue_sim::world::World;
 use std::fmt::Write as _;
 use std::time::Instant;
 
@@ -38,9 +38,16 @@ fn resting_scene() -> Scene {
 }
 
 fn parked_tools(mut s: Scene) -> Scene {
-    use crate::tools::{ContactModel, Shape};
-    let park = |x: f64| vec![super::scenes::key(0.0, [x, 0.03, 0.07], [0.0; 3], 30.0)];
-    s.tools.push(super::scenes::tool(
+    use dvrk_tissue_sim::tools::{ContactModel, Shape};
+    let park = |x: f64| {
+        vec![dvrk_tissue_sim::config::builders::key(
+            0.0,
+            [x, 0.03, 0.07],
+            [0.0; 3],
+            30.0,
+        )]
+    };
+    s.tools.push(dvrk_tissue_sim::config::builders::tool(
         "needle",
         Shape::Needle {
             radius: 0.008,
@@ -50,7 +57,7 @@ fn parked_tools(mut s: Scene) -> Scene {
         ContactModel::default(),
         park(-0.02),
     ));
-    s.tools.push(super::scenes::tool(
+    s.tools.push(dvrk_tissue_sim::config::builders::tool(
         "second probe",
         Shape::Sphere { radius: 0.004 },
         ContactModel::default(),
@@ -189,11 +196,12 @@ mod tests {
     #[test]
     fn bench_scenes_are_valid_and_keep_tools_out_of_reach() {
         for scene in [resting_scene(), parked_tools(resting_scene())] {
-            let problems = crate::config::validate(&scene);
+            let problems = dvrk_tissue_sim::config::validate(&scene);
             assert!(problems.is_empty(), "{problems:?}");
             let world = World::new(&scene);
             let dx = scene.domain.dx as f32;
-            let tissue = crate::sleep::Aabb::of_points(&world.particles().x).grown(2.0 * dx);
+            let tissue =
+                dvrk_tissue_sim::sleep::Aabb::of_points(&world.particles().x).grown(2.0 * dx);
             for t in world.tools() {
                 assert!(
                     !t.reach_between(0.0, 2.0, dx).intersects(&tissue),

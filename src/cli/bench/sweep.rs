@@ -4,12 +4,14 @@
 //! factor. Written as CSV, a Markdown table and a PNG of error against run time with each
 //! solver's Pareto front.
 
-use super::analytic::{bar_run, bar_scene, hertz_run, hertz_scene, stretch_run, stretch_scene};
-use super::meter::Meter;
 use super::plot::{self, Panel, Series};
-use crate::config::Scene;
-use crate::mpm::backend::BackendChoice;
-use crate::mpm::{timestep, Lame, Method};
+use dvrk_tissue_sim::config::Scene;
+use dvrk_tissue_sim::mpm::backend::BackendChoice;
+use dvrk_tissue_sim::mpm::{timestep, Lame, Method};
+use dvrk_tissue_sim::validation::analytic::{
+    bar_run, bar_scene, hertz_run, hertz_scene, stretch_run, stretch_scene,
+};
+use dvrk_tissue_sim::validation::meter::Meter;
 use std::fmt::Write as _;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
@@ -151,6 +153,8 @@ impl AnalyticCase {
 
 /// A solver with its time-step setting.
 #[derive(Clone, Copy, Debug, PartialEq)]
+// The variants are the solvers' own names (MLS-MPM, PIC-MPM, PB-MPM), as in `mpm::Method`.
+#[allow(clippy::enum_variant_names)]
 pub enum SolverSetting {
     /// MLS-MPM (APIC) with substeps at the CFL number `cfl`.
     MlsMpm { cfl: f64 },
@@ -287,10 +291,6 @@ impl SweepPlan {
 
     pub fn len(&self) -> usize {
         self.cases.len() * self.settings.len() * self.backends.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
     }
 }
 
@@ -511,7 +511,7 @@ mod tests {
             for setting in SweepPlan::full(vec![]).settings {
                 let mut scene = case.scene();
                 setting.apply(&mut scene);
-                let problems = crate::config::validate(&scene);
+                let problems = dvrk_tissue_sim::config::validate(&scene);
                 assert!(problems.is_empty(), "{case:?} {setting:?}: {problems:?}");
             }
         }

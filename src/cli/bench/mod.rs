@@ -1,0 +1,221 @@
+//! `bench`: the runtime-against-error sweep over the analytic scenes (the default), and
+//! throughput, scaling, frame, skip, surface and accuracy tables. Each is a command that
+//! prints a table (and writes CSV/PNG where it says so); none is library API.
+
+pub mod accuracy;
+pub mod frame;
+pub mod plot;
+pub mod scaling;
+pub mod skip;
+pub mod stress;
+pub mod surface;
+pub mod sweep;
+pub mod throughput;
+
+use crate::scene_args::{scene_value, SolverOverrides};
+use anyhow::{bail, Context, Result};
+use clap::{Args, Subcommand};
+use dvrk_tissue_sim::mpm::backend::BackendChoice;
+use dvrk_tissue_sim::mpm::gpu::adapter;
+use std::path::{Path, PathBuf};
+use sweep::SweepPlan;
+
+#[derive(Args)]
+pub struct BenchArgs {
+    #[command(subcommand)]
+    which: Option<BenchCommand>,
+    /// Coarse resolutions only (under two minutes on two CPU cores).
+    #[arg(long)]
+    quick: bool,
+    /// Folder for bench.csv, bench.md and bench.png.
+    #[arg(long, default_value = "target/bench")]
+    out: PathBuf,
+    /// Backends to sweep (default: cpu, plus gpu when a hardware GPU adapter exists).
+    #[arg(long, value_delimiter = ',', value_parser = scene_value::<BackendChoice>)]
+    backends: Option<Vec<BackendChoice>>,
+}
+
+#[derive(Subcommand)]
+pub enum BenchCommand {
+    /// Particle-substeps per second on the seed-000 retraction scene (≈24,000 particles,
+    /// 64³ grid, dt from CFL), CPU backend.
+    Throughput {
+        /// Frames to time (after one warm-up frame).
+        #[arg(long, default_value_t = 20)]
+        frames: u32,
+    },
+    /// Error of the scenes with analytic answers at a few resolutions.
+    Accuracy,
+    /// What a scene does not need costs nothing: resting tissue asleep against stepped, the
+    /// same tissue in a 4× larger domain, tools parked out of reach against none.
+    Skip {
+        /// Timed frames per case.
+        #[arg(long, default_value_t = 10)]
+        frames: u32,
+        /// Solver backend (`cpu`, `gpu` or `auto`).
+        #[arg(long, default_value = "cpu", value_parser = scene_value::<BackendChoice>)]
+        backend: BackendChoice,
+    },
+    /// Particle-substeps per second against particle count (10k–1M) and on the seed-000
+    /// scene, for the CPU backend and each GPU P2G variant the adapter can run.
+    Scaling {
+        /// Particle counts to time (default 10000,30000,100000,300000,1000000).
+        #[arg(long, value_delimiter = ',')]
+        counts: Option<Vec<usize>>,
+        /// Least wall time per measurement (s).
+        #[arg(long, default_value_t = 2.0)]
+        min_seconds: f64,
+    },
+    /// A seed-000 output frame as the node runs it (substeps, readback, point cloud), per
+    /// backend: serially, and pipelined (the previous frame's cloud built while the next
+    /// frame computes).
+    Frame {
+        /// Frames to time each way (after one warm-up frame).
+        #[arg(long, default_value_t = 30)]
+        frames: u32,
+    },
+    /// The tissue surface on a scene: the constant-topology mesh's deviation from the
+    /// particles as the tissue deforms, and the per-frame cost of the mesh and isosurface.
+    Surface {
+        #[arg(long, default_value = "config/retraction.toml")]
+        scene: PathBuf,
+        /// Simulated seconds to run.
+        #[arg(long, default_value_t = 1.6)]
+        seconds: f64,
+        /// Simulated seconds between deviation samples.
+        #[arg(long, default_value_t = 0.2)]
+        every: f64,
+        #[command(flatten)]
+        solver: SolverOverrides,
+    },
+}
+
+/// The first GPU adapter, as the benchmark tables name it.
+fn adapter_name() -> String {
+    adapter::adapters()
+        .first()
+        .map(|a| {
+            let i = a.get_info();
+            format!("{} ({:?}, {:?})", i.name, i.backend, i.device_type)
+        })
+        .unwrap_or_else(|| "none".into())
+}
+
+pub fn run(args: BenchArgs) -> Result<()> {
+    let Some(which) = args.which else {
+        return run_sweep(args.quick, &args.out, args.backends);
+    };
+    match which {
+        BenchCommand::Skip { frames, backend } => {
+            let rows = skip::run(backend, frames.max(1))?;
+            print!("{}", skip::table(&rows));
+            let over = skip::over_target(&rows);
+            if !over.is_empty() {
+                bail!("over target: {}", over.join("; "));
+            }
+            Ok(())
+        }
+        BenchCommand::Throughput { frames } => {
+            let result = throughput::run_seed000(frames);
+            print!("{}", result.table());
+            Ok(())
+        }
+        BenchCommand::Scaling {
+            counts,
+            min_seconds,
+        } => {
+            let counts = counts.unwrap_or_else(|| scaling::COUNTS.to_vec());
+            let rows = scaling::run(&counts, min_seconds);
+            print!("{}", scaling::table(&rows, &adapter_name()));
+            Ok(())
+        }
+        BenchCommand::Frame { frames } => {
+            let rows = frame::run(frames);
+            print!("{}", frame::table(&rows, &adapter_name()));
+            Ok(())
+        }
+        BenchCommand::Surface {
+            scene,
+            seconds,
+            every,
+            solver,
+        } => {
+            if !(every > 0.0 && seconds > 0.0) {
+                bail!("--seconds ({seconds}) and --every ({every}) must be > 0");
+            }
+            let loaded = solver.load(&scene)?;
+            let result = surface::run(&loaded, seconds, every)
+                .with_context(|| format!("surface bench on {}", scene.display()))?;
+            print!("{}", result.table());
+            Ok(())
+        }
+        BenchCommand::Accuracy => {
+            print!("{}", accuracy::table());
+            Ok(())
+        }
+    }
+}
+
+fn run_sweep(quick: bool, out: &Path, backends: Option<Vec<BackendChoice>>) -> Result<()> {
+    let backends = backends.unwrap_or_else(|| {
+        let hardware = adapter::adapters()
+            .iter()
+            .any(|a| a.get_info().device_type != wgpu::DeviceType::Cpu);
+        let mut b = vec![BackendChoice::Cpu];
+        if hardware {
+            b.push(BackendChoice::Gpu);
+        }
+        b
+    });
+    let plan = if quick {
+        SweepPlan::quick(backends)
+    } else {
+        SweepPlan::full(backends)
+    };
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let progress = indicatif::ProgressBar::new(plan.len() as u64).with_style(
+        indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} [{elapsed}] {msg}")
+            .expect("valid progress template"),
+    );
+    let rows = sweep::run(&plan, |row| {
+        progress.set_message(format!(
+            "{} {} {} {} {}: {:+.2}%",
+            row.case.scene_name(),
+            row.case.resolution(),
+            row.setting.solver_name(),
+            row.setting.step_label(),
+            row.backend,
+            100.0 * row.error
+        ));
+        progress.inc(1);
+    });
+    progress.finish_and_clear();
+    let table = sweep::markdown(&rows);
+    print!("{table}");
+    let write = |name: &str, text: &str| {
+        let path = out.join(name);
+        std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))
+    };
+    write("bench.csv", &sweep::csv(&rows))?;
+    write("bench.md", &table)?;
+    let png = out.join("bench.png");
+    plot::render(&sweep::panels(&rows), "wall time (s)", "|error| (%)")
+        .write_png(&png)
+        .with_context(|| format!("cannot write {}", png.display()))?;
+    println!(
+        "wrote {}, bench.md and bench.png",
+        out.join("bench.csv").display()
+    );
+    let failures = sweep::failures(&rows);
+    if !failures.is_empty() {
+        for f in &failures {
+            eprintln!("out of bounds: {f}");
+        }
+        bail!(
+            "{} of {} runs outside their error bound",
+            failures.len(),
+            rows.len()
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,69 @@
+//! Command-line entry point: one module per subcommand (`run`, `snapshot`, `stress`,
+//! `check`, `bench`); the benchmarks and the stress matrix live here, beside the commands
+//! that print them, not in the library.
+
+mod bench;
+mod check;
+mod run;
+mod scene_args;
+mod snapshot;
+mod stress;
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(
+    name = "dvrk-tissue-sim",
+    version,
+    about = "MPM soft-tissue simulation for dVRK PSM arms"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Start the ROS 2 node on a scene; `--headless` instead runs its scripted tools with no
+    /// network at all.
+    Run(run::RunArgs),
+    /// Simulate a scene headless to a time and write a PNG picture of it: tissue coloured
+    /// by strain, tools drawn, no display or GPU needed.
+    Snapshot(snapshot::SnapshotArgs),
+    /// Stability matrix: stiffness, Poisson ratio, time step, tool speed, jaws closing,
+    /// pulling apart, dropping, and a long soak; a table of stability, energy drift,
+    /// penetration, escaped particles and guard events. Exits non-zero if a case inside the
+    /// safe envelope fails.
+    Stress(stress::StressArgs),
+    /// Validate scene files and report every problem.
+    Check(check::CheckArgs),
+    /// Benchmarks. Without a subcommand: the runtime-against-error sweep over the analytic
+    /// scenes × solver settings × backends × resolutions, printed as a table and written as
+    /// CSV, Markdown and a PNG plot; exits non-zero if an error exceeds its bound.
+    Bench(bench::BenchArgs),
+}
+
+fn main() {
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| "info,rustdds=error,ros2_client=warn".into()),
+        )
+        .with_writer(std::io::stderr)
+        .init();
+    if let Err(e) = dispatch(Cli::parse()) {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn dispatch(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Run(args) => run::run(args),
+        Command::Snapshot(args) => snapshot::run(args),
+        Command::Stress(args) => stress::run(args),
+        Command::Check(args) => check::run(args),
+        Command::Bench(args) => bench::run(args),
+    }
+}

@@ -1,0 +1,220 @@
+//! `run`: the ROS 2 node on a scene; `--headless` instead runs its scripted tools with no
+//! network at all; `--replay` drives the arms from a recorded bag.
+
+use crate::scene_args::SolverOverrides;
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use dvrk_tissue_sim::output::snapshot::{SnapshotOptions, SnapshotSchedule};
+use dvrk_tissue_sim::ros;
+use dvrk_tissue_sim::world::World;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+#[derive(Args)]
+pub struct RunArgs {
+    /// Scene file (TOML).
+    #[arg(long, default_value = "config/default.toml")]
+    scene: PathBuf,
+    /// Scripted run: no ROS, no network socket; prints a line per frame and a summary.
+    #[arg(long)]
+    headless: bool,
+    /// Simulated seconds to run (headless default 2; the node runs until Ctrl-C).
+    #[arg(long)]
+    seconds: Option<f64>,
+    /// ROS node name.
+    #[arg(long, default_value = "dvrk_tissue_sim")]
+    node_name: String,
+    /// ROS namespace of the node and all its topics except /tf.
+    #[arg(long, default_value = "/")]
+    namespace: String,
+    /// Print every n-th frame line (the summary is always printed).
+    #[arg(long, default_value_t = 1)]
+    print_every: u32,
+    #[command(flatten)]
+    solver: SolverOverrides,
+    /// Write a PNG of the scene (tissue coloured by equivalent strain, tools drawn)
+    /// every S simulated seconds, headless or as a node.
+    #[arg(long, value_name = "S")]
+    snapshot_every: Option<f64>,
+    /// Folder for those pictures (created if missing).
+    #[arg(long, default_value = "snapshots")]
+    snapshot_dir: PathBuf,
+    /// Record the node's outputs and the inputs it applied to this rosbag2-compatible
+    /// MCAP file (finished on Ctrl-C and at the end of --seconds).
+    #[arg(long, value_name = "OUT.mcap")]
+    record: Option<PathBuf>,
+    /// Drive the arms from the inputs of a bag written by --record, each at the frame it
+    /// was applied originally (the input topics are not subscribed); runs until the bag's
+    /// end unless --seconds is given. With --headless: no network, as fast as it computes.
+    #[arg(long, value_name = "IN.mcap")]
+    replay: Option<PathBuf>,
+}
+
+pub fn run(args: RunArgs) -> Result<()> {
+    let snapshots = snapshot_schedule(args.snapshot_every, args.snapshot_dir)?;
+    if args.headless && args.replay.is_none() && args.record.is_some() {
+        bail!(
+            "--record in a headless run needs --replay: the scripted headless run \
+             has no ROS inputs or outputs to record (run as a node, or replay a bag)"
+        );
+    }
+    if args.headless && args.replay.is_none() {
+        return run_headless(
+            &args.scene,
+            args.seconds.unwrap_or(2.0),
+            args.print_every.max(1),
+            &args.solver,
+            snapshots,
+        );
+    }
+    let path = args.scene;
+    let scene = args.solver.load(&path)?;
+    let settings = ros::NodeSettings {
+        name: args.node_name,
+        namespace: args.namespace,
+        seconds: args.seconds,
+        snapshots,
+        record: args.record,
+        replay: args.replay,
+    };
+    if args.headless {
+        let run = ros::replay::run_headless(&scene, &settings)
+            .with_context(|| format!("replay on scene {}", path.display()))?;
+        println!(
+            "replay: {} frames, {:.3} s simulated in {:.2} s wall",
+            run.frames,
+            run.time,
+            run.wall.as_secs_f64()
+        );
+        if let Some(summary) = run.record {
+            println!(
+                "recorded {summary}; {:.1} frames/s written",
+                run.frames as f64 / run.wall.as_secs_f64()
+            );
+        }
+        return Ok(());
+    }
+    ros::run_node(&scene, &settings).with_context(|| format!("node on scene {}", path.display()))
+}
+
+/// The `--snapshot-every` pictures, with their folder created.
+fn snapshot_schedule(every: Option<f64>, dir: PathBuf) -> Result<Option<SnapshotSchedule>> {
+    let Some(every) = every else {
+        return Ok(None);
+    };
+    if !(every.is_finite() && every > 0.0) {
+        bail!("--snapshot-every {every}: must be a positive number of simulated seconds");
+    }
+    std::fs::create_dir_all(&dir)
+        .with_context(|| format!("--snapshot-dir: cannot create {}", dir.display()))?;
+    Ok(Some(SnapshotSchedule::new(
+        every,
+        dir,
+        SnapshotOptions::default(),
+    )))
+}
+
+fn run_headless(
+    path: &Path,
+    seconds: f64,
+    print_every: u32,
+    solver: &SolverOverrides,
+    mut snapshots: Option<SnapshotSchedule>,
+) -> Result<()> {
+    let scene = solver.load(path)?;
+    let mut world = World::try_new(&scene).context("choosing the solver backend")?;
+    let frames = (seconds * scene.frame_rate_hz).round().max(1.0) as u32;
+    println!(
+        "scene \"{}\": {} particles, grid {}×{}×{} nodes (dx {} m), {} tool(s), {} frames of {:.4} s, backend {}",
+        scene.name,
+        world.particles().len(),
+        world.layout().nodes[0],
+        world.layout().nodes[1],
+        world.layout().nodes[2],
+        scene.domain.dx,
+        world.tools().len(),
+        frames,
+        world.frame_dt(),
+        world.backend().name()
+    );
+    let start = Instant::now();
+    let mut total_substeps: u64 = 0;
+    let mut peak_force = vec![0.0f64; world.tools().len()];
+    let mut peak_speed = 0.0f32;
+    for frame in 0..frames {
+        let t0 = Instant::now();
+        let report = world.step_frame().context("headless run")?;
+        let wall = t0.elapsed().as_secs_f64();
+        if let Some(schedule) = &mut snapshots {
+            if let Some(path) = schedule
+                .take_if_due(&mut world)
+                .with_context(|| format!("snapshot in {}", schedule.dir.display()))?
+            {
+                println!("snapshot {}", path.display());
+            }
+        }
+        total_substeps += report.substeps as u64;
+        peak_speed = peak_speed.max(report.max_speed);
+        for (p, w) in peak_force.iter_mut().zip(&report.wrenches) {
+            *p = p.max(w.force.norm());
+        }
+        if report.truncated {
+            tracing::warn!(
+                "frame {frame}: hit max_substeps_per_frame; simulated time lags the frame clock"
+            );
+        }
+        if frame % print_every == 0 || frame + 1 == frames {
+            let forces: Vec<String> = world
+                .tools()
+                .iter()
+                .zip(&report.wrenches)
+                .map(|(t, w)| {
+                    format!(
+                        "{} F=({:+.4},{:+.4},{:+.4}) N",
+                        t.name, w.force.x, w.force.y, w.force.z
+                    )
+                })
+                .collect();
+            let step = if report.asleep {
+                "asleep (no tool within reach)".to_owned()
+            } else {
+                format!("substeps={} dt={:.2e}s", report.substeps, report.dt_max)
+            };
+            println!(
+                "t={:.4}s {step} {} vmax={:.4}m/s rtf={:.3}",
+                report.time,
+                forces.join(" "),
+                report.max_speed,
+                world.frame_dt() / wall
+            );
+        }
+    }
+    let wall = start.elapsed().as_secs_f64();
+    let n = world.particles().len() as f64;
+    println!(
+        "summary: {frames} frames, {:.3} s simulated in {wall:.2} s wall (real-time factor {:.3})",
+        world.time(),
+        world.time() / wall
+    );
+    println!(
+        "summary: {total_substeps} substeps ({:.1} per frame), {:.2} M particle-substeps/s",
+        total_substeps as f64 / frames as f64,
+        n * total_substeps as f64 / wall / 1e6
+    );
+    for (t, f) in world.tools().iter().zip(&peak_force) {
+        println!("summary: tool {} peak contact force {f:.4} N", t.name);
+    }
+    println!("summary: peak particle speed {peak_speed:.4} m/s");
+    let com = world.particles().centre_of_mass();
+    let top = world
+        .particles()
+        .x
+        .iter()
+        .map(|x| x.z)
+        .fold(f32::MIN, f32::max);
+    println!(
+        "summary: tissue centre of mass ({:.4}, {:.4}, {:.4}) m, highest particle z {top:.4} m",
+        com.x, com.y, com.z
+    );
+    Ok(())
+}

@@ -1,0 +1,83 @@
+//! `stress`: the stability matrix (stiffness, Poisson ratio, time step, tool speed, jaws
+//! closing, pulling apart, dropping, a long soak) as a table.
+
+use crate::bench::stress::{self, Matrix};
+use crate::scene_args::scene_value;
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use dvrk_tissue_sim::mpm::backend::BackendChoice;
+use std::path::PathBuf;
+
+#[derive(Args)]
+pub struct StressArgs {
+    /// The CI matrix: a corner of each group and a 10-second soak.
+    #[arg(long)]
+    reduced: bool,
+    /// Solver backend for every case (`cpu`, `gpu` or `auto`).
+    #[arg(long, default_value = "cpu", value_parser = scene_value::<BackendChoice>)]
+    backend: BackendChoice,
+    /// Only the cases whose group or name contains this text.
+    #[arg(long)]
+    only: Option<String>,
+    /// Markdown table written here too.
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+pub fn run(args: StressArgs) -> Result<()> {
+    let StressArgs {
+        reduced,
+        backend,
+        only,
+        out,
+    } = args;
+    let only = only.as_deref();
+    let matrix = if reduced {
+        Matrix::Reduced
+    } else {
+        Matrix::Full
+    };
+    let cases: Vec<_> = stress::with_backend(stress::cases(matrix), backend)
+        .into_iter()
+        .filter(|c| only.is_none_or(|o| c.group.contains(o) || c.name.contains(o)))
+        .collect();
+    if cases.is_empty() {
+        bail!("no stress case matches {:?}", only.unwrap_or_default());
+    }
+    let progress = indicatif::ProgressBar::new(cases.len() as u64).with_style(
+        indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} [{elapsed}] {msg}")
+            .expect("valid progress template"),
+    );
+    progress.set_message(cases[0].name.clone());
+    let results = stress::run(&cases, |r| {
+        // Printed through the bar so it also shows when stderr is not a terminal.
+        progress.suspend(|| {
+            eprintln!(
+                "{} / {}: {} ({:.1} s)",
+                r.group,
+                r.name,
+                if r.stable() { "stable" } else { "UNSTABLE" },
+                r.wall_s
+            )
+        });
+        progress.inc(1);
+    });
+    progress.finish_and_clear();
+    let table = stress::markdown(&results);
+    print!("{table}");
+    if let Some(path) = &out {
+        std::fs::write(path, &table).with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    let failures = stress::envelope_failures(&results);
+    if !failures.is_empty() {
+        for f in &failures {
+            eprintln!("unstable inside the safe envelope: {f}");
+        }
+        bail!(
+            "{} of {} cases inside the safe envelope failed",
+            failures.len(),
+            results.iter().filter(|r| r.in_envelope).count()
+        );
+    }
+    Ok(())
+}
