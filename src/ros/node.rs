@@ -415,12 +415,7 @@ struct Io {
 }
 
 impl Io {
-    fn send(
-        &mut self,
-        sim: &SimHandle,
-        input: Option<SimInput>,
-        record: Option<RecordedInput>,
-    ) {
+    fn send(&mut self, sim: &SimHandle, input: Option<SimInput>, record: Option<RecordedInput>) {
         if !sim.send(input, record) {
             if let Some(line) = self
                 .log

@@ -278,9 +278,7 @@ impl Bag {
             }
         };
         let metadata = BTreeMap::from([("offered_qos_profiles".to_owned(), qos.yaml())]);
-        let id = self
-            .writer
-            .add_channel(schema, topic, "cdr", &metadata)?;
+        let id = self.writer.add_channel(schema, topic, "cdr", &metadata)?;
         self.channels.insert(topic.to_owned(), (id, 2));
         Ok((id, 1))
     }
@@ -294,16 +292,15 @@ impl Bag {
         cdr: &[u8],
     ) -> Result<(), BagError> {
         let (channel_id, sequence) = self.channel(topic, type_name, qos)?;
-        self.writer
-            .write_to_known_channel(
-                &mcap::records::MessageHeader {
-                    channel_id,
-                    sequence,
-                    log_time: time,
-                    publish_time: time,
-                },
-                cdr,
-            )?;
+        self.writer.write_to_known_channel(
+            &mcap::records::MessageHeader {
+                channel_id,
+                sequence,
+                log_time: time,
+                publish_time: time,
+            },
+            cdr,
+        )?;
         self.messages += 1;
         self.first.get_or_insert(time);
         self.last = self.last.max(time);

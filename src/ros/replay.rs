@@ -19,9 +19,6 @@ use crate::ros::outputs::OutputLayout;
 use crate::sim::input::ReplayInput;
 use crate::sim::RecordedInput;
 
-// The binary's replay entry point until it calls `crate::ros::session` directly.
-pub use crate::ros::session::run_headless;
-
 /// The inputs of a bag, in the order they were applied.
 #[derive(Clone, Debug)]
 pub struct Replay {

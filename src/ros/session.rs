@@ -1,7 +1,7 @@
 //! One run of a scene as the ROS side sets it up: the node's settings, the simulation side
 //! with the run's snapshots, replayed bag and recorder attached ([`prepare`]), and the
 //! headless replay, which drives that same setup through [`crate::sim::headless`] with no
-//! DDS participant. The node ([`crate::ros::node`]) and a headless replay share everything
+//! DDS participant. The node and a headless replay share everything
 //! here, so a bag is read and recorded the same way by both.
 
 use std::ops::ControlFlow;
@@ -37,13 +37,19 @@ pub struct NodeSettings {
 #[derive(Debug, thiserror::Error)]
 pub enum SessionError {
     #[error(transparent)]
-    Setup(#[from] SetupError),
+    Setup(Box<SetupError>),
     #[error(transparent)]
     Replay(#[from] ReplayError),
     #[error(transparent)]
     Record(#[from] RecordError),
     #[error("tokio runtime: {0:?}")]
     Runtime(std::io::Error),
+}
+
+impl From<SetupError> for SessionError {
+    fn from(e: SetupError) -> SessionError {
+        SessionError::Setup(Box::new(e))
+    }
 }
 
 /// A scene's simulation side with the run's snapshots, replayed inputs (and its end as the
@@ -83,9 +89,7 @@ pub fn prepare(
 }
 
 /// Ends a recording started by [`prepare`], after the simulation has ended.
-pub fn finish_recording(
-    recorder: Option<Recorder>,
-) -> Result<Option<RecordSummary>, SessionError> {
+pub fn finish_recording(recorder: Option<Recorder>) -> Result<Option<RecordSummary>, SessionError> {
     Ok(recorder.map(|r| r.finish()).transpose()?)
 }
 

@@ -1,7 +1,7 @@
 //! A simulated or mirrored PSM on top of [`crate::robot::Psm`]: the CRTK operating state,
 //! servo / move commands with validation, and the joint state the ROS side publishes.
 //!
-//! No ROS types here: the node turns messages into [`ArmInput`]s, the simulation thread feeds
+//! No ROS types here: the node turns messages into [`ArmInput`]s, the frame loop feeds
 //! them in at frame boundaries ([`ArmSim::apply`]) and advances the arm in simulated time
 //! ([`ArmSim::advance`]). Kinematic simulation, as dVRK's `KIN_SIMULATED`: measured = setpoint.
 
@@ -121,9 +121,7 @@ pub enum ArmError {
         action: &'static str,
         state: OperatingState,
     },
-    #[error(
-        "unknown state command `{0}` (enable, disable, home, unhome, pause, resume)"
-    )]
+    #[error("unknown state command `{0}` (enable, disable, home, unhome, pause, resume)")]
     UnknownStateCommand(String),
     #[error(transparent)]
     Joints(#[from] JointCommandError),
@@ -430,22 +428,13 @@ impl ArmSim {
             }
             ArmInput::MoveJp { names, positions } => {
                 self.ready()?;
-                let goal = self
-                    .psm
-                    .joints()
-                    .validate(names, positions, None)?;
+                let goal = self.psm.joints().validate(names, positions, None)?;
                 self.start_move(goal, now)
             }
             ArmInput::JawMoveJp { names, positions } => {
                 self.ready()?;
-                let goal = self
-                    .psm
-                    .jaw()
-                    .validate(names, positions, None)?;
-                let trajectory = self
-                    .psm
-                    .plan_move_jaw(self.jaw, goal[0])
-                    ?;
+                let goal = self.psm.jaw().validate(names, positions, None)?;
+                let trajectory = self.psm.plan_move_jaw(self.jaw, goal[0])?;
                 let was_busy = self.is_busy();
                 self.jaw_motion = Some((trajectory, now));
                 if !was_busy {
@@ -469,8 +458,7 @@ impl ArmSim {
                 let target = isometry(position, quaternion)?;
                 let solution = self
                     .psm
-                    .solve_cartesian(&target, &self.q, RcmPolicy::Reject)
-                    ?;
+                    .solve_cartesian(&target, &self.q, RcmPolicy::Reject)?;
                 self.start_move(solution.ik.q, now)
             }
             ArmInput::MirrorJs { .. } | ArmInput::MirrorJaw { .. } => unreachable!(),
@@ -479,20 +467,12 @@ impl ArmSim {
 
     /// A Cartesian servo target in the base frame (also teleop's): IK from the current joints,
     /// then the servo jump check, so a far target is refused rather than teleported to.
-    pub fn servo_cp(
-        &mut self,
-        target: &Isometry3<f64>,
-        policy: RcmPolicy,
-    ) -> Result<(), ArmError> {
-        let solution = self
-            .psm
-            .solve_cartesian(target, &self.q, policy)
-            ?;
+    pub fn servo_cp(&mut self, target: &Isometry3<f64>, policy: RcmPolicy) -> Result<(), ArmError> {
+        let solution = self.psm.solve_cartesian(target, &self.q, policy)?;
         let q = self
             .psm
             .joints()
-            .validate::<&str>(&[], &solution.ik.q, Some(&self.q))
-            ?;
+            .validate::<&str>(&[], &solution.ik.q, Some(&self.q))?;
         if let Motion::Move { .. } = self.motion {
             self.motion = Motion::Hold;
             self.push_state();
@@ -515,10 +495,7 @@ impl ArmSim {
     }
 
     fn start_move(&mut self, goal: Vec<f64>, now: f64) -> Result<(), ArmError> {
-        let trajectory = self
-            .psm
-            .plan_move_jp(&self.q, &goal)
-            ?;
+        let trajectory = self.psm.plan_move_jp(&self.q, &goal)?;
         let was_busy = self.is_busy();
         self.motion = Motion::Move {
             trajectory,
@@ -707,7 +684,12 @@ mod tests {
                 quaternion: [0.0, 0.0, 0.0, 1.0],
             },
         );
-        assert!(a.apply(&cp, 0.0).unwrap_err().reason.to_string().contains("RCM"));
+        assert!(a
+            .apply(&cp, 0.0)
+            .unwrap_err()
+            .reason
+            .to_string()
+            .contains("RCM"));
         assert_eq!(a.q(), good);
     }
 

@@ -249,8 +249,7 @@ impl FrameLoop {
             frame.surface = Some(Arc::new(s.triangles(setup.world.particles())));
         }
         let frame = Arc::new(frame);
-        if let (Some(sink), Some((start, (inputs, events), due))) = (&mut setup.recorder, record)
-        {
+        if let (Some(sink), Some((start, (inputs, events), due))) = (&mut setup.recorder, record) {
             sink.send(FrameRecord {
                 start,
                 inputs,

@@ -9,8 +9,8 @@ use std::path::Path;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 
 use crate::config::{Outputs, Scene};
-use crate::output::snapshot::SnapshotSchedule;
 use crate::output::mesh::MeshError;
+use crate::output::snapshot::SnapshotSchedule;
 use crate::output::{CloudOptions, TissueSurface};
 use crate::robot::{Psm, PsmError, Teleop, TeleopConfig, TeleopError};
 use crate::sim::arm::{ArmError, ArmSim};
