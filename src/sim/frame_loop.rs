@@ -118,14 +118,16 @@ impl FrameLoop {
 
     /// Runs one frame with `received` applied at its start. `previous`, a finished frame
     /// whose tissue outputs are still to be built, is built while this frame's GPU work runs
-    /// (the world's particles hold it until the step ends) and returned. This frame comes
-    /// back as [`Finished`]: build it with [`FrameLoop::finish`], now or during the next step.
+    /// (the world's particles hold it until the step ends) and handed to `publish` at once.
+    /// This frame comes back as [`Finished`]: build it with [`FrameLoop::finish`], now or
+    /// during the next step.
     pub fn step(
         &mut self,
         received: impl IntoIterator<Item = Received>,
         wanted: Wanted,
         previous: Option<Finished>,
-    ) -> (Option<Arc<Frame>>, Finished, Stepped) {
+        publish: impl FnOnce(Arc<Frame>),
+    ) -> (Finished, Stepped) {
         let frame_dt = self.setup.world.frame_dt();
         let start = self.setup.world.time();
         if self.setup.recorder.is_some() {
@@ -175,7 +177,9 @@ impl FrameLoop {
             .set_deformation_readback(points || (surface && needs_deformation));
         self.setup.world.begin_frame();
         // The world's particles hold the previous frame until `finish_frame`.
-        let previous = previous.map(|p| self.finish(p));
+        if let Some(p) = previous {
+            publish(self.finish(p));
+        }
         let report = self.setup.world.finish_frame();
         let wall = began.elapsed();
         if let Err(e) = &report {
@@ -211,7 +215,7 @@ impl FrameLoop {
             snapshot,
             wall,
         };
-        (previous, finished, stepped)
+        (finished, stepped)
     }
 
     /// Logs a snapshot taken by [`FrameLoop::step`]; after a failure, takes no more.

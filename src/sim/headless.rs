@@ -21,9 +21,14 @@ pub fn run<E>(
     let mut held = None;
     let mut last = None;
     while !frames.done() {
-        let (previous, finished, stepped) =
-            frames.step(std::iter::empty(), Wanted::default(), held.take());
-        last = previous.or(last);
+        let (finished, stepped) = frames.step(
+            std::iter::empty(),
+            Wanted::default(),
+            held.take(),
+            |frame| {
+                last = Some(frame);
+            },
+        );
         held = Some(finished);
         if observe(frames, stepped)?.is_break() {
             break;

@@ -138,11 +138,10 @@ fn run(
                 Err(TryRecvError::Disconnected) => break 'frames,
             }
         }
-        let (previous, finished, stepped) =
-            frames.step(received.drain(..), wanted.load(), held.take());
-        if let Some(frame) = previous {
-            latest.send_replace(frame);
-        }
+        let (finished, stepped) =
+            frames.step(received.drain(..), wanted.load(), held.take(), |frame| {
+                latest.send_replace(frame);
+            });
         if let Some(snapshot) = stepped.snapshot {
             frames.log_snapshot(snapshot);
         }
