@@ -3,15 +3,17 @@
 //! Module map (see DESIGN.md): `config` (scene files and scene builders), `tools` (rigid
 //! tool SDFs and contact), `mpm` (particles, grid, materials, solvers), `world` (one
 //! scene's simulation), `robot` (PSM URDF, kinematics, teleoperation mapping), `output`
-//! (point cloud, surface, pictures), `ros` (the ROS 2 node), `sleep` (resting tissue skips
-//! frames), `validation` (scenes with analytic answers). The command line, benchmarks and
-//! stress sweeps are the binary's (`src/cli/`).
+//! (point cloud, surface, pictures), `sim` (frame loop, arm state machines, scene assembly;
+//! transport-agnostic), `ros` (the ROS 2 node: transport only), `sleep` (resting tissue
+//! skips frames), `validation` (scenes with analytic answers). The command line,
+//! benchmarks and stress sweeps are the binary's (`src/cli/`).
 
 pub mod config;
 pub mod mpm;
 pub mod output;
 pub mod robot;
 pub mod ros;
+pub mod sim;
 pub mod sleep;
 pub mod tools;
 pub mod validation;

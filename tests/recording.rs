@@ -13,9 +13,9 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use dvrk_tissue_sim::ros::msgs::*;
-use dvrk_tissue_sim::ros::outputs::{Due, OutputLayout};
-use dvrk_tissue_sim::ros::recorder::{FrameRecord, RecordedInput, Recorder};
-use dvrk_tissue_sim::ros::sim_thread::Frame;
+use dvrk_tissue_sim::ros::outputs::OutputLayout;
+use dvrk_tissue_sim::ros::recorder::Recorder;
+use dvrk_tissue_sim::sim::{Due, Frame, FrameRecord, FrameSink, RecordedInput};
 
 mod common;
 use common::{network_prerequisites, python, root, skip_or_fail};
@@ -52,7 +52,7 @@ fn servo_jp(q: &[f64]) -> RecordedInput {
 /// into the tissue from frame 5 on (one command a frame at 60 Hz), then holding.
 fn write_input_bag(path: &Path, topic_arm: &str) {
     let scene = dvrk_tissue_sim::config::load(&root().join(SMALL)).unwrap();
-    let setup = dvrk_tissue_sim::ros::build_setup(&scene).unwrap();
+    let setup = dvrk_tissue_sim::sim::build_setup(&scene).unwrap();
     let layout = OutputLayout::new(&scene, &setup, "/");
     let (recorder, mut tap) = Recorder::create(path, layout).unwrap();
     for k in 5..=37u32 {
@@ -380,7 +380,7 @@ fn bad_bags_are_refused_with_clear_errors() {
     let outputs_only = scratch("outputs_only.mcap");
     {
         let scene = dvrk_tissue_sim::config::load(&root().join(SMALL)).unwrap();
-        let setup = dvrk_tissue_sim::ros::build_setup(&scene).unwrap();
+        let setup = dvrk_tissue_sim::sim::build_setup(&scene).unwrap();
         let layout = OutputLayout::new(&scene, &setup, "/");
         let (recorder, mut tap) = Recorder::create(&outputs_only, layout).unwrap();
         tap.send(FrameRecord {

@@ -6,7 +6,9 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use dvrk_tissue_sim::output::snapshot::{SnapshotOptions, SnapshotSchedule};
 use dvrk_tissue_sim::ros;
+use dvrk_tissue_sim::sim::{headless, FrameLoop, SimSetup};
 use dvrk_tissue_sim::world::World;
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -78,7 +80,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         replay: args.replay,
     };
     if args.headless {
-        let run = ros::replay::run_headless(&scene, &settings)
+        let run = ros::session::run_headless(&scene, &settings)
             .with_context(|| format!("replay on scene {}", path.display()))?;
         println!(
             "replay: {} frames, {:.3} s simulated in {:.2} s wall",
@@ -119,10 +121,10 @@ fn run_headless(
     seconds: f64,
     print_every: u32,
     solver: &SolverOverrides,
-    mut snapshots: Option<SnapshotSchedule>,
+    snapshots: Option<SnapshotSchedule>,
 ) -> Result<()> {
     let scene = solver.load(path)?;
-    let mut world = World::try_new(&scene).context("choosing the solver backend")?;
+    let world = World::try_new(&scene).context("choosing the solver backend")?;
     let frames = (seconds * scene.frame_rate_hz).round().max(1.0) as u32;
     println!(
         "scene \"{}\": {} particles, grid {}×{}×{} nodes (dx {} m), {} tool(s), {} frames of {:.4} s, backend {}",
@@ -137,22 +139,27 @@ fn run_headless(
         world.frame_dt(),
         world.backend().name()
     );
+    let snapshot_dir = snapshots
+        .as_ref()
+        .map(|s| s.dir.clone())
+        .unwrap_or_default();
+    let mut setup = SimSetup::scripted(world);
+    setup.snapshots = snapshots;
+    let mut sim = FrameLoop::new(setup, None);
     let start = Instant::now();
     let mut total_substeps: u64 = 0;
-    let mut peak_force = vec![0.0f64; world.tools().len()];
+    let mut peak_force = vec![0.0f64; sim.world().tools().len()];
     let mut peak_speed = 0.0f32;
-    for frame in 0..frames {
-        let t0 = Instant::now();
-        let report = world.step_frame().context("headless run")?;
-        let wall = t0.elapsed().as_secs_f64();
-        if let Some(schedule) = &mut snapshots {
-            if let Some(path) = schedule
-                .take_if_due(&mut world)
-                .with_context(|| format!("snapshot in {}", schedule.dir.display()))?
-            {
-                println!("snapshot {}", path.display());
-            }
+    let mut frame = 0u32;
+    headless::run(&mut sim, |sim, stepped| -> Result<ControlFlow<()>> {
+        let report = stepped.report.context("headless run")?;
+        let wall = stepped.wall.as_secs_f64();
+        if let Some(snapshot) = stepped.snapshot {
+            let path =
+                snapshot.with_context(|| format!("snapshot in {}", snapshot_dir.display()))?;
+            println!("snapshot {}", path.display());
         }
+        let world = sim.world();
         total_substeps += report.substeps as u64;
         peak_speed = peak_speed.max(report.max_speed);
         for (p, w) in peak_force.iter_mut().zip(&report.wrenches) {
@@ -163,7 +170,7 @@ fn run_headless(
                 "frame {frame}: hit max_substeps_per_frame; simulated time lags the frame clock"
             );
         }
-        if frame % print_every == 0 || frame + 1 == frames {
+        if frame.is_multiple_of(print_every) || frame + 1 == frames {
             let forces: Vec<String> = world
                 .tools()
                 .iter()
@@ -188,7 +195,14 @@ fn run_headless(
                 world.frame_dt() / wall
             );
         }
-    }
+        frame += 1;
+        Ok(if frame == frames {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        })
+    })?;
+    let world = sim.world();
     let wall = start.elapsed().as_secs_f64();
     let n = world.particles().len() as f64;
     println!(

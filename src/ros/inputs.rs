@@ -3,10 +3,10 @@
 //! through the same conversion, so a replayed command does exactly what the live one did.
 
 use crate::config::{ArmMode, Scene};
-use crate::ros::arm::{ArmCommand, ArmInput};
 use crate::ros::msgs::*;
-use crate::ros::node::resolve;
-use crate::ros::sim_thread::SimInput;
+use crate::ros::names::resolve;
+use crate::sim::arm::{ArmCommand, ArmInput};
+use crate::sim::SimInput;
 
 /// What an input topic is for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -60,7 +60,7 @@ impl InputKind {
     }
 
     /// Decodes a CDR payload (with its encapsulation header) of this topic's type.
-    pub fn decode(&self, cdr: &[u8]) -> Result<InputMessage, String> {
+    pub fn decode(&self, cdr: &[u8]) -> Result<InputMessage, CdrError> {
         use InputKind::*;
         Ok(match self {
             ServoJp | MoveJp | JawServoJp | JawMoveJp | MirrorJs | MirrorJaw | MtmGripper => {
@@ -78,7 +78,7 @@ impl InputKind {
 
 impl InputMessage {
     /// The message as ROS 2 serializes it.
-    pub fn to_cdr(&self) -> Result<Vec<u8>, String> {
+    pub fn to_cdr(&self) -> Result<Vec<u8>, CdrError> {
         match self {
             InputMessage::Joints(m) => to_cdr(m),
             InputMessage::Pose(m) => to_cdr(m),
@@ -89,6 +89,18 @@ impl InputMessage {
             InputMessage::Joy(m) => to_cdr(m),
         }
     }
+}
+
+/// Why a message was rejected before it reached the simulation.
+#[derive(Debug, thiserror::Error)]
+pub enum InputError {
+    #[error("Joy without buttons")]
+    JoyWithoutButtons,
+    #[error("{kind:?} cannot take {message:?}")]
+    WrongMessage {
+        kind: InputKind,
+        message: Box<InputMessage>,
+    },
 }
 
 /// One input topic of a scene.
@@ -172,7 +184,7 @@ fn pose_parts(m: &PoseStamped) -> ([f64; 3], [f64; 4]) {
 impl InputTopic {
     /// What the message asks of the simulation: `Ok(None)` for a message accepted without
     /// effect (gravity compensation of a kinematic arm), `Err` for one rejected here.
-    pub fn to_sim_input(&self, message: InputMessage) -> Result<Option<SimInput>, String> {
+    pub fn to_sim_input(&self, message: InputMessage) -> Result<Option<SimInput>, InputError> {
         use InputKind::*;
         let arm = |topic: &'static str, input: ArmInput| {
             Ok(Some(SimInput::Arm {
@@ -268,13 +280,16 @@ impl InputTopic {
             (MtmGripper, InputMessage::Joints(m)) => Ok(Some(SimInput::MtmGripper(m.position))),
             (Clutch, InputMessage::Joy(m)) => match m.buttons.first() {
                 Some(b) => Ok(Some(SimInput::Clutch(*b == 1))),
-                None => Err("Joy without buttons".into()),
+                None => Err(InputError::JoyWithoutButtons),
             },
             (OperatorPresent, InputMessage::Joy(m)) => match m.buttons.first() {
                 Some(b) => Ok(Some(SimInput::OperatorPresent(*b == 1))),
-                None => Err("Joy without buttons".into()),
+                None => Err(InputError::JoyWithoutButtons),
             },
-            (kind, m) => Err(format!("{kind:?} cannot take {m:?}")),
+            (kind, message) => Err(InputError::WrongMessage {
+                kind,
+                message: Box::new(message),
+            }),
         }
     }
 }

@@ -1,14 +1,18 @@
-//! The ROS 2 side: message types, the simulated / mirrored arm state machine, the
-//! simulation thread, the node that wires them to topics, and the bag recorder and replay.
+//! The ROS 2 side, transport only: message types ([`msgs`], [`schema`]), topic names
+//! ([`names`]), messages to simulation inputs ([`inputs`]) and finished frames to messages
+//! ([`outputs`]), the node's topic wiring ([`node`]), the bag recorder and replay
+//! ([`recorder`], [`replay`]) and a run's setup shared by the node and a headless replay
+//! ([`session`]). The simulation itself is `crate::sim`.
 
-pub mod arm;
 pub mod inputs;
 pub mod msgs;
+pub mod names;
 pub mod node;
 pub mod outputs;
 pub mod recorder;
 pub mod replay;
 pub mod schema;
-pub mod sim_thread;
+pub mod session;
 
-pub use node::{build_setup, run_node, NodeError, NodeSettings};
+pub use node::{run_node, NodeError};
+pub use session::{NodeSettings, SessionError};

@@ -20,13 +20,26 @@ pub trait RosMessage: Serialize + for<'de> Deserialize<'de> + 'static {
 /// rosbag2 stores).
 pub const CDR_LE_HEADER: [u8; 4] = [0x00, 0x01, 0x00, 0x00];
 
+/// Why a message could not be encoded or decoded.
+#[derive(Debug, thiserror::Error)]
+pub enum CdrError {
+    #[error("CDR encoding: {0}")]
+    Encode(cdr_encoding::Error),
+    #[error("{0} bytes: no CDR header")]
+    NoHeader(usize),
+    #[error("unsupported CDR representation {0:#04x}")]
+    Representation(u8),
+    #[error("CDR decoding: {0}")]
+    Decode(cdr_encoding::Error),
+}
+
 /// A message as ROS 2 serializes it: encapsulation header, then little-endian CDR (RustDDS's
 /// encoder, the one the node publishes with). An empty struct gets the one padding byte
 /// other ROS 2 implementations send.
-pub fn to_cdr<M: Serialize>(message: &M) -> Result<Vec<u8>, String> {
+pub fn to_cdr<M: Serialize>(message: &M) -> Result<Vec<u8>, CdrError> {
     let mut out = CDR_LE_HEADER.to_vec();
     cdr_encoding::to_writer::<M, byteorder::LittleEndian, _>(&mut out, message)
-        .map_err(|e| format!("CDR encoding: {e}"))?;
+        .map_err(CdrError::Encode)?;
     if out.len() == CDR_LE_HEADER.len() {
         out.push(0);
     }
@@ -34,19 +47,17 @@ pub fn to_cdr<M: Serialize>(message: &M) -> Result<Vec<u8>, String> {
 }
 
 /// The inverse of [`to_cdr`]; accepts either byte order.
-pub fn from_cdr<M: for<'de> Deserialize<'de>>(bytes: &[u8]) -> Result<M, String> {
+pub fn from_cdr<M: for<'de> Deserialize<'de>>(bytes: &[u8]) -> Result<M, CdrError> {
     if bytes.len() < 4 {
-        return Err(format!("{} bytes: no CDR header", bytes.len()));
+        return Err(CdrError::NoHeader(bytes.len()));
     }
     let body = &bytes[4..];
     let decoded = match bytes[1] {
         0x01 => cdr_encoding::from_bytes::<M, byteorder::LittleEndian>(body),
         0x00 => cdr_encoding::from_bytes::<M, byteorder::BigEndian>(body),
-        other => return Err(format!("unsupported CDR representation {other:#04x}")),
+        other => return Err(CdrError::Representation(other)),
     };
-    decoded
-        .map(|(m, _)| m)
-        .map_err(|e| format!("CDR decoding: {e}"))
+    decoded.map(|(m, _)| m).map_err(CdrError::Decode)
 }
 
 macro_rules! ros_message {

@@ -7,193 +7,42 @@
 //! and outputs to an MCAP bag; with `--replay` a bag's inputs drive the arms instead of the
 //! input topics.
 
-use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use ros2_client::{
     qos::{Durability, History, Reliability, WhenFull},
     Context, ContextOptions, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher,
-    QosProfile, Subscription,
+    QosProfile, ReadError, Subscription,
 };
 
 use crate::config::Scene;
-use crate::output::snapshot::SnapshotSchedule;
-use crate::output::{CloudOptions, TissueSurface};
-use crate::robot::{Psm, Teleop, TeleopConfig};
-use crate::ros::arm::ArmSim;
 use crate::ros::inputs::{input_topics, InputKind, InputMessage, InputTopic};
 use crate::ros::msgs::*;
+use crate::ros::names::resolve;
 use crate::ros::outputs::{self, ArmOutput, EventMessage, EventStamps, OutputLayout};
-use crate::ros::recorder::{RecordSummary, RecordedInput, Recorder};
-use crate::ros::replay;
-use crate::ros::sim_thread::{self, Frame, RateLimitedLog, SimHandle, SimSetup, TeleopBinding};
-use crate::world::World;
+use crate::ros::session::{finish_recording, prepare, NodeSettings, SessionError};
+use crate::sim::log::RateLimitedLog;
+use crate::sim::thread::{self, SimHandle};
+use crate::sim::{Frame, RecordedInput, SimInput};
 
+/// Why the node could not start or ended with an error.
 #[derive(Debug, thiserror::Error)]
-#[error("{0}")]
-pub struct NodeError(pub String);
+pub enum NodeError {
+    #[error(transparent)]
+    Session(#[from] SessionError),
+    #[error("ROS_DOMAIN_ID = {0:?}: expected an integer from 0 to 232")]
+    DomainId(String),
+    /// A ROS 2 / DDS call failed; `detail` is the library's own description.
+    #[error("{what}: {detail}")]
+    Ros { what: String, detail: String },
+}
 
 fn err(what: &str, e: impl std::fmt::Debug) -> NodeError {
-    NodeError(format!("{what}: {e:?}"))
-}
-
-/// Node identity on the ROS graph.
-#[derive(Clone, Debug)]
-pub struct NodeSettings {
-    pub name: String,
-    /// Absolute namespace (`/` for none); every topic but `/tf` lives under it.
-    pub namespace: String,
-    /// Stop after this much simulated time (s); `None` runs until Ctrl-C.
-    pub seconds: Option<f64>,
-    /// Pictures during the run (taken on the simulation thread, which pauses for each).
-    pub snapshots: Option<SnapshotSchedule>,
-    /// Record inputs and outputs to this MCAP file.
-    pub record: Option<PathBuf>,
-    /// Drive the arms from this bag's inputs (the input topics are not subscribed).
-    pub replay: Option<PathBuf>,
-}
-
-/// The world-from-base pose of a scene arm.
-pub fn arm_base(arm: &crate::config::Arm) -> Isometry3<f64> {
-    let [r, p, y] = arm.base_rpy_deg.map(f64::to_radians);
-    Isometry3::from_parts(
-        Translation3::from(Vector3::from(arm.base_xyz)),
-        UnitQuaternion::from_euler_angles(r, p, y),
-    )
-}
-
-/// Loads an arm's PSM: its URDF file, or the built-in classic PSM when the default path
-/// `urdf/psm.urdf` is not found from the working directory.
-pub fn load_psm(arm: &crate::config::Arm) -> Result<Psm, NodeError> {
-    let path = Path::new(&arm.urdf);
-    let psm = if !path.exists() && arm.urdf == "urdf/psm.urdf" {
-        Psm::classic(&arm.name)
-    } else {
-        Psm::from_urdf_file(path, &arm.name)
-    };
-    psm.map_err(|e| NodeError(format!("arm {}: {e}", arm.name)))
-}
-
-/// The simulation side of a scene: world, arms at home, teleop.
-pub fn build_setup(scene: &Scene) -> Result<SimSetup, NodeError> {
-    let world = World::try_new(scene).map_err(|e| NodeError(e.to_string()))?;
-    let mut arms = Vec::new();
-    let mut arm_tools = Vec::new();
-    for arm in &scene.arms {
-        let psm = load_psm(arm)?;
-        let sim = ArmSim::new(
-            psm,
-            arm.mode,
-            arm_base(arm),
-            &arm.home_joints,
-            arm.home_jaw_deg.to_radians(),
-        )
-        .map_err(|e| NodeError(format!("arm {}: {e}", arm.name)))?;
-        arms.push(sim);
-        let tool = scene
-            .tools
-            .iter()
-            .position(|t| t.name == arm.tool)
-            .ok_or_else(|| NodeError(format!("arm {}: no tool {}", arm.name, arm.tool)))?;
-        arm_tools.push(tool);
-    }
-    let teleop = match &scene.teleop {
-        None => None,
-        Some(t) => {
-            let arm = scene
-                .arms
-                .iter()
-                .position(|a| a.name == t.arm)
-                .ok_or_else(|| NodeError(format!("teleop.arm {} is not an arm", t.arm)))?;
-            let mut config = TeleopConfig::for_psm(arms[arm].psm());
-            config.scale = t.scale;
-            let mut teleop = Teleop::new(config).map_err(|e| err("teleop", e))?;
-            teleop.set_operator_present(t.operator_present);
-            Some(TeleopBinding { arm, teleop })
-        }
-    };
-    let outputs = &scene.outputs;
-    let surface = TissueSurface::new(
-        outputs.surface,
-        world.particles(),
-        scene.domain.dx as f32,
-        outputs.points_scalar,
-    )
-    .map_err(|e| err("tissue surface", e))?;
-    Ok(SimSetup {
-        world,
-        arms,
-        arm_tools,
-        teleop,
-        cloud: CloudOptions {
-            measure: outputs.points_scalar,
-            stride: outputs.points_downsample.max(1) as usize,
-            voxel: outputs.points_voxel as f32,
-        },
-        surface,
-        snapshots: None,
-        recorder: None,
-        replay: None,
-        paced: true,
-        stop_at: None,
-    })
-}
-
-/// A scene's simulation side with the run's snapshots, replayed inputs (and its end as the
-/// stop time unless `seconds` is given) and recorder attached.
-pub fn prepare(
-    scene: &Scene,
-    settings: &NodeSettings,
-) -> Result<(SimSetup, Option<Recorder>), NodeError> {
-    let mut setup = build_setup(scene)?;
-    setup.snapshots = settings.snapshots.clone();
-    setup.stop_at = settings.seconds;
-    let layout = OutputLayout::new(scene, &setup, &settings.namespace);
-    if let Some(path) = &settings.replay {
-        let bag = replay::load(path, scene, &layout, &settings.namespace)
-            .map_err(|e| NodeError(e.to_string()))?;
-        tracing::info!(
-            "replaying {} inputs of {} messages from {} ({:.3} s simulated)",
-            bag.inputs.len(),
-            bag.messages,
-            path.display(),
-            bag.end
-        );
-        // Through the frame that starts at the bag's last message.
-        let through = bag.end + setup.world.frame_dt();
-        setup.stop_at = Some(settings.seconds.unwrap_or(through));
-        setup.replay = Some(bag.inputs);
-    }
-    let recorder = match &settings.record {
-        None => None,
-        Some(path) => {
-            let (recorder, tap) =
-                Recorder::create(path, layout).map_err(|e| NodeError(e.to_string()))?;
-            setup.recorder = Some(tap);
-            tracing::info!("recording to {}", path.display());
-            Some(recorder)
-        }
-    };
-    Ok((setup, recorder))
-}
-
-/// Ends a recording started by [`prepare`], after the simulation thread has ended.
-pub fn finish_recording(recorder: Option<Recorder>) -> Result<Option<RecordSummary>, NodeError> {
-    recorder
-        .map(|r| r.finish().map_err(|e| NodeError(e.to_string())))
-        .transpose()
-}
-
-/// Absolute topic name of `relative` under `namespace`.
-pub fn resolve(namespace: &str, relative: &str) -> String {
-    let relative = relative.trim_start_matches('/');
-    if namespace == "/" || namespace.is_empty() {
-        format!("/{relative}")
-    } else {
-        format!("{}/{relative}", namespace.trim_end_matches('/'))
+    NodeError::Ros {
+        what: what.to_owned(),
+        detail: format!("{e:?}"),
     }
 }
 
@@ -293,16 +142,12 @@ enum AnySubscription {
 }
 
 impl AnySubscription {
-    fn take(&self) -> Result<Option<InputMessage>, String> {
+    fn take(&self) -> Result<Option<InputMessage>, ReadError> {
         fn one<M: RosMessage>(
             s: &Subscription<M>,
             wrap: impl FnOnce(M) -> InputMessage,
-        ) -> Result<Option<InputMessage>, String> {
-            match s.take() {
-                Ok(Some((m, _info))) => Ok(Some(wrap(m))),
-                Ok(None) => Ok(None),
-                Err(e) => Err(format!("{e:?}")),
-            }
+        ) -> Result<Option<InputMessage>, ReadError> {
+            Ok(s.take()?.map(|(m, _info)| wrap(m)))
         }
         match self {
             AnySubscription::Joints(s) => one(s, InputMessage::Joints),
@@ -376,9 +221,7 @@ pub fn domain_id_from_env() -> Result<u16, NodeError> {
         Ok(v) if v.trim().is_empty() => Ok(0),
         Ok(v) => match v.trim().parse::<u16>() {
             Ok(id) if id <= 232 => Ok(id),
-            _ => Err(NodeError(format!(
-                "ROS_DOMAIN_ID = {v:?}: expected an integer from 0 to 232"
-            ))),
+            _ => Err(NodeError::DomainId(v)),
         },
     }
 }
@@ -454,7 +297,7 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
     let tf: Publisher<TFMessage> = topics.publisher("/tf", periodic_qos())?;
     drop(topics);
 
-    let mut sim = sim_thread::spawn(setup);
+    let mut sim = thread::spawn(setup);
     tracing::info!(
         "node {} in namespace {} up: {} arm(s), {} tool(s), frames at {} Hz",
         settings.name,
@@ -572,12 +415,7 @@ struct Io {
 }
 
 impl Io {
-    fn send(
-        &mut self,
-        sim: &SimHandle,
-        input: Option<crate::ros::sim_thread::SimInput>,
-        record: Option<RecordedInput>,
-    ) {
+    fn send(&mut self, sim: &SimHandle, input: Option<SimInput>, record: Option<RecordedInput>) {
         if !sim.send(input, record) {
             if let Some(line) = self
                 .log
@@ -597,7 +435,7 @@ impl Io {
                     Ok(None) => break,
                     Err(e) => {
                         let topic = &input.topic.topic;
-                        let line = format!("{topic}: rejected: unreadable message: {e}");
+                        let line = format!("{topic}: rejected: unreadable message: {e:?}");
                         if let Some(line) = self.log.admit(topic, &line) {
                             tracing::warn!("{line}");
                         }
@@ -733,17 +571,5 @@ impl Io {
         let _ = self
             .tf
             .publish(outputs::tf_message(&self.arm_outputs, frame, stamp));
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn topics_resolve_under_the_namespace() {
-        assert_eq!(resolve("/", "PSM1/measured_js"), "/PSM1/measured_js");
-        assert_eq!(resolve("/sim", "tissue/points"), "/sim/tissue/points");
-        assert_eq!(resolve("/a/b", "/x"), "/a/b/x");
     }
 }

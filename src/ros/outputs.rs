@@ -7,10 +7,10 @@ use nalgebra::{Isometry3, Translation3};
 use crate::config::{ArmMode, Scene};
 use crate::output::{SurfaceTriangles, TissueCloud, CLOUD_POINT_STEP};
 use crate::robot::Psm;
-use crate::ros::arm::{ArmEvent, ArmStatus};
 use crate::ros::msgs::*;
-use crate::ros::node::resolve;
-use crate::ros::sim_thread::{Frame, SimSetup, ToolState};
+use crate::ros::names::resolve;
+use crate::sim::arm::{ArmEvent, ArmStatus};
+use crate::sim::{Due, Frame, SimSetup, ToolState};
 
 /// What the outputs need to know about an arm.
 #[derive(Clone)]
@@ -379,22 +379,6 @@ impl SimRate {
             self.next = t + period;
         }
         true
-    }
-}
-
-/// Which outputs a frame carries.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Due {
-    pub arm: bool,
-    pub points: bool,
-    pub surface: bool,
-    pub wrench: bool,
-    pub tf: bool,
-}
-
-impl Due {
-    pub fn any(&self) -> bool {
-        self.arm || self.points || self.surface || self.wrench || self.tf
     }
 }
 

@@ -24,42 +24,14 @@ use std::time::{Duration, Instant};
 
 use serde::Serialize;
 
-use crate::ros::arm::ArmEvent;
-use crate::ros::msgs::{to_cdr, RosMessage, Time};
-use crate::ros::outputs::{self, Due, EventMessage, EventStamps, OutputLayout, SimSchedule};
+use crate::ros::msgs::{to_cdr, CdrError, RosMessage, Time};
+use crate::ros::outputs::{self, EventMessage, EventStamps, OutputLayout, SimSchedule};
 use crate::ros::schema;
-use crate::ros::sim_thread::Frame;
+use crate::sim::input::nanos;
+use crate::sim::{Due, FrameRecord, FrameSink};
 
 /// Frames whose share may wait for the writer; beyond this they are dropped and counted.
 pub const QUEUE_FRAMES: usize = 256;
-
-/// Simulated seconds as integer nanoseconds (the MCAP log time).
-pub fn nanos(t: f64) -> u64 {
-    if t.is_finite() && t > 0.0 {
-        (t * 1e9).round() as u64
-    } else {
-        0
-    }
-}
-
-/// An input as it arrived: its topic, type and CDR payload.
-#[derive(Clone, Debug, PartialEq)]
-pub struct RecordedInput {
-    pub topic: String,
-    pub type_name: String,
-    pub cdr: Vec<u8>,
-}
-
-/// One frame's share of the recording.
-pub struct FrameRecord {
-    /// Simulated time at the frame start, when `inputs` were applied (s).
-    pub start: f64,
-    pub inputs: Vec<RecordedInput>,
-    pub events: Vec<(usize, ArmEvent)>,
-    /// The finished frame (outputs are built from it when due).
-    pub frame: Arc<Frame>,
-    pub due: Due,
-}
 
 #[derive(Debug, thiserror::Error)]
 pub enum RecordError {
@@ -68,8 +40,27 @@ pub enum RecordError {
         path: PathBuf,
         source: std::io::Error,
     },
-    #[error("{path}: {message}")]
-    Write { path: PathBuf, message: String },
+    #[error("{path}: {source}")]
+    Write { path: PathBuf, source: BagError },
+}
+
+/// Why the bag could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum BagError {
+    #[error("no message definition for {0}")]
+    NoSchema(String),
+    #[error(transparent)]
+    Mcap(#[from] mcap::McapError),
+    #[error(transparent)]
+    Cdr(#[from] CdrError),
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+    #[error("cannot start the writer thread: {0}")]
+    Thread(std::io::Error),
+    #[error("the writer thread panicked")]
+    Panicked,
+    #[error("already finished")]
+    Finished,
 }
 
 #[derive(Default)]
@@ -86,15 +77,15 @@ pub struct RecordTap {
     last_warning: Option<Instant>,
 }
 
-impl RecordTap {
+impl FrameSink for RecordTap {
     /// The outputs to record for the frame ending at `t` (once per frame, in order).
-    pub fn due(&mut self, t: f64) -> Due {
+    fn due(&mut self, t: f64) -> Due {
         self.schedule.due(t)
     }
 
     /// Queues a frame's share; drops it (counted, logged at most once a second) when the
     /// writer is behind.
-    pub fn send(&mut self, record: FrameRecord) {
+    fn send(&mut self, record: FrameRecord) {
         let inputs = record.inputs.len() as u64;
         match self.tx.try_send(record) {
             Ok(()) => {}
@@ -151,7 +142,7 @@ impl std::fmt::Display for RecordSummary {
 pub struct Recorder {
     path: PathBuf,
     dropped: Arc<Dropped>,
-    thread: Option<JoinHandle<Result<RecordSummary, String>>>,
+    thread: Option<JoinHandle<Result<RecordSummary, BagError>>>,
 }
 
 impl Recorder {
@@ -167,7 +158,7 @@ impl Recorder {
             .create(BufWriter::with_capacity(1 << 20, file))
             .map_err(|e| RecordError::Write {
                 path: path.to_owned(),
-                message: e.to_string(),
+                source: e.into(),
             })?;
         let (tx, rx) = sync_channel(QUEUE_FRAMES);
         let dropped = Arc::new(Dropped::default());
@@ -190,7 +181,7 @@ impl Recorder {
                 .spawn(move || write_all(rx, bag, file_path, &dropped))
                 .map_err(|e| RecordError::Write {
                     path: path.to_owned(),
-                    message: format!("cannot start the writer thread: {e}"),
+                    source: BagError::Thread(e),
                 })?
         };
         Ok((
@@ -213,12 +204,12 @@ impl Recorder {
     pub fn finish(mut self) -> Result<RecordSummary, RecordError> {
         let result = match self.thread.take().map(|t| t.join()) {
             Some(Ok(r)) => r,
-            Some(Err(_)) => Err("the writer thread panicked".into()),
-            None => Err("already finished".into()),
+            Some(Err(_)) => Err(BagError::Panicked),
+            None => Err(BagError::Finished),
         };
-        result.map_err(|message| RecordError::Write {
+        result.map_err(|source| RecordError::Write {
             path: self.path.clone(),
-            message,
+            source,
         })
     }
 
@@ -268,7 +259,7 @@ struct Bag {
 }
 
 impl Bag {
-    fn channel(&mut self, topic: &str, type_name: &str, qos: Qos) -> Result<(u16, u32), String> {
+    fn channel(&mut self, topic: &str, type_name: &str, qos: Qos) -> Result<(u16, u32), BagError> {
         if let Some(entry) = self.channels.get_mut(topic) {
             let current = *entry;
             entry.1 = entry.1.wrapping_add(1);
@@ -278,20 +269,16 @@ impl Bag {
             Some(&id) => id,
             None => {
                 let text = schema::ros2msg(type_name)
-                    .ok_or_else(|| format!("no message definition for {type_name}"))?;
+                    .ok_or_else(|| BagError::NoSchema(type_name.to_owned()))?;
                 let id = self
                     .writer
-                    .add_schema(type_name, "ros2msg", text.as_bytes())
-                    .map_err(|e| e.to_string())?;
+                    .add_schema(type_name, "ros2msg", text.as_bytes())?;
                 self.schemas.insert(type_name.to_owned(), id);
                 id
             }
         };
         let metadata = BTreeMap::from([("offered_qos_profiles".to_owned(), qos.yaml())]);
-        let id = self
-            .writer
-            .add_channel(schema, topic, "cdr", &metadata)
-            .map_err(|e| e.to_string())?;
+        let id = self.writer.add_channel(schema, topic, "cdr", &metadata)?;
         self.channels.insert(topic.to_owned(), (id, 2));
         Ok((id, 1))
     }
@@ -303,19 +290,17 @@ impl Bag {
         qos: Qos,
         time: u64,
         cdr: &[u8],
-    ) -> Result<(), String> {
+    ) -> Result<(), BagError> {
         let (channel_id, sequence) = self.channel(topic, type_name, qos)?;
-        self.writer
-            .write_to_known_channel(
-                &mcap::records::MessageHeader {
-                    channel_id,
-                    sequence,
-                    log_time: time,
-                    publish_time: time,
-                },
-                cdr,
-            )
-            .map_err(|e| e.to_string())?;
+        self.writer.write_to_known_channel(
+            &mcap::records::MessageHeader {
+                channel_id,
+                sequence,
+                log_time: time,
+                publish_time: time,
+            },
+            cdr,
+        )?;
         self.messages += 1;
         self.first.get_or_insert(time);
         self.last = self.last.max(time);
@@ -328,13 +313,13 @@ impl Bag {
         qos: Qos,
         time: u64,
         message: &M,
-    ) -> Result<(), String> {
+    ) -> Result<(), BagError> {
         let topic = self.layout.topic(relative);
         let cdr = to_cdr(message)?;
         self.write_cdr(&topic, &M::type_name(), qos, time, &cdr)
     }
 
-    fn write_record(&mut self, record: FrameRecord) -> Result<(), String> {
+    fn write_record(&mut self, record: FrameRecord) -> Result<(), BagError> {
         let start = nanos(record.start);
         for input in &record.inputs {
             self.write_cdr(
@@ -423,8 +408,8 @@ fn write_all(
     mut bag: Bag,
     path: PathBuf,
     dropped: &Dropped,
-) -> Result<RecordSummary, String> {
-    let mut failed: Option<String> = None;
+) -> Result<RecordSummary, BagError> {
+    let mut failed: Option<BagError> = None;
     // Ends when the simulation side lets go of its sender.
     for record in rx {
         if failed.is_some() {
@@ -438,10 +423,10 @@ fn write_all(
             failed = Some(e);
         }
     }
-    let finished = bag.writer.finish().map_err(|e| e.to_string());
+    let finished = bag.writer.finish().map_err(BagError::from);
     let flushed = finished.and_then(|_| {
         use std::io::Write;
-        bag.writer.into_inner().flush().map_err(|e| e.to_string())
+        bag.writer.into_inner().flush().map_err(BagError::from)
     });
     if let Some(e) = failed {
         return Err(e);
@@ -469,6 +454,7 @@ fn write_all(
 mod tests {
     use super::*;
     use crate::ros::outputs::OutputRates;
+    use crate::sim::{Frame, RecordedInput};
 
     fn record(inputs: usize) -> FrameRecord {
         FrameRecord {

@@ -14,18 +14,10 @@ use std::path::{Path, PathBuf};
 
 use crate::config::Scene;
 use crate::ros::inputs::{input_topics, InputTopic};
+use crate::ros::msgs::CdrError;
 use crate::ros::outputs::OutputLayout;
-use crate::ros::recorder::RecordedInput;
-use crate::ros::sim_thread::SimInput;
-
-/// A recorded input, due at the frame starting at `time` (ns of simulated time).
-#[derive(Clone, Debug, PartialEq)]
-pub struct ReplayInput {
-    pub time: u64,
-    /// `None` for a message that has no effect on the simulation (recorded all the same).
-    pub input: Option<SimInput>,
-    pub record: RecordedInput,
-}
+use crate::sim::input::ReplayInput;
+use crate::sim::RecordedInput;
 
 /// The inputs of a bag, in the order they were applied.
 #[derive(Clone, Debug)]
@@ -44,8 +36,11 @@ pub enum ReplayError {
         path: PathBuf,
         source: std::io::Error,
     },
-    #[error("{path} is not a readable MCAP file: {message}")]
-    Corrupt { path: PathBuf, message: String },
+    #[error("{path} is not a readable MCAP file: {source}")]
+    Corrupt {
+        path: PathBuf,
+        source: mcap::McapError,
+    },
     #[error(
         "{path} was not recorded on this scene ({scene}; namespace {namespace}): \
          topic(s) {topics} are not among its inputs and outputs"
@@ -66,8 +61,19 @@ pub enum ReplayError {
         path: PathBuf,
         index: u64,
         topic: String,
-        message: String,
+        message: MessageError,
     },
+}
+
+/// What is wrong with one input message of a bag.
+#[derive(Debug, thiserror::Error)]
+pub enum MessageError {
+    #[error("type {found}, expected {expected}")]
+    Type { found: String, expected: String },
+    #[error("message encoding {0}, expected cdr")]
+    Encoding(String),
+    #[error(transparent)]
+    Cdr(#[from] CdrError),
 }
 
 /// Reads the inputs of the bag at `path` for `scene` under `namespace`.
@@ -92,9 +98,9 @@ pub fn load(
     let mut end = 0u64;
     let mut messages = 0u64;
     for (index, message) in mcap::io::MessageReader::new(BufReader::new(file)).enumerate() {
-        let message = message.map_err(|e| ReplayError::Corrupt {
+        let message = message.map_err(|source| ReplayError::Corrupt {
             path: path.to_owned(),
-            message: e.to_string(),
+            source,
         })?;
         messages += 1;
         end = end.max(message.log_time);
@@ -105,7 +111,7 @@ pub fn load(
             }
             continue;
         };
-        let fail = |m: String| ReplayError::Message {
+        let fail = |m: MessageError| ReplayError::Message {
             path: path.to_owned(),
             index: index as u64,
             topic: topic.clone(),
@@ -114,18 +120,20 @@ pub fn load(
         let type_name = input.kind.type_name();
         let schema = message.channel.schema.as_ref().map(|s| s.name.as_str());
         if schema != Some(type_name.as_str()) {
-            return Err(fail(format!(
-                "type {}, expected {type_name}",
-                schema.unwrap_or("(no schema)")
-            )));
+            return Err(fail(MessageError::Type {
+                found: schema.unwrap_or("(no schema)").to_owned(),
+                expected: type_name,
+            }));
         }
         if message.channel.message_encoding != "cdr" {
-            return Err(fail(format!(
-                "message encoding {}, expected cdr",
-                message.channel.message_encoding
+            return Err(fail(MessageError::Encoding(
+                message.channel.message_encoding.clone(),
             )));
         }
-        let decoded = input.kind.decode(&message.data).map_err(fail)?;
+        let decoded = input
+            .kind
+            .decode(&message.data)
+            .map_err(|e| fail(e.into()))?;
         // A message the node rejected before the simulation (a Joy without buttons) has no
         // effect either way.
         let sim_input = input.to_sim_input(decoded).unwrap_or(None);
@@ -164,62 +172,5 @@ pub fn load(
         inputs,
         end: end as f64 * 1e-9,
         messages,
-    })
-}
-
-/// What a run without the network ([`run_headless`]) did.
-#[derive(Clone, Debug)]
-pub struct HeadlessRun {
-    pub frames: u64,
-    /// Simulated time reached (s).
-    pub time: f64,
-    pub wall: std::time::Duration,
-    pub record: Option<crate::ros::recorder::RecordSummary>,
-}
-
-/// Replays `settings.replay` on `scene` with no DDS participant, frames as fast as they
-/// compute, recording to `settings.record` if given. Ctrl-C ends it early with the bag
-/// finished.
-pub fn run_headless(
-    scene: &Scene,
-    settings: &crate::ros::NodeSettings,
-) -> Result<HeadlessRun, crate::ros::NodeError> {
-    use crate::ros::node::{finish_recording, prepare};
-    use crate::ros::NodeError;
-    let started = std::time::Instant::now();
-    let (mut setup, recorder) = prepare(scene, settings)?;
-    setup.paced = false;
-    let mut sim = crate::ros::sim_thread::spawn(setup);
-    let runtime = tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .map_err(|e| NodeError(format!("tokio runtime: {e}")))?;
-    runtime.block_on(async {
-        let ctrl_c = tokio::signal::ctrl_c();
-        tokio::pin!(ctrl_c);
-        let mut tick = tokio::time::interval(std::time::Duration::from_millis(20));
-        loop {
-            tokio::select! {
-                _ = &mut ctrl_c => {
-                    tracing::info!("Ctrl-C: stopping the replay");
-                    break;
-                }
-                _ = tick.tick() => {}
-            }
-            // Nobody publishes the arm events here; keep their queue from filling.
-            while sim.events.try_recv().is_ok() {}
-            if sim.is_finished() {
-                break;
-            }
-        }
-    });
-    sim.shutdown();
-    let frame = sim.frames.borrow().clone();
-    let record = finish_recording(recorder)?;
-    Ok(HeadlessRun {
-        frames: frame.index,
-        time: frame.time,
-        wall: started.elapsed(),
-        record,
     })
 }

@@ -1,14 +1,15 @@
 //! A simulated or mirrored PSM on top of [`crate::robot::Psm`]: the CRTK operating state,
 //! servo / move commands with validation, and the joint state the ROS side publishes.
 //!
-//! No ROS types here: the node turns messages into [`ArmInput`]s, the simulation thread feeds
+//! No ROS types here: the node turns messages into [`ArmInput`]s, the frame loop feeds
 //! them in at frame boundaries ([`ArmSim::apply`]) and advances the arm in simulated time
 //! ([`ArmSim::advance`]). Kinematic simulation, as dVRK's `KIN_SIMULATED`: measured = setpoint.
 
-use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Vector3};
 
 use crate::config::ArmMode;
-use crate::robot::{Psm, RcmPolicy, Trajectory};
+use crate::robot::{JointCommandError, Psm, PsmError, RcmPolicy, Trajectory};
+use crate::sim::input::{isometry, PoseError};
 use crate::tools::ToolPose;
 
 /// What a topic asked for, before validation.
@@ -96,11 +97,45 @@ pub enum ArmEvent {
     Status(String),
 }
 
+/// Why an arm refused a command (or could not be built).
+#[derive(Debug, thiserror::Error)]
+pub enum ArmError {
+    #[error("home_joints: {0}")]
+    HomeJoints(JointCommandError),
+    #[error("home_jaw_deg: {0}")]
+    HomeJaw(JointCommandError),
+    #[error("arm is {}, not ENABLED", .0.as_str())]
+    NotEnabled(OperatingState),
+    #[error("arm is not homed")]
+    NotHomed,
+    #[error("the arm mirrors a real arm")]
+    Mirrors,
+    #[error("the arm is simulated, not mirrored")]
+    NotMirrored,
+    #[error("wrench has NaN or infinite values")]
+    Wrench,
+    #[error("arm is PAUSED: send resume")]
+    Paused,
+    #[error("cannot {action} from {}", .state.as_str())]
+    Transition {
+        action: &'static str,
+        state: OperatingState,
+    },
+    #[error("unknown state command `{0}` (enable, disable, home, unhome, pause, resume)")]
+    UnknownStateCommand(String),
+    #[error(transparent)]
+    Joints(#[from] JointCommandError),
+    #[error(transparent)]
+    Pose(#[from] PoseError),
+    #[error(transparent)]
+    Psm(#[from] PsmError),
+}
+
 /// A rejected command: the topic and why.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Debug)]
 pub struct Rejection {
     pub topic: &'static str,
-    pub reason: String,
+    pub reason: ArmError,
 }
 
 impl std::fmt::Display for Rejection {
@@ -156,15 +191,15 @@ impl ArmSim {
         base: Isometry3<f64>,
         home: &[f64],
         home_jaw: f64,
-    ) -> Result<ArmSim, String> {
+    ) -> Result<ArmSim, ArmError> {
         let q = psm
             .joints()
             .validate::<&str>(&[], home, None)
-            .map_err(|e| format!("home_joints: {e}"))?;
+            .map_err(ArmError::HomeJoints)?;
         let jaw = psm
             .jaw()
             .validate::<&str>(&[], &[home_jaw], None)
-            .map_err(|e| format!("home_jaw_deg: {e}"))?[0];
+            .map_err(ArmError::HomeJaw)?[0];
         let n = q.len();
         let mut arm = ArmSim {
             psm,
@@ -291,12 +326,12 @@ impl ArmSim {
     }
 
     /// Ok when the arm accepts motion commands (ENABLED and homed).
-    pub fn ready(&self) -> Result<(), String> {
+    pub fn ready(&self) -> Result<(), ArmError> {
         if self.state != OperatingState::Enabled {
-            return Err(format!("arm is {}, not ENABLED", self.state.as_str()));
+            return Err(ArmError::NotEnabled(self.state));
         }
         if !self.homed {
-            return Err("arm is not homed".into());
+            return Err(ArmError::NotHomed);
         }
         Ok(())
     }
@@ -305,7 +340,7 @@ impl ArmSim {
     /// last valid command holds.
     pub fn apply(&mut self, command: &ArmCommand, now: f64) -> Result<(), Rejection> {
         self.time = now;
-        let reject = |reason: String| Rejection {
+        let reject = |reason: ArmError| Rejection {
             topic: command.topic,
             reason,
         };
@@ -315,7 +350,7 @@ impl ArmSim {
                     .psm
                     .joints()
                     .validate_shape(names, positions)
-                    .map_err(|e| reject(e.to_string()))?;
+                    .map_err(|e| reject(e.into()))?;
                 self.psm.joints().clamp(&mut q);
                 self.q = q;
                 Ok(())
@@ -325,20 +360,20 @@ impl ArmSim {
                     .psm
                     .jaw()
                     .validate_shape(names, positions)
-                    .map_err(|e| reject(e.to_string()))?;
+                    .map_err(|e| reject(e.into()))?;
                 self.psm.jaw().clamp(&mut q);
                 self.jaw = q[0];
                 Ok(())
             }
-            (_, ArmMode::Mirror) => Err(reject("the arm mirrors a real arm".into())),
+            (_, ArmMode::Mirror) => Err(reject(ArmError::Mirrors)),
             (ArmInput::MirrorJs { .. } | ArmInput::MirrorJaw { .. }, _) => {
-                Err(reject("the arm is simulated, not mirrored".into()))
+                Err(reject(ArmError::NotMirrored))
             }
             (input, ArmMode::Simulated) => self.apply_simulated(input, now).map_err(reject),
         }
     }
 
-    fn apply_simulated(&mut self, input: &ArmInput, now: f64) -> Result<(), String> {
+    fn apply_simulated(&mut self, input: &ArmInput, now: f64) -> Result<(), ArmError> {
         match input {
             ArmInput::StateCommand(command) => self.state_command(command),
             ArmInput::Hold => {
@@ -355,7 +390,7 @@ impl ArmSim {
             }
             ArmInput::ServoCf(w) => {
                 if !w.iter().all(|v| v.is_finite()) {
-                    return Err("wrench has NaN or infinite values".into());
+                    return Err(ArmError::Wrench);
                 }
                 if !self.warned_cf {
                     self.warned_cf = true;
@@ -371,8 +406,7 @@ impl ArmSim {
                 let q = self
                     .psm
                     .joints()
-                    .validate(names, positions, Some(&self.q))
-                    .map_err(|e| e.to_string())?;
+                    .validate(names, positions, Some(&self.q))?;
                 if let Motion::Move { .. } = self.motion {
                     self.motion = Motion::Hold;
                     self.push_state();
@@ -385,8 +419,7 @@ impl ArmSim {
                 let jaw = self
                     .psm
                     .jaw()
-                    .validate(names, positions, Some(&[self.jaw]))
-                    .map_err(|e| e.to_string())?;
+                    .validate(names, positions, Some(&[self.jaw]))?;
                 if self.jaw_motion.take().is_some() {
                     self.push_state();
                 }
@@ -395,24 +428,13 @@ impl ArmSim {
             }
             ArmInput::MoveJp { names, positions } => {
                 self.ready()?;
-                let goal = self
-                    .psm
-                    .joints()
-                    .validate(names, positions, None)
-                    .map_err(|e| e.to_string())?;
+                let goal = self.psm.joints().validate(names, positions, None)?;
                 self.start_move(goal, now)
             }
             ArmInput::JawMoveJp { names, positions } => {
                 self.ready()?;
-                let goal = self
-                    .psm
-                    .jaw()
-                    .validate(names, positions, None)
-                    .map_err(|e| e.to_string())?;
-                let trajectory = self
-                    .psm
-                    .plan_move_jaw(self.jaw, goal[0])
-                    .map_err(|e| e.to_string())?;
+                let goal = self.psm.jaw().validate(names, positions, None)?;
+                let trajectory = self.psm.plan_move_jaw(self.jaw, goal[0])?;
                 let was_busy = self.is_busy();
                 self.jaw_motion = Some((trajectory, now));
                 if !was_busy {
@@ -436,8 +458,7 @@ impl ArmSim {
                 let target = isometry(position, quaternion)?;
                 let solution = self
                     .psm
-                    .solve_cartesian(&target, &self.q, RcmPolicy::Reject)
-                    .map_err(|e| e.to_string())?;
+                    .solve_cartesian(&target, &self.q, RcmPolicy::Reject)?;
                 self.start_move(solution.ik.q, now)
             }
             ArmInput::MirrorJs { .. } | ArmInput::MirrorJaw { .. } => unreachable!(),
@@ -446,16 +467,12 @@ impl ArmSim {
 
     /// A Cartesian servo target in the base frame (also teleop's): IK from the current joints,
     /// then the servo jump check, so a far target is refused rather than teleported to.
-    pub fn servo_cp(&mut self, target: &Isometry3<f64>, policy: RcmPolicy) -> Result<(), String> {
-        let solution = self
-            .psm
-            .solve_cartesian(target, &self.q, policy)
-            .map_err(|e| e.to_string())?;
+    pub fn servo_cp(&mut self, target: &Isometry3<f64>, policy: RcmPolicy) -> Result<(), ArmError> {
+        let solution = self.psm.solve_cartesian(target, &self.q, policy)?;
         let q = self
             .psm
             .joints()
-            .validate::<&str>(&[], &solution.ik.q, Some(&self.q))
-            .map_err(|e| e.to_string())?;
+            .validate::<&str>(&[], &solution.ik.q, Some(&self.q))?;
         if let Motion::Move { .. } = self.motion {
             self.motion = Motion::Hold;
             self.push_state();
@@ -477,11 +494,8 @@ impl ArmSim {
         self.q = q;
     }
 
-    fn start_move(&mut self, goal: Vec<f64>, now: f64) -> Result<(), String> {
-        let trajectory = self
-            .psm
-            .plan_move_jp(&self.q, &goal)
-            .map_err(|e| e.to_string())?;
+    fn start_move(&mut self, goal: Vec<f64>, now: f64) -> Result<(), ArmError> {
+        let trajectory = self.psm.plan_move_jp(&self.q, &goal)?;
         let was_busy = self.is_busy();
         self.motion = Motion::Move {
             trajectory,
@@ -500,14 +514,14 @@ impl ArmSim {
         Ok(())
     }
 
-    fn state_command(&mut self, command: &str) -> Result<(), String> {
+    fn state_command(&mut self, command: &str) -> Result<(), ArmError> {
         match command {
             "enable" => match self.state {
                 OperatingState::Fault | OperatingState::Disabled | OperatingState::Enabled => {
                     self.set_state(OperatingState::Enabled);
                     Ok(())
                 }
-                OperatingState::Paused => Err("arm is PAUSED: send resume".into()),
+                OperatingState::Paused => Err(ArmError::Paused),
             },
             "disable" => {
                 self.stop_motion();
@@ -516,7 +530,10 @@ impl ArmSim {
             }
             "pause" => {
                 if self.state != OperatingState::Enabled {
-                    return Err(format!("cannot pause from {}", self.state.as_str()));
+                    return Err(ArmError::Transition {
+                        action: "pause",
+                        state: self.state,
+                    });
                 }
                 self.stop_motion();
                 self.set_state(OperatingState::Paused);
@@ -524,14 +541,20 @@ impl ArmSim {
             }
             "resume" => {
                 if self.state != OperatingState::Paused {
-                    return Err(format!("cannot resume from {}", self.state.as_str()));
+                    return Err(ArmError::Transition {
+                        action: "resume",
+                        state: self.state,
+                    });
                 }
                 self.set_state(OperatingState::Enabled);
                 Ok(())
             }
             "home" => {
                 if self.state != OperatingState::Enabled {
-                    return Err(format!("cannot home from {}", self.state.as_str()));
+                    return Err(ArmError::Transition {
+                        action: "home",
+                        state: self.state,
+                    });
                 }
                 if !self.homed {
                     self.homed = true;
@@ -548,9 +571,7 @@ impl ArmSim {
                 }
                 Ok(())
             }
-            other => Err(format!(
-                "unknown state command `{other}` (enable, disable, home, unhome, pause, resume)"
-            )),
+            other => Err(ArmError::UnknownStateCommand(other.to_owned())),
         }
     }
 
@@ -592,24 +613,6 @@ impl ArmSim {
             self.jaw_rate = (self.jaw - previous_jaw) / dt;
         }
     }
-}
-
-fn isometry(position: &[f64; 3], quaternion: &[f64; 4]) -> Result<Isometry3<f64>, String> {
-    if !position.iter().chain(quaternion).all(|v| v.is_finite()) {
-        return Err("pose has NaN or infinite values".into());
-    }
-    let [x, y, z, w] = *quaternion;
-    let q = Quaternion::new(w, x, y, z);
-    if (q.norm() - 1.0).abs() > 0.01 {
-        return Err(format!(
-            "orientation quaternion has length {:.4}, not 1",
-            q.norm()
-        ));
-    }
-    Ok(Isometry3::from_parts(
-        Translation3::new(position[0], position[1], position[2]),
-        UnitQuaternion::from_quaternion(q),
-    ))
 }
 
 #[cfg(test)]
@@ -681,7 +684,12 @@ mod tests {
                 quaternion: [0.0, 0.0, 0.0, 1.0],
             },
         );
-        assert!(a.apply(&cp, 0.0).unwrap_err().reason.contains("RCM"));
+        assert!(a
+            .apply(&cp, 0.0)
+            .unwrap_err()
+            .reason
+            .to_string()
+            .contains("RCM"));
         assert_eq!(a.q(), good);
     }
 
@@ -737,6 +745,7 @@ mod tests {
             .apply(&servo(&HOME), 0.0)
             .unwrap_err()
             .reason
+            .to_string()
             .contains("DISABLED"));
         assert!(a
             .apply(

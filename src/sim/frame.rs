@@ -1,0 +1,54 @@
+//! The narrow view of one finished frame that everything downstream of the loop consumes
+//! (publishers, the recorder, a headless run): arm states, tool poses and wrenches, and the
+//! tissue outputs that were asked for. Consumers depend on this, never on the loop itself.
+
+use std::sync::Arc;
+
+use crate::output::{SurfaceTriangles, TissueCloud};
+use crate::robot::TeleopState;
+use crate::sim::arm::ArmStatus;
+use crate::tools::ToolPose;
+use crate::world::Wrench;
+
+/// A tool at the end of a frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ToolState {
+    pub name: String,
+    /// Frame of the wrench: the arm's tool frame (`PSM1`) or the tool's name.
+    pub frame_id: String,
+    pub pose: ToolPose,
+    /// Contact wrench in the tool frame (torque about the tool origin).
+    pub wrench: Wrench,
+}
+
+/// Everything the outputs need from one frame.
+#[derive(Clone, Debug, Default)]
+pub struct Frame {
+    /// 0 before the first frame.
+    pub index: u64,
+    /// Simulated time at the end of the frame (s).
+    pub time: f64,
+    pub arms: Vec<ArmStatus>,
+    pub tools: Vec<ToolState>,
+    /// Present while the ROS side asks for the point cloud.
+    pub cloud: Option<Arc<TissueCloud>>,
+    /// Present while the ROS side asks for the surface.
+    pub surface: Option<Arc<SurfaceTriangles>>,
+    pub teleop: Option<TeleopState>,
+}
+
+/// Which outputs a frame carries.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Due {
+    pub arm: bool,
+    pub points: bool,
+    pub surface: bool,
+    pub wrench: bool,
+    pub tf: bool,
+}
+
+impl Due {
+    pub fn any(&self) -> bool {
+        self.arm || self.points || self.surface || self.wrench || self.tf
+    }
+}

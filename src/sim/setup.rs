@@ -1,0 +1,184 @@
+//! Scene assembly: a validated scene becomes what the frame loop steps — the world, each
+//! arm at home with the scene tool it drives, teleoperation, and the tissue outputs' options.
+//! Everything here can fail on user input (a URDF, home joints, a tool name), so it fails
+//! with a [`SetupError`] before any thread or network participant exists.
+
+use std::collections::VecDeque;
+use std::path::Path;
+
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+
+use crate::config::{Outputs, Scene};
+use crate::output::mesh::MeshError;
+use crate::output::snapshot::SnapshotSchedule;
+use crate::output::{CloudOptions, TissueSurface};
+use crate::robot::{Psm, PsmError, Teleop, TeleopConfig, TeleopError};
+use crate::sim::arm::{ArmError, ArmSim};
+use crate::sim::input::ReplayInput;
+use crate::sim::sink::FrameSink;
+use crate::world::{World, WorldError};
+
+/// Why a scene's simulation side could not be built.
+#[derive(Debug, thiserror::Error)]
+pub enum SetupError {
+    #[error(transparent)]
+    World(#[from] WorldError),
+    #[error("arm {arm}: {source}")]
+    Psm { arm: String, source: PsmError },
+    #[error("arm {arm}: {source}")]
+    Arm { arm: String, source: ArmError },
+    #[error("arm {arm}: no tool {tool}")]
+    NoTool { arm: String, tool: String },
+    #[error("teleop.arm {0} is not an arm")]
+    TeleopArm(String),
+    #[error("teleop: {0}")]
+    Teleop(#[from] TeleopError),
+    #[error("tissue surface: {0}")]
+    Surface(#[from] MeshError),
+}
+
+/// Teleoperation of one arm.
+pub struct TeleopBinding {
+    pub arm: usize,
+    pub teleop: Teleop,
+}
+
+/// The simulation's side of the exchange, handed to the frame loop.
+pub struct SimSetup {
+    pub world: World,
+    pub arms: Vec<ArmSim>,
+    /// Scene tool index each arm drives.
+    pub arm_tools: Vec<usize>,
+    pub teleop: Option<TeleopBinding>,
+    pub cloud: CloudOptions,
+    /// `None` in a scripted run, which builds no surface.
+    pub surface: Option<TissueSurface>,
+    pub snapshots: Option<SnapshotSchedule>,
+    /// Records inputs, events and outputs.
+    pub recorder: Option<Box<dyn FrameSink>>,
+    /// Recorded inputs to apply, in order, each at the frame start at its time.
+    pub replay: Option<VecDeque<ReplayInput>>,
+    /// Frames at the scene's rate in real time (false: as fast as they compute).
+    pub paced: bool,
+    /// The thread ends by itself once simulated time reaches this (s).
+    pub stop_at: Option<f64>,
+}
+
+impl SimSetup {
+    /// A scripted run of `world`: no arms, no teleop, no outputs; its tools follow their
+    /// keyframes.
+    pub fn scripted(world: World) -> SimSetup {
+        let cloud = cloud_options(&world.scene().outputs);
+        SimSetup {
+            world,
+            arms: Vec::new(),
+            arm_tools: Vec::new(),
+            teleop: None,
+            cloud,
+            surface: None,
+            snapshots: None,
+            recorder: None,
+            replay: None,
+            paced: false,
+            stop_at: None,
+        }
+    }
+}
+
+/// The world-from-base pose of a scene arm.
+pub fn arm_base(arm: &crate::config::Arm) -> Isometry3<f64> {
+    let [r, p, y] = arm.base_rpy_deg.map(f64::to_radians);
+    Isometry3::from_parts(
+        Translation3::from(Vector3::from(arm.base_xyz)),
+        UnitQuaternion::from_euler_angles(r, p, y),
+    )
+}
+
+/// Loads an arm's PSM: its URDF file, or the built-in classic PSM when the default path
+/// `urdf/psm.urdf` is not found from the working directory.
+pub fn load_psm(arm: &crate::config::Arm) -> Result<Psm, SetupError> {
+    let path = Path::new(&arm.urdf);
+    let psm = if !path.exists() && arm.urdf == "urdf/psm.urdf" {
+        Psm::classic(&arm.name)
+    } else {
+        Psm::from_urdf_file(path, &arm.name)
+    };
+    psm.map_err(|source| SetupError::Psm {
+        arm: arm.name.clone(),
+        source,
+    })
+}
+
+fn cloud_options(outputs: &Outputs) -> CloudOptions {
+    CloudOptions {
+        measure: outputs.points_scalar,
+        stride: outputs.points_downsample.max(1) as usize,
+        voxel: outputs.points_voxel as f32,
+    }
+}
+
+/// The simulation side of a scene: world, arms at home, teleop.
+pub fn build_setup(scene: &Scene) -> Result<SimSetup, SetupError> {
+    let world = World::try_new(scene)?;
+    let mut arms = Vec::new();
+    let mut arm_tools = Vec::new();
+    for arm in &scene.arms {
+        let psm = load_psm(arm)?;
+        let sim = ArmSim::new(
+            psm,
+            arm.mode,
+            arm_base(arm),
+            &arm.home_joints,
+            arm.home_jaw_deg.to_radians(),
+        )
+        .map_err(|source| SetupError::Arm {
+            arm: arm.name.clone(),
+            source,
+        })?;
+        arms.push(sim);
+        let tool = scene
+            .tools
+            .iter()
+            .position(|t| t.name == arm.tool)
+            .ok_or_else(|| SetupError::NoTool {
+                arm: arm.name.clone(),
+                tool: arm.tool.clone(),
+            })?;
+        arm_tools.push(tool);
+    }
+    let teleop = match &scene.teleop {
+        None => None,
+        Some(t) => {
+            let arm = scene
+                .arms
+                .iter()
+                .position(|a| a.name == t.arm)
+                .ok_or_else(|| SetupError::TeleopArm(t.arm.clone()))?;
+            let mut config = TeleopConfig::for_psm(arms[arm].psm());
+            config.scale = t.scale;
+            let mut teleop = Teleop::new(config)?;
+            teleop.set_operator_present(t.operator_present);
+            Some(TeleopBinding { arm, teleop })
+        }
+    };
+    let outputs = &scene.outputs;
+    let surface = TissueSurface::new(
+        outputs.surface,
+        world.particles(),
+        scene.domain.dx as f32,
+        outputs.points_scalar,
+    )?;
+    Ok(SimSetup {
+        world,
+        arms,
+        arm_tools,
+        teleop,
+        cloud: cloud_options(outputs),
+        surface: Some(surface),
+        snapshots: None,
+        recorder: None,
+        replay: None,
+        paced: true,
+        stop_at: None,
+    })
+}

@@ -1,0 +1,178 @@
+//! The simulation on its own thread: steps the world at the scene's frame rate (never faster
+//! than real time), applies the latest commands at frame boundaries, and hands each finished
+//! frame to the ROS side as a latest value (a `watch` channel: a slow reader skips frames, it
+//! never queues them). Commands come in through a bounded channel; when it is full a command
+//! is dropped with a log line rather than blocking the network side.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{sync_channel, Receiver, SyncSender, TryRecvError, TrySendError};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use tokio::sync::watch;
+
+use crate::sim::arm::ArmEvent;
+use crate::sim::frame::Frame;
+use crate::sim::frame_loop::{Finished, FrameLoop, Wanted};
+use crate::sim::input::{Received, RecordedInput, SimInput};
+use crate::sim::setup::SimSetup;
+
+/// Commands waiting for the next frame; beyond this, new ones are dropped (and logged).
+pub const INPUT_CAPACITY: usize = 1024;
+/// Arm events waiting for the ROS side.
+pub const EVENT_CAPACITY: usize = 1024;
+
+/// The network side's handles.
+pub struct SimHandle {
+    pub inputs: SyncSender<Received>,
+    pub frames: watch::Receiver<Arc<Frame>>,
+    pub events: Receiver<(usize, ArmEvent)>,
+    /// Set while someone subscribes to the point cloud.
+    pub points_wanted: Arc<AtomicBool>,
+    /// Set while someone subscribes to the surface.
+    pub surface_wanted: Arc<AtomicBool>,
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl SimHandle {
+    /// Queues an input for the next frame (with its message when recording); drops it
+    /// (false) when the queue is full.
+    pub fn send(&self, input: Option<SimInput>, record: Option<RecordedInput>) -> bool {
+        match self.inputs.try_send(Received { input, record }) {
+            Ok(()) => true,
+            Err(TrySendError::Full(_)) | Err(TrySendError::Disconnected(_)) => false,
+        }
+    }
+
+    /// True once the thread has ended (at `stop_at`, or after [`SimHandle::shutdown`]).
+    pub fn is_finished(&self) -> bool {
+        self.thread.as_ref().is_none_or(|t| t.is_finished())
+    }
+
+    /// Stops the thread after its current frame and waits for it.
+    pub fn shutdown(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+impl Drop for SimHandle {
+    fn drop(&mut self) {
+        self.shutdown();
+    }
+}
+
+/// Which tissue outputs the ROS side asks for.
+#[derive(Clone)]
+struct WantedFlags {
+    points: Arc<AtomicBool>,
+    surface: Arc<AtomicBool>,
+}
+
+impl WantedFlags {
+    fn load(&self) -> Wanted {
+        Wanted {
+            points: self.points.load(Ordering::Relaxed),
+            surface: self.surface.load(Ordering::Relaxed),
+        }
+    }
+}
+
+/// Starts the simulation thread.
+pub fn spawn(setup: SimSetup) -> SimHandle {
+    let (input_tx, input_rx) = sync_channel(INPUT_CAPACITY);
+    let (event_tx, event_rx) = sync_channel(EVENT_CAPACITY);
+    let wanted = WantedFlags {
+        points: Arc::new(AtomicBool::new(false)),
+        surface: Arc::new(AtomicBool::new(false)),
+    };
+    let stop = Arc::new(AtomicBool::new(false));
+    let frames = FrameLoop::new(setup, Some(event_tx));
+    let first = Arc::new(frames.current());
+    let (frame_tx, frame_rx) = watch::channel(first);
+    let thread = {
+        let wanted = wanted.clone();
+        let stop = stop.clone();
+        std::thread::Builder::new()
+            .name("simulation".into())
+            .spawn(move || run(frames, input_rx, frame_tx, &wanted, &stop))
+            .expect("cannot start the simulation thread")
+    };
+    SimHandle {
+        inputs: input_tx,
+        frames: frame_rx,
+        events: event_rx,
+        points_wanted: wanted.points,
+        surface_wanted: wanted.surface,
+        stop,
+        thread: Some(thread),
+    }
+}
+
+fn run(
+    mut frames: FrameLoop,
+    inputs: Receiver<Received>,
+    latest: watch::Sender<Arc<Frame>>,
+    wanted: &WantedFlags,
+    stop: &AtomicBool,
+) {
+    let period = Duration::from_secs_f64(frames.world().frame_dt());
+    let mut deadline = Instant::now();
+    let mut lagging_since: Option<Instant> = None;
+    // A finished frame whose tissue outputs are still to be built: while the simulation runs
+    // behind real time, they are built during the next frame's GPU work instead of before it.
+    let mut held: Option<Finished> = None;
+    let mut received = Vec::new();
+    'frames: while !stop.load(Ordering::Relaxed) {
+        if frames.done() {
+            break;
+        }
+        loop {
+            match inputs.try_recv() {
+                Ok(r) => received.push(r),
+                Err(TryRecvError::Empty) => break,
+                Err(TryRecvError::Disconnected) => break 'frames,
+            }
+        }
+        let (finished, stepped) =
+            frames.step(received.drain(..), wanted.load(), held.take(), |frame| {
+                latest.send_replace(frame);
+            });
+        if let Some(snapshot) = stepped.snapshot {
+            frames.log_snapshot(snapshot);
+        }
+
+        if !frames.paced() {
+            // As fast as frames compute: always build outputs during the next frame.
+            held = Some(finished);
+            continue;
+        }
+        deadline += period;
+        let now = Instant::now();
+        if deadline > now {
+            // Ahead of real time: publish at once, the lowest latency.
+            latest.send_replace(frames.finish(finished));
+            std::thread::sleep(deadline - now);
+            lagging_since = None;
+        } else {
+            held = Some(finished);
+            // Slower than real time: carry on at full speed, without trying to catch up.
+            deadline = now;
+            let since = *lagging_since.get_or_insert(now);
+            if now.duration_since(since) > Duration::from_secs(10) {
+                tracing::info!(
+                    "simulation runs slower than real time (t = {:.3} s simulated)",
+                    frames.world().time()
+                );
+                lagging_since = Some(now);
+            }
+        }
+    }
+    if let Some(h) = held {
+        latest.send_replace(frames.finish(h));
+    }
+}
