@@ -167,6 +167,11 @@ fn run_sweep(quick: bool, out: &Path, backends: Option<Vec<BackendChoice>>) -> R
         }
         b
     });
+    // The analytic runs build their worlds from code; a missing adapter is caught here,
+    // with a message, rather than in the middle of the sweep.
+    if backends.contains(&BackendChoice::Gpu) && adapter::adapters().is_empty() {
+        bail!("--backends gpu: no GPU adapter (hardware or software) is available here");
+    }
     let plan = if quick {
         SweepPlan::quick(backends)
     } else {
