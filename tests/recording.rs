@@ -473,6 +473,10 @@ fn node_recording_survives_sigint_and_replays_bit_for_bit() {
     );
     assert!(status.success(), "node exit {status:?}\n{log}");
     assert!(log.contains("bag finished"), "{log}");
+    assert!(
+        !log.contains("Cannot notify spin task"),
+        "a normal Ctrl-C logged an error:\n{log}"
+    );
     rosbags_check(&bag, "node");
 
     let recorded = read_bag(&bag);

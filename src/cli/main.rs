@@ -47,8 +47,9 @@ enum Command {
 fn main() {
     tracing_subscriber::fmt()
         .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| "info,rustdds=error,ros2_client=warn".into()),
+            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| {
+                "info,rustdds=error,ros2_client=warn,ros2_client::distributions=error".into()
+            }),
         )
         .with_writer(std::io::stderr)
         .init();

@@ -235,6 +235,19 @@ pub fn run_node(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeError>
     runtime.block_on(run_async(scene, settings))
 }
 
+/// Says which ROS 2 distribution's wire format the node speaks. The node needs no ROS
+/// installation, so an unset `ROS_DISTRO` is the normal case, not a warning (ros2-client's
+/// own check warns about it; the default log filter keeps only its errors, which report a
+/// `ROS_DISTRO` that names another distribution).
+fn log_wire_distribution() {
+    let built = ros2_client::COMPILED_ROS_DISTRO;
+    if std::env::var_os("ROS_DISTRO").is_none() {
+        tracing::info!(
+            "speaking ROS 2 {built} over DDS (no ROS installation needed; ROS_DISTRO not set)"
+        );
+    }
+}
+
 async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeError> {
     // Everything that can fail on user input fails before a DDS participant exists.
     let node_name = NodeName::new(&settings.namespace, &settings.name)
@@ -242,6 +255,7 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
     let domain_id = domain_id_from_env()?;
     let (setup, recorder) = prepare(scene, settings)?;
     let layout = OutputLayout::new(scene, &setup, &settings.namespace);
+    log_wire_distribution();
     let context = Context::with_options(ContextOptions::new().domain_id(domain_id))
         .map_err(|e| err("DDS participant", e))?;
     let mut node = context
@@ -359,13 +373,24 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
             }
         }
     };
-    tokio::select! {
-        r = spinner.spin() => {
-            if let Err(e) = r {
-                tracing::error!("ROS spinner stopped: {e:?}");
-            }
+    let spin = spinner.spin();
+    tokio::pin!(spin);
+    let spin_ended = tokio::select! {
+        r = &mut spin => Some(r),
+        _ = main => None,
+    };
+    let spin_result = match spin_ended {
+        Some(r) => r,
+        None => {
+            // Dropping the node signals its spinner to stop; waiting for the spinner after
+            // that (rather than dropping it first) lets the signal find it listening, so a
+            // normal shutdown logs no error.
+            drop(node);
+            spin.await
         }
-        _ = main => {}
+    };
+    if let Err(e) = spin_result {
+        tracing::error!("ROS spinner stopped: {e:?}");
     }
     sim.shutdown();
     if let Some(summary) = finish_recording(recorder)? {
