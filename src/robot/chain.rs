@@ -215,6 +215,17 @@ impl Chain {
         })
     }
 
+    /// The chain extended by a fixed frame `link` at `offset` from its tip (a frame the URDF
+    /// does not name, such as dVRK's tool frame behind dvrk_model's `tool_tip_link`).
+    pub fn with_fixed_tip(mut self, link: &str, offset: Isometry3<f64>) -> Chain {
+        self.segments.push(Segment {
+            child: link.to_owned(),
+            origin: offset,
+            motion: Motion::Fixed,
+        });
+        self
+    }
+
     pub fn base_link(&self) -> &str {
         &self.base
     }

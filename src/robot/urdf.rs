@@ -60,6 +60,17 @@ pub fn check_arm_name(name: &str) -> Result<(), UrdfError> {
     }
 }
 
+/// `name` with the arm prefix `from` replaced by `to` when it is `from` or starts `from_`;
+/// otherwise unchanged.
+pub fn rename_link(name: &str, from: &str, to: &str) -> String {
+    if name == from {
+        return to.to_owned();
+    }
+    name.strip_prefix(from)
+        .and_then(|rest| rest.strip_prefix('_'))
+        .map_or_else(|| name.to_owned(), |rest| format!("{to}_{rest}"))
+}
+
 /// Renames every link `from` or `from_*` to `to` / `to_*`, in links and in the joints that name
 /// them. Links without the prefix and joint names are left alone.
 pub fn rename_arm_prefix(
@@ -68,18 +79,7 @@ pub fn rename_arm_prefix(
     to: &str,
 ) -> Result<(), UrdfError> {
     check_arm_name(to)?;
-    let rename = |name: &mut String| {
-        let renamed = if name == from {
-            Some(to.to_owned())
-        } else {
-            name.strip_prefix(from)
-                .and_then(|rest| rest.strip_prefix('_'))
-                .map(|rest| format!("{to}_{rest}"))
-        };
-        if let Some(renamed) = renamed {
-            *name = renamed;
-        }
-    };
+    let rename = |name: &mut String| *name = rename_link(name, from, to);
     for link in &mut robot.links {
         rename(&mut link.name);
     }
@@ -88,6 +88,20 @@ pub fn rename_arm_prefix(
         rename(&mut joint.child.link);
     }
     Ok(())
+}
+
+/// How many visual and collision meshes the URDF names. Kinematics never reads them (they are
+/// usually `package://` paths into a ROS package); the loader only says they were skipped.
+pub fn mesh_count(robot: &urdf_rs::Robot) -> usize {
+    let is_mesh = |g: &urdf_rs::Geometry| matches!(g, urdf_rs::Geometry::Mesh { .. });
+    robot
+        .links
+        .iter()
+        .map(|l| {
+            l.visual.iter().filter(|v| is_mesh(&v.geometry)).count()
+                + l.collision.iter().filter(|c| is_mesh(&c.geometry)).count()
+        })
+        .sum()
 }
 
 #[cfg(test)]

@@ -12,6 +12,8 @@ use crate::config::{Outputs, Scene};
 use crate::output::mesh::MeshError;
 use crate::output::snapshot::SnapshotSchedule;
 use crate::output::{CloudOptions, TissueSurface};
+use crate::robot::psm::{UrdfRoles, DVRK_JAW_SPEED, DVRK_PSM_SPEEDS};
+use crate::robot::urdf::{self, CLASSIC_PSM_URDF};
 use crate::robot::{Psm, PsmError, Teleop, TeleopConfig, TeleopError};
 use crate::sim::arm::{ArmError, ArmSim};
 use crate::sim::input::ReplayInput;
@@ -95,18 +97,42 @@ pub fn arm_base(arm: &crate::config::Arm) -> Isometry3<f64> {
 }
 
 /// Loads an arm's PSM: its URDF file, or the built-in classic PSM when the default path
-/// `urdf/psm.urdf` is not found from the working directory.
+/// `urdf/psm.urdf` is not found from the working directory; base and tool links as the scene
+/// names them or by the default rule; speed limits the scene's, else dVRK's.
 pub fn load_psm(arm: &crate::config::Arm) -> Result<Psm, SetupError> {
     let path = Path::new(&arm.urdf);
-    let psm = if !path.exists() && arm.urdf == "urdf/psm.urdf" {
-        Psm::classic(&arm.name)
-    } else {
-        Psm::from_urdf_file(path, &arm.name)
+    let roles = UrdfRoles {
+        base_link: arm.base_link.clone(),
+        tool_link: arm.tool_link.clone(),
     };
-    psm.map_err(|source| SetupError::Psm {
+    let robot = if !path.exists() && arm.urdf == "urdf/psm.urdf" {
+        urdf::parse_urdf(CLASSIC_PSM_URDF)
+    } else {
+        urdf::load_urdf_file(path)
+    };
+    let psm_error = |source| SetupError::Psm {
         arm: arm.name.clone(),
         source,
-    })
+    };
+    let mut psm = robot
+        .map_err(PsmError::from)
+        .and_then(|robot| Psm::from_urdf_with_roles(robot, &arm.name, &roles))
+        .map_err(psm_error)?;
+    if arm.joint_speeds.is_some() || arm.jaw_speed.is_some() {
+        let joints = arm.joint_speeds.unwrap_or(DVRK_PSM_SPEEDS);
+        let jaw = arm.jaw_speed.unwrap_or(DVRK_JAW_SPEED);
+        psm.set_speed_limits(&joints, jaw).map_err(psm_error)?;
+        tracing::info!(
+            "arm {}: move_jp speed limits from the scene: {joints:?}, jaw {jaw} rad/s",
+            arm.name
+        );
+    } else {
+        tracing::info!(
+            "arm {}: move_jp speed limits dVRK's (not the URDF's velocity)",
+            arm.name
+        );
+    }
+    Ok(psm)
 }
 
 fn cloud_options(outputs: &Outputs) -> CloudOptions {
