@@ -72,6 +72,8 @@ pub enum ChainError {
          joint without a mimic of its own"
     )]
     BadMimic { joint: String, master: String },
+    #[error("joint `{joint}` mimics `{master}`, which is not in the URDF")]
+    MissingMimicMaster { joint: String, master: String },
     #[error("expected {expected} joint values ({names}), got {got}")]
     JointCount {
         expected: usize,
@@ -173,7 +175,12 @@ impl Chain {
                                 joint: joint.name.clone(),
                                 master: mimic.joint.clone(),
                             };
-                            let master = by_name.get(mimic.joint.as_str()).ok_or_else(bad)?;
+                            let master = by_name.get(mimic.joint.as_str()).ok_or_else(|| {
+                                ChainError::MissingMimicMaster {
+                                    joint: joint.name.clone(),
+                                    master: mimic.joint.clone(),
+                                }
+                            })?;
                             if master.mimic.is_some()
                                 || movable_kind(master).ok().flatten().is_none()
                             {
@@ -615,10 +622,15 @@ mod tests {
         let j = chain.jacobian(&[0.8]).unwrap();
         assert!((j[(0, 0)] - 0.5).abs() < 1e-15);
 
-        let bad = urdf.replace(r#"mimic joint="master""#, r#"mimic joint="nobody""#);
+        let bad = urdf.replace(r#"mimic joint="master""#, r#"mimic joint="follower""#);
         assert!(matches!(
             chain_of(&bad, "a", "b"),
             Err(ChainError::BadMimic { .. })
+        ));
+        let missing = urdf.replace(r#"mimic joint="master""#, r#"mimic joint="nobody""#);
+        assert!(matches!(
+            chain_of(&missing, "a", "b"),
+            Err(ChainError::MissingMimicMaster { .. })
         ));
     }
 }

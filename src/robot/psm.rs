@@ -173,7 +173,9 @@ impl Psm {
     /// (Classic or Si, current or older layout) expanded from its xacro.
     ///
     /// The rule, by role rather than by one name:
-    /// - **Base** (the RCM, frame of `measured_cp`): `roles.base_link`, else the link `P_base`,
+    /// - **Base** (the RCM, frame of `measured_cp`): `roles.base_link` (whose prefix `P` is what
+    ///   precedes `_base`, `_base_link` or `_psm_base_link`, else its first `_`), else the link
+    ///   `P_base`,
     ///   `P_base_link` or `P_psm_base_link` (tried in that order), where the prefix `P` is the
     ///   arm's name, else `PSM1`, else the only prefix such a link has. Links above the base
     ///   (`world`) are ignored: the scene places the base.
@@ -208,7 +210,12 @@ impl Psm {
                         link: base.clone(),
                     });
                 }
-                (base_prefix(base).map(|(p, _)| p.to_owned()), base.clone())
+                let prefix = base_prefix(base).map(|(p, _)| p).or_else(|| {
+                    base.split_once('_')
+                        .map(|(p, _)| p)
+                        .filter(|p| urdf::check_arm_name(p).is_ok())
+                });
+                (prefix.map(str::to_owned), base.clone())
             }
             None => {
                 let (prefix, base) = find_base(&robot, name)?;

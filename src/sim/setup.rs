@@ -25,8 +25,8 @@ use crate::world::{World, WorldError};
 pub enum SetupError {
     #[error(transparent)]
     World(#[from] WorldError),
-    #[error("arm {arm}: {source}")]
-    Psm { arm: String, source: PsmError },
+    #[error(transparent)]
+    Psm(#[from] Box<ArmUrdfProblem>),
     #[error("arm {arm}: {source}")]
     Arm { arm: String, source: ArmError },
     #[error("arm {arm}: no tool {tool}")]
@@ -96,32 +96,58 @@ pub fn arm_base(arm: &crate::config::Arm) -> Isometry3<f64> {
     )
 }
 
+/// Why an arm's URDF cannot be used: the scene key to look at, the URDF file and the reason.
+#[derive(Debug, thiserror::Error)]
+#[error("arm[{index}] ({arm}).{key} = \"{file}\": {source}")]
+pub struct ArmUrdfProblem {
+    /// Position of the `[[arm]]` table in the scene.
+    pub index: usize,
+    pub arm: String,
+    /// `urdf`, `base_link`, `tool_link` or `joint_speeds`.
+    pub key: &'static str,
+    /// The `urdf` value.
+    pub file: String,
+    pub source: PsmError,
+}
+
 /// Loads an arm's PSM: its URDF file, or the built-in classic PSM when the default path
 /// `urdf/psm.urdf` is not found from the working directory; base and tool links as the scene
 /// names them or by the default rule; speed limits the scene's, else dVRK's.
-pub fn load_psm(arm: &crate::config::Arm) -> Result<Psm, SetupError> {
+pub fn load_psm(index: usize, arm: &crate::config::Arm) -> Result<Psm, Box<ArmUrdfProblem>> {
+    load_arm_psm(arm).map_err(|source| {
+        let key = match &source {
+            PsmError::NoSuchRoleLink { key, .. } => key,
+            PsmError::NoBaseLink { .. } | PsmError::AmbiguousBase { .. } => "base_link",
+            PsmError::NoToolLink { .. } => "tool_link",
+            PsmError::InvalidSpeed { .. } => "joint_speeds",
+            _ => "urdf",
+        };
+        Box::new(ArmUrdfProblem {
+            index,
+            arm: arm.name.clone(),
+            key,
+            file: arm.urdf.clone(),
+            source,
+        })
+    })
+}
+
+fn load_arm_psm(arm: &crate::config::Arm) -> Result<Psm, PsmError> {
     let path = Path::new(&arm.urdf);
     let roles = UrdfRoles {
         base_link: arm.base_link.clone(),
         tool_link: arm.tool_link.clone(),
     };
     let robot = if !path.exists() && arm.urdf == "urdf/psm.urdf" {
-        urdf::parse_urdf(CLASSIC_PSM_URDF)
+        urdf::parse_urdf(CLASSIC_PSM_URDF)?
     } else {
-        urdf::load_urdf_file(path)
+        urdf::load_urdf_file(path)?
     };
-    let psm_error = |source| SetupError::Psm {
-        arm: arm.name.clone(),
-        source,
-    };
-    let mut psm = robot
-        .map_err(PsmError::from)
-        .and_then(|robot| Psm::from_urdf_with_roles(robot, &arm.name, &roles))
-        .map_err(psm_error)?;
+    let mut psm = Psm::from_urdf_with_roles(robot, &arm.name, &roles)?;
     if arm.joint_speeds.is_some() || arm.jaw_speed.is_some() {
         let joints = arm.joint_speeds.unwrap_or(DVRK_PSM_SPEEDS);
         let jaw = arm.jaw_speed.unwrap_or(DVRK_JAW_SPEED);
-        psm.set_speed_limits(&joints, jaw).map_err(psm_error)?;
+        psm.set_speed_limits(&joints, jaw)?;
         tracing::info!(
             "arm {}: move_jp speed limits from the scene: {joints:?}, jaw {jaw} rad/s",
             arm.name
@@ -133,6 +159,16 @@ pub fn load_psm(arm: &crate::config::Arm) -> Result<Psm, SetupError> {
         );
     }
     Ok(psm)
+}
+
+/// Loads every arm's URDF as a run would (for `check`): one problem per arm that fails.
+pub fn check_arm_urdfs(scene: &Scene) -> Vec<ArmUrdfProblem> {
+    scene
+        .arms
+        .iter()
+        .enumerate()
+        .filter_map(|(index, arm)| load_psm(index, arm).err().map(|p| *p))
+        .collect()
 }
 
 fn cloud_options(outputs: &Outputs) -> CloudOptions {
@@ -148,8 +184,8 @@ pub fn build_setup(scene: &Scene) -> Result<SimSetup, SetupError> {
     let world = World::try_new(scene)?;
     let mut arms = Vec::new();
     let mut arm_tools = Vec::new();
-    for arm in &scene.arms {
-        let psm = load_psm(arm)?;
+    for (index, arm) in scene.arms.iter().enumerate() {
+        let psm = load_psm(index, arm)?;
         let sim = ArmSim::new(
             psm,
             arm.mode,
