@@ -67,13 +67,12 @@ pub enum ChainError {
         lower: f64,
         upper: f64,
     },
-    #[error(
-        "joint `{joint}` mimics `{master}`, which is not a revolute, continuous or prismatic \
-         joint without a mimic of its own"
-    )]
-    BadMimic { joint: String, master: String },
-    #[error("joint `{joint}` mimics `{master}`, which is not in the URDF")]
-    MissingMimicMaster { joint: String, master: String },
+    #[error("joint `{joint}` mimics `{master}`, which {reason}")]
+    BadMimic {
+        joint: String,
+        master: String,
+        reason: &'static str,
+    },
     #[error("expected {expected} joint values ({names}), got {got}")]
     JointCount {
         expected: usize,
@@ -171,20 +170,21 @@ impl Chain {
                     let (variable, multiplier, offset) = match &joint.mimic {
                         None => (joint, 1.0, 0.0),
                         Some(mimic) => {
-                            let bad = || ChainError::BadMimic {
+                            let bad = |reason| ChainError::BadMimic {
                                 joint: joint.name.clone(),
                                 master: mimic.joint.clone(),
+                                reason,
                             };
-                            let master = by_name.get(mimic.joint.as_str()).ok_or_else(|| {
-                                ChainError::MissingMimicMaster {
-                                    joint: joint.name.clone(),
-                                    master: mimic.joint.clone(),
-                                }
-                            })?;
+                            let master = by_name
+                                .get(mimic.joint.as_str())
+                                .ok_or_else(|| bad("is not in the URDF"))?;
                             if master.mimic.is_some()
                                 || movable_kind(master).ok().flatten().is_none()
                             {
-                                return Err(bad());
+                                return Err(bad(
+                                    "is not a revolute, continuous or prismatic joint without a \
+                                     mimic of its own",
+                                ));
                             }
                             (
                                 *master,
@@ -383,6 +383,7 @@ fn actuated_joint(joint: &urdf_rs::Joint) -> Result<ActuatedJoint, ChainError> {
     let kind = movable_kind(joint)?.ok_or_else(|| ChainError::BadMimic {
         joint: joint.name.clone(),
         master: joint.name.clone(),
+        reason: "is fixed",
     })?;
     let (lower, upper) = if joint.joint_type == urdf_rs::JointType::Continuous {
         (f64::NEG_INFINITY, f64::INFINITY)
@@ -622,15 +623,10 @@ mod tests {
         let j = chain.jacobian(&[0.8]).unwrap();
         assert!((j[(0, 0)] - 0.5).abs() < 1e-15);
 
-        let bad = urdf.replace(r#"mimic joint="master""#, r#"mimic joint="follower""#);
+        let bad = urdf.replace(r#"mimic joint="master""#, r#"mimic joint="nobody""#);
         assert!(matches!(
             chain_of(&bad, "a", "b"),
             Err(ChainError::BadMimic { .. })
-        ));
-        let missing = urdf.replace(r#"mimic joint="master""#, r#"mimic joint="nobody""#);
-        assert!(matches!(
-            chain_of(&missing, "a", "b"),
-            Err(ChainError::MissingMimicMaster { .. })
         ));
     }
 }
