@@ -249,6 +249,10 @@ pub struct Arm {
     /// URDF; links are renamed for `name`. Relative paths are relative to the working directory.
     #[serde(default = "default_arm_urdf")]
     pub urdf: String,
+    /// The dvrk_model package folder, for `$(find dvrk_model)` when `urdf` is a `.urdf.xacro`
+    /// (expanded by the `xacro` command; otherwise ROS_PACKAGE_PATH or a sourced workspace).
+    #[serde(default)]
+    pub dvrk_model: Option<String>,
     /// The URDF link at the remote centre of motion (default: `<arm>_base`, `<arm>_base_link`
     /// or `<arm>_psm_base_link`, see `robot::Psm::from_urdf_with_roles`).
     #[serde(default)]

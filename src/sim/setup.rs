@@ -141,7 +141,7 @@ fn load_arm_psm(arm: &crate::config::Arm) -> Result<Psm, PsmError> {
     let robot = if !path.exists() && arm.urdf == "urdf/psm.urdf" {
         urdf::parse_urdf(CLASSIC_PSM_URDF)?
     } else {
-        urdf::load_urdf_file(path)?
+        urdf::load_urdf(path, arm.dvrk_model.as_deref().map(Path::new))?
     };
     let mut psm = Psm::from_urdf_with_roles(robot, &arm.name, &roles)?;
     if arm.joint_speeds.is_some() || arm.jaw_speed.is_some() {
