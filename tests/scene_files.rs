@@ -434,3 +434,22 @@ fn check_reports_a_chain_it_cannot_find() {
         &["arm[0] (PSM2).tool_link", "`PSM2`, `PSM2_tool_tip_link`"],
     );
 }
+
+#[test]
+fn a_scene_with_the_dvrk_model_layout_builds_and_reports_the_dh_tool_frame() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/urdf/PSM2_current_layout.urdf");
+    let text = format!(
+        "{GOOD}\n[[arm]]\nname = \"PSM2\"\nurdf = {:?}\nbase_xyz = [0.0, 0.0, 0.14]\n\
+         home_joints = [0.1, -0.2, 0.12, 0.3, 0.2, -0.1]\ntool = \"probe\"\n",
+        path.display().to_string()
+    );
+    let scene = config::from_str(&text, Path::new("official.toml")).unwrap();
+    let setup = dvrk_tissue_sim::sim::build_setup(&scene).unwrap_or_else(|e| panic!("{e}"));
+    let psm = setup.arms[0].psm();
+    assert_eq!(psm.base_frame(), "PSM2_base");
+    let q = [0.1, -0.2, 0.12, 0.3, 0.2, -0.1];
+    let tool = psm.forward(&q).unwrap();
+    let dh = dvrk_tissue_sim::robot::dh::psm_tool_pose(&q);
+    assert!((tool.translation.vector - dh.translation.vector).norm() < 1e-9);
+    assert!(tool.rotation.angle_to(&dh.rotation) < 1e-9);
+}
