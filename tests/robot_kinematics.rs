@@ -228,3 +228,62 @@ fn ik_reports_unreachable_targets_with_the_best_effort() {
         .solve_cartesian(&tilted, &home, RcmPolicy::Reject)
         .is_err());
 }
+
+/// A PSM URDF in dvrk_model's layout (tests/urdf: written for these tests from the names
+/// dvrk_model uses and the DH table), loaded as arm `name`.
+fn dvrk_model_psm(file: &str, name: &str) -> Psm {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/urdf")
+        .join(file);
+    Psm::from_urdf_file(&path, name).unwrap_or_else(|e| panic!("{file} as {name}: {e}"))
+}
+
+/// The largest distance (m) and angle (rad) between `psm`'s tool frame and the built-in URDF's
+/// and the DH table's over `samples` random joint vectors inside `psm`'s limits.
+fn tool_frame_disagreement(psm: &Psm, samples: usize) -> (f64, f64) {
+    let classic = Psm::classic("PSM1").unwrap();
+    let mut rng = Rng(7);
+    let (mut dp, mut dr) = (0.0f64, 0.0f64);
+    for _ in 0..samples {
+        let q = rng.joints(psm, 0.0);
+        let tool = psm.forward(&q).unwrap();
+        for reference in [classic.forward(&q).unwrap(), dh::psm_tool_pose(&q)] {
+            dp = dp.max((tool.translation.vector - reference.translation.vector).norm());
+            dr = dr.max(tool.rotation.angle_to(&reference.rotation));
+        }
+    }
+    (dp, dr)
+}
+
+#[test]
+fn dvrk_model_layouts_give_the_dh_tool_frame() {
+    for (file, name) in [
+        ("PSM1_current_layout.urdf", "PSM1"),
+        ("PSM1_current_layout.urdf", "PSM3"),
+        ("PSM2_current_layout.urdf", "PSM2"),
+        ("PSM2_current_layout.urdf", "PSM1"),
+        ("PSM1_older_layout.urdf", "PSM1"),
+        ("PSM1_older_layout.urdf", "PSM2"),
+    ] {
+        let psm = dvrk_model_psm(file, name);
+        assert_eq!(psm.base_frame(), format!("{name}_base"));
+        assert_eq!(psm.chain().tip_link(), name);
+        let frames = psm
+            .link_frames(&[0.1, 0.2, 0.1, 0.3, 0.2, 0.1], 0.4)
+            .unwrap();
+        let jaw_1 = frames
+            .iter()
+            .find(|f| f.link.ends_with("jaw_1_link") || f.link.ends_with("ee_link_1"));
+        assert!(jaw_1.is_some(), "{file}: no jaw_1 frame");
+        assert!(
+            frames.iter().all(|f| f.link.starts_with(name)),
+            "{file} as {name}"
+        );
+        let (dp, dr) = tool_frame_disagreement(&psm, 2000);
+        println!("{file} as {name}: tool frame within {dp:.3e} m, {dr:.3e} rad of DH and psm.urdf");
+        assert!(
+            dp < 1e-6 && dr < 1e-6,
+            "{file} as {name}: {dp:e} m, {dr:e} rad"
+        );
+    }
+}

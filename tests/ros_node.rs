@@ -112,6 +112,11 @@ fn rclpy_servo_jp_moves_measured_js_and_measured_cp_matches_fk() {
 }
 
 #[test]
+fn rclpy_measured_cp_matches_fk_with_a_dvrk_model_layout_urdf() {
+    rclpy_test("test_servo.py", "tests/ros/scenes/official_layout.toml", 18);
+}
+
+#[test]
 fn rclpy_push_displaces_tissue_and_wrench_opposes_motion() {
     rclpy_test("test_push.py", SMALL, 13);
 }

@@ -283,3 +283,173 @@ fn surface_and_cloud_scalar_options_parse_and_bad_names_are_explained() {
         assert!(err.contains(fragment), "'{fragment}' missing from: {err}");
     }
 }
+
+/// `check`'s URDF pass over the good scene with one arm whose `urdf` is `urdf` (plus `extra`
+/// keys), as one message per failing arm.
+fn urdf_messages(urdf: &str, extra: &str) -> Vec<String> {
+    let text = format!(
+        "{GOOD}\n[[arm]]\nname = \"PSM2\"\nurdf = {urdf:?}\nbase_xyz = [0.0, 0.0, 0.14]\n\
+         home_joints = [0.0, 0.0, 0.12, 0.0, 0.0, 0.0]\ntool = \"probe\"\n{extra}"
+    );
+    let scene = config::from_str(&text, Path::new("arm.toml")).unwrap();
+    dvrk_tissue_sim::sim::check_arm_urdfs(&scene)
+        .iter()
+        .map(|p| p.to_string())
+        .collect()
+}
+
+/// A copy of a tests/urdf fixture with `from` replaced by `to`, in a fresh temporary file.
+fn edited_fixture(file: &str, from: &str, to: &str) -> String {
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/urdf");
+    let text = std::fs::read_to_string(fixtures.join(file)).unwrap();
+    assert!(text.contains(from), "{file} lacks {from}");
+    let dir = std::env::temp_dir().join(format!("dvrk-urdf-check-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(format!("{}-{file}", from.len() * 31 + to.len()));
+    std::fs::write(&path, text.replace(from, to)).unwrap();
+    path.display().to_string()
+}
+
+fn assert_one_message(messages: &[String], fragments: &[&str]) {
+    assert_eq!(messages.len(), 1, "{messages:#?}");
+    for fragment in fragments {
+        assert!(
+            messages[0].contains(fragment),
+            "{} lacks {fragment}",
+            messages[0]
+        );
+    }
+}
+
+#[test]
+fn check_loads_the_dvrk_model_layout_and_the_built_in_urdf() {
+    for file in [
+        "PSM1_current_layout.urdf",
+        "PSM2_current_layout.urdf",
+        "PSM1_older_layout.urdf",
+    ] {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/urdf")
+            .join(file);
+        assert_eq!(
+            urdf_messages(&path.display().to_string(), ""),
+            Vec::<String>::new()
+        );
+    }
+    assert_eq!(urdf_messages("urdf/psm.urdf", ""), Vec::<String>::new());
+}
+
+#[test]
+fn check_reports_a_missing_urdf_file() {
+    assert_one_message(
+        &urdf_messages("/nonexistent/PSM2.urdf", ""),
+        &[
+            "arm[0] (PSM2).urdf = \"/nonexistent/PSM2.urdf\"",
+            "cannot read URDF file",
+        ],
+    );
+}
+
+#[test]
+fn check_reports_malformed_urdf_xml() {
+    let path = edited_fixture("PSM1_current_layout.urdf", "</robot>", "</robo");
+    assert_one_message(
+        &urdf_messages(&path, ""),
+        &[
+            &format!("arm[0] (PSM2).urdf = \"{path}\""),
+            "malformed URDF",
+        ],
+    );
+}
+
+#[test]
+fn check_reports_a_missing_psm_joint() {
+    let path = edited_fixture("PSM1_current_layout.urdf", "name=\"roll\"", "name=\"spin\"");
+    assert_one_message(
+        &urdf_messages(&path, ""),
+        &[
+            "arm[0] (PSM2).urdf",
+            "does not describe a PSM",
+            "\"spin\"",
+            "\"roll\"",
+        ],
+    );
+}
+
+#[test]
+fn check_reports_a_missing_jaw() {
+    let path = edited_fixture(
+        "PSM1_current_layout.urdf",
+        "joint name=\"jaw\"",
+        "joint name=\"grip\"",
+    );
+    let messages = urdf_messages(&path, "");
+    assert_one_message(
+        &messages,
+        &[
+            "arm[0] (PSM2).urdf",
+            "`jaw_1` mimics `jaw`, which is not in the URDF",
+        ],
+    );
+}
+
+#[test]
+fn check_reports_a_base_link_it_cannot_find() {
+    let path = edited_fixture("PSM1_current_layout.urdf", "PSM1_base_link", "PSM1_mount");
+    assert_one_message(
+        &urdf_messages(&path, ""),
+        &[
+            "arm[0] (PSM2).base_link",
+            "`PSM2_base_link`",
+            "name it with `base_link`",
+        ],
+    );
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/urdf/PSM1_current_layout.urdf");
+    assert_one_message(
+        &urdf_messages(&path.display().to_string(), "base_link = \"PSM1_mount\"\n"),
+        &[
+            "arm[0] (PSM2).base_link",
+            "`base_link` = \"PSM1_mount\" is not a link",
+        ],
+    );
+}
+
+#[test]
+fn check_reports_a_chain_it_cannot_find() {
+    // The tool link on a side branch (the parallelogram), not below the base's path to it.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/urdf/PSM1_current_layout.urdf");
+    assert_one_message(
+        &urdf_messages(
+            &path.display().to_string(),
+            "base_link = \"PSM1_pitch_5_link\"\ntool_link = \"PSM1_tool_tip_link\"\n",
+        ),
+        &[
+            "arm[0] (PSM2).urdf",
+            "no serial path from `PSM2_pitch_5_link` to `PSM2_tool_tip_link`",
+        ],
+    );
+    let path = edited_fixture("PSM1_current_layout.urdf", "PSM1_tool_tip_link", "PSM1_tip");
+    assert_one_message(
+        &urdf_messages(&path, ""),
+        &["arm[0] (PSM2).tool_link", "`PSM2`, `PSM2_tool_tip_link`"],
+    );
+}
+
+#[test]
+fn a_scene_with_the_dvrk_model_layout_builds_and_reports_the_dh_tool_frame() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/urdf/PSM2_current_layout.urdf");
+    let text = format!(
+        "{GOOD}\n[[arm]]\nname = \"PSM2\"\nurdf = {:?}\nbase_xyz = [0.0, 0.0, 0.14]\n\
+         home_joints = [0.1, -0.2, 0.12, 0.3, 0.2, -0.1]\ntool = \"probe\"\n",
+        path.display().to_string()
+    );
+    let scene = config::from_str(&text, Path::new("official.toml")).unwrap();
+    let setup = dvrk_tissue_sim::sim::build_setup(&scene).unwrap_or_else(|e| panic!("{e}"));
+    let psm = setup.arms[0].psm();
+    assert_eq!(psm.base_frame(), "PSM2_base");
+    let q = [0.1, -0.2, 0.12, 0.3, 0.2, -0.1];
+    let tool = psm.forward(&q).unwrap();
+    let dh = dvrk_tissue_sim::robot::dh::psm_tool_pose(&q);
+    assert!((tool.translation.vector - dh.translation.vector).norm() < 1e-9);
+    assert!(tool.rotation.angle_to(&dh.rotation) < 1e-9);
+}

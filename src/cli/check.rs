@@ -1,8 +1,8 @@
-//! `check`: validate scene files and report every problem.
+//! `check`: validate scene files and every arm's URDF, and report every problem.
 
 use anyhow::{bail, Result};
 use clap::Args;
-use dvrk_tissue_sim::config;
+use dvrk_tissue_sim::{config, sim};
 use std::path::PathBuf;
 
 #[derive(Args)]
@@ -14,17 +14,29 @@ pub struct CheckArgs {
 pub fn run(args: CheckArgs) -> Result<()> {
     let mut failed = 0;
     for path in &args.scenes {
-        match config::load(path) {
-            Ok(s) => println!(
-                "{}: ok (scene \"{}\", {} tissue block(s), {} tool(s))",
-                path.display(),
-                s.name,
-                s.tissues.len(),
-                s.tools.len()
-            ),
+        let scene = match config::load(path) {
+            Ok(scene) => scene,
             Err(e) => {
                 failed += 1;
                 println!("{e}");
+                continue;
+            }
+        };
+        let urdf_problems = sim::check_arm_urdfs(&scene);
+        if urdf_problems.is_empty() {
+            println!(
+                "{}: ok (scene \"{}\", {} tissue block(s), {} tool(s), {} arm(s))",
+                path.display(),
+                scene.name,
+                scene.tissues.len(),
+                scene.tools.len(),
+                scene.arms.len()
+            );
+        } else {
+            failed += 1;
+            println!("{}: {} problem(s):", path.display(), urdf_problems.len());
+            for problem in urdf_problems {
+                println!("  {problem}");
             }
         }
     }

@@ -245,10 +245,29 @@ pub struct Arm {
     /// dVRK arm name, also its topic namespace and frame prefix (`PSM1`).
     #[serde(default = "default_arm_name")]
     pub name: String,
-    /// URDF written for `PSM1` (links renamed for `name`); relative paths are relative to the
-    /// working directory.
+    /// PSM URDF: the project's `urdf/psm.urdf` (built in, the default) or dvrk_model's expanded
+    /// URDF; links are renamed for `name`. Relative paths are relative to the working directory.
     #[serde(default = "default_arm_urdf")]
     pub urdf: String,
+    /// The dvrk_model package folder, for `$(find dvrk_model)` when `urdf` is a `.urdf.xacro`
+    /// (expanded by the `xacro` command; otherwise ROS_PACKAGE_PATH or a sourced workspace).
+    #[serde(default)]
+    pub dvrk_model: Option<String>,
+    /// The URDF link at the remote centre of motion (default: `<arm>_base`, `<arm>_base_link`
+    /// or `<arm>_psm_base_link`, see `robot::Psm::from_urdf_with_roles`).
+    #[serde(default)]
+    pub base_link: Option<String>,
+    /// The URDF link whose frame `measured_cp` reports, as it is (default: the link `<arm>`,
+    /// else dvrk_model's `<arm>_tool_tip_link` moved back 10.2 mm to the jaw pivot).
+    #[serde(default)]
+    pub tool_link: Option<String>,
+    /// `move_jp` speed limits of yaw, pitch (rad/s), insertion (m/s), roll, wrist_pitch,
+    /// wrist_yaw (rad/s); default dVRK's (90°/s, 90°/s, 0.2 m/s, 1080°/s ×3), never the URDF's.
+    #[serde(default)]
+    pub joint_speeds: Option<[f64; 6]>,
+    /// Jaw speed limit (rad/s); default dVRK's 720°/s.
+    #[serde(default)]
+    pub jaw_speed: Option<f64>,
     /// World position of the arm base `<name>_base`, the remote centre of motion (m).
     pub base_xyz: [f64; 3],
     /// World orientation of the base as roll, pitch, yaw about fixed x, y, z (degrees).

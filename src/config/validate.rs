@@ -394,6 +394,22 @@ fn validate_arms(c: &mut Checker, scene: &Scene) {
             &arm.urdf,
             "a URDF file path",
         );
+        for (k, link) in [("base_link", &arm.base_link), ("tool_link", &arm.tool_link)] {
+            if let Some(link) = link {
+                c.require(!link.is_empty(), key(k), link, "a link name of the URDF");
+            }
+        }
+        if let Some(speeds) = arm.joint_speeds {
+            c.require(
+                speeds.iter().all(|v| v.is_finite() && *v > 0.0),
+                key("joint_speeds"),
+                speeds,
+                "six finite speeds > 0 (rad/s; insertion m/s)",
+            );
+        }
+        if let Some(speed) = arm.jaw_speed {
+            c.positive(key("jaw_speed"), speed);
+        }
         c.require(
             arm.base_xyz.iter().all(|v| v.is_finite()),
             key("base_xyz"),

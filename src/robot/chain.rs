@@ -67,11 +67,12 @@ pub enum ChainError {
         lower: f64,
         upper: f64,
     },
-    #[error(
-        "joint `{joint}` mimics `{master}`, which is not a revolute, continuous or prismatic \
-         joint without a mimic of its own"
-    )]
-    BadMimic { joint: String, master: String },
+    #[error("joint `{joint}` mimics `{master}`, which {reason}")]
+    BadMimic {
+        joint: String,
+        master: String,
+        reason: &'static str,
+    },
     #[error("expected {expected} joint values ({names}), got {got}")]
     JointCount {
         expected: usize,
@@ -169,15 +170,21 @@ impl Chain {
                     let (variable, multiplier, offset) = match &joint.mimic {
                         None => (joint, 1.0, 0.0),
                         Some(mimic) => {
-                            let bad = || ChainError::BadMimic {
+                            let bad = |reason| ChainError::BadMimic {
                                 joint: joint.name.clone(),
                                 master: mimic.joint.clone(),
+                                reason,
                             };
-                            let master = by_name.get(mimic.joint.as_str()).ok_or_else(bad)?;
+                            let master = by_name
+                                .get(mimic.joint.as_str())
+                                .ok_or_else(|| bad("is not in the URDF"))?;
                             if master.mimic.is_some()
                                 || movable_kind(master).ok().flatten().is_none()
                             {
-                                return Err(bad());
+                                return Err(bad(
+                                    "is not a revolute, continuous or prismatic joint without a \
+                                     mimic of its own",
+                                ));
                             }
                             (
                                 *master,
@@ -213,6 +220,17 @@ impl Chain {
             segments,
             joints,
         })
+    }
+
+    /// The chain extended by a fixed frame `link` at `offset` from its tip (a frame the URDF
+    /// does not name, such as dVRK's tool frame behind dvrk_model's `tool_tip_link`).
+    pub fn with_fixed_tip(mut self, link: &str, offset: Isometry3<f64>) -> Chain {
+        self.segments.push(Segment {
+            child: link.to_owned(),
+            origin: offset,
+            motion: Motion::Fixed,
+        });
+        self
     }
 
     pub fn base_link(&self) -> &str {
@@ -365,6 +383,7 @@ fn actuated_joint(joint: &urdf_rs::Joint) -> Result<ActuatedJoint, ChainError> {
     let kind = movable_kind(joint)?.ok_or_else(|| ChainError::BadMimic {
         joint: joint.name.clone(),
         master: joint.name.clone(),
+        reason: "is fixed",
     })?;
     let (lower, upper) = if joint.joint_type == urdf_rs::JointType::Continuous {
         (f64::NEG_INFINITY, f64::INFINITY)

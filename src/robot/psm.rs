@@ -11,6 +11,31 @@ use crate::robot::joints::{JointCommandError, JointGroup};
 use crate::robot::trajectory::{Trajectory, TrajectoryError};
 use crate::robot::urdf::{self, UrdfError, CLASSIC_PSM_URDF, URDF_ARM_PREFIX};
 
+/// dVRK's `move_jp` speed limits for the PSM arm joints (rad/s; insertion m/s), from its arm
+/// configuration: 90°/s on yaw and pitch, 0.2 m/s on insertion, 1080°/s on roll and the wrist.
+/// A URDF's `velocity` attributes are not these (dvrk_model writes 0.4 everywhere), so they are
+/// not read; a scene can set others (`joint_speeds`).
+pub const DVRK_PSM_SPEEDS: [f64; 6] = [
+    std::f64::consts::FRAC_PI_2,
+    std::f64::consts::FRAC_PI_2,
+    0.2,
+    6.0 * std::f64::consts::PI,
+    6.0 * std::f64::consts::PI,
+    6.0 * std::f64::consts::PI,
+];
+
+/// dVRK's jaw speed limit (rad/s): 720°/s.
+pub const DVRK_JAW_SPEED: f64 = 4.0 * std::f64::consts::PI;
+
+/// dvrk_model's `tool_tip_link` lies this far (m) along the tool z axis beyond dVRK's tool frame
+/// (the jaw pivot, where `measured_cp` is): the loader moves back by it when that link is the
+/// tool frame it finds.
+pub const DVRK_MODEL_TOOL_TIP_SETBACK: f64 = 0.0102;
+
+/// Base link names tried, in order, for an arm prefix `P`: the project's, dvrk_model 2.x's, and
+/// the older dvrk_model's.
+const BASE_SUFFIXES: [&str; 3] = ["_base", "_base_link", "_psm_base_link"];
+
 /// The arm joints, in dVRK's `JointState` order.
 pub const PSM_JOINT_NAMES: [&str; 6] = [
     "yaw",
@@ -36,6 +61,25 @@ pub enum PsmError {
     Chain(#[from] ChainError),
     #[error("the URDF does not describe a PSM: {0}")]
     NotAPsm(String),
+    #[error(
+        "no arm base link found: looked for {tried} (the remote centre of motion, frame of \
+         measured_cp); name it with `base_link` on the [[arm]]"
+    )]
+    NoBaseLink { tried: String },
+    #[error(
+        "several links could be the arm base ({found}); name the one at the remote centre of \
+         motion with `base_link` on the [[arm]]"
+    )]
+    AmbiguousBase { found: String },
+    #[error(
+        "no tool link found: looked for {tried}; name the link whose frame measured_cp reports \
+         with `tool_link` on the [[arm]]"
+    )]
+    NoToolLink { tried: String },
+    #[error("`{key}` = \"{link}\" is not a link of the URDF")]
+    NoSuchRoleLink { key: &'static str, link: String },
+    #[error("speed limit of joint `{joint}` must be a finite number > 0, got {value}")]
+    InvalidSpeed { joint: String, value: f64 },
     #[error(
         "Cartesian target is {distance:.4} m from the RCM, closer than the {min:.3} m safety \
          distance"
@@ -82,14 +126,27 @@ pub struct LinkFrame {
     pub pose: Isometry3<f64>,
 }
 
+/// Which URDF links play the arm's roles, as named in the file; `None` finds them by the default
+/// rule of [`Psm::from_urdf_with_roles`].
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct UrdfRoles {
+    /// The remote centre of motion, the frame of `measured_cp`.
+    pub base_link: Option<String>,
+    /// The link whose frame `measured_cp` reports, taken as it is.
+    pub tool_link: Option<String>,
+}
+
 /// One PSM: frames are named after the arm (`PSM1_base`, `PSM1`, `PSM1_tool_tip`, ...).
 #[derive(Debug, Clone)]
 pub struct Psm {
     name: String,
     base_frame: String,
-    /// From `<name>_base` (the RCM) to the tool frame `<name>` (what `measured_cp` reports).
+    /// From the base (the RCM) to dVRK's tool frame (what `measured_cp` reports).
     arm: Chain,
-    /// From the tool frame to every link below it (tool tip, jaws); their only variable is `jaw`.
+    /// Index in `arm`'s links of the wrist (the child of `wrist_yaw`), where the jaws hang.
+    wrist: usize,
+    /// From the wrist to every link below it off the arm's path (tool tip, jaws); their only
+    /// variable is `jaw`.
     attachments: Vec<Chain>,
     joints: JointGroup,
     jaw: JointGroup,
@@ -102,35 +159,138 @@ impl Psm {
         Psm::from_urdf(urdf::parse_urdf(CLASSIC_PSM_URDF)?, name)
     }
 
-    /// Loads a PSM URDF file written for `PSM1` (see [`crate::robot::urdf`]) as arm `name`.
+    /// Loads a PSM URDF file (see [`Psm::from_urdf_with_roles`]) as arm `name`.
     pub fn from_urdf_file(path: &Path, name: &str) -> Result<Psm, PsmError> {
         Psm::from_urdf(urdf::load_urdf_file(path)?, name)
     }
 
-    /// Builds a PSM from a parsed URDF written for `PSM1`, renaming its links for arm `name`.
+    /// [`Psm::from_urdf_with_roles`] with every role found by the default rule.
+    pub fn from_urdf(robot: urdf_rs::Robot, name: &str) -> Result<Psm, PsmError> {
+        Psm::from_urdf_with_roles(robot, name, &UrdfRoles::default())
+    }
+
+    /// Builds arm `name` from a parsed PSM URDF: the project's `urdf/psm.urdf`, or dvrk_model's
+    /// (Classic or Si, current or older layout) expanded from its xacro.
     ///
-    /// The URDF must have a chain `<name>_base` → `<name>` through exactly the six PSM joints, and
-    /// below `<name>` only links moved by the `jaw` joint (directly or as mimics) or fixed.
-    pub fn from_urdf(mut robot: urdf_rs::Robot, name: &str) -> Result<Psm, PsmError> {
-        urdf::rename_arm_prefix(&mut robot, URDF_ARM_PREFIX, name)?;
-        let base_frame = format!("{name}_base");
-        let arm = Chain::from_urdf(&robot, &base_frame, name)?;
+    /// The rule, by role rather than by one name:
+    /// - **Base** (the RCM, frame of `measured_cp`): `roles.base_link` (whose prefix `P` is what
+    ///   precedes `_base`, `_base_link` or `_psm_base_link`, else its first `_`), else the link
+    ///   `P_base`,
+    ///   `P_base_link` or `P_psm_base_link` (tried in that order), where the prefix `P` is the
+    ///   arm's name, else `PSM1`, else the only prefix such a link has. Links above the base
+    ///   (`world`) are ignored: the scene places the base.
+    /// - The base is published as dVRK's frame `name_base` (`measured_cp`'s frame id).
+    /// - **Names**: every link `P` / `P_*` is renamed `name` / `name_*`, so a file written for
+    ///   PSM1 serves PSM2; joints keep dVRK's unprefixed names.
+    /// - **Tool frame** (what `measured_cp` reports, dVRK's tool frame on the jaw pivot):
+    ///   `roles.tool_link` as it is, else the project's link `name`, else dvrk_model's
+    ///   `name_tool_tip_link` moved back [`DVRK_MODEL_TOOL_TIP_SETBACK`] along its z (same
+    ///   rotation), published as frame `name`.
+    /// - The path from base to tool must pass exactly the six PSM joints (mimics of them, such
+    ///   as the parallelogram's `pitch_2`..., count as their master); side branches are not
+    ///   part of the chain.
+    /// - **Jaws**: every link below the wrist (the child of `wrist_yaw`) off that path may move
+    ///   only with `jaw` (`jaw` itself, or `jaw_1` / `jaw_2` mimicking it), and one must.
+    /// - **Limits** are the file's; speed limits are dVRK's ([`DVRK_PSM_SPEEDS`],
+    ///   [`DVRK_JAW_SPEED`]), not the file's `velocity`. Meshes are not read.
+    pub fn from_urdf_with_roles(
+        mut robot: urdf_rs::Robot,
+        name: &str,
+        roles: &UrdfRoles,
+    ) -> Result<Psm, PsmError> {
+        urdf::check_arm_name(name)?;
+        let has_link =
+            |robot: &urdf_rs::Robot, link: &str| robot.links.iter().any(|l| l.name == link);
+
+        let (prefix, file_base) = match &roles.base_link {
+            Some(base) => {
+                if !has_link(&robot, base) {
+                    return Err(PsmError::NoSuchRoleLink {
+                        key: "base_link",
+                        link: base.clone(),
+                    });
+                }
+                let prefix = base_prefix(base).map(|(p, _)| p).or_else(|| {
+                    base.split_once('_')
+                        .map(|(p, _)| p)
+                        .filter(|p| urdf::check_arm_name(p).is_ok())
+                });
+                (prefix.map(str::to_owned), base.clone())
+            }
+            None => {
+                let (prefix, base) = find_base(&robot, name)?;
+                (Some(prefix), base)
+            }
+        };
+        let (base_link, tool_link) = match &prefix {
+            Some(prefix) => {
+                urdf::rename_arm_prefix(&mut robot, prefix, name)?;
+                (
+                    urdf::rename_link(&file_base, prefix, name),
+                    roles
+                        .tool_link
+                        .as_ref()
+                        .map(|t| urdf::rename_link(t, prefix, name)),
+                )
+            }
+            None => (file_base, roles.tool_link.clone()),
+        };
+        let (tool_link, setback) = match tool_link {
+            Some(tool) if has_link(&robot, &tool) => (tool, None),
+            Some(_) => {
+                return Err(PsmError::NoSuchRoleLink {
+                    key: "tool_link",
+                    link: roles.tool_link.clone().unwrap_or_default(),
+                })
+            }
+            None => {
+                let tip = format!("{name}_tool_tip_link");
+                if has_link(&robot, name) {
+                    (name.to_owned(), None)
+                } else if has_link(&robot, &tip) {
+                    (tip, Some(DVRK_MODEL_TOOL_TIP_SETBACK))
+                } else {
+                    return Err(PsmError::NoToolLink {
+                        tried: format!("`{name}`, `{tip}`"),
+                    });
+                }
+            }
+        };
+        let mut arm = Chain::from_urdf(&robot, &base_link, &tool_link)?;
+        if let Some(setback) = setback {
+            arm = arm.with_fixed_tip(name, Isometry3::translation(0.0, 0.0, -setback));
+        }
         let arm_names: Vec<&str> = arm.joints().iter().map(|j| j.name.as_str()).collect();
         if arm_names != PSM_JOINT_NAMES {
             return Err(PsmError::NotAPsm(format!(
-                "the joints from {base_frame} to {name} are {arm_names:?}, expected {PSM_JOINT_NAMES:?}"
+                "the joints from {base_link} to {tool_link} are {arm_names:?}, expected {PSM_JOINT_NAMES:?}"
             )));
         }
         if arm.joints()[2].kind != JointKind::Prismatic {
             return Err(PsmError::NotAPsm("`insertion` must be prismatic".into()));
         }
 
+        // The wrist: the child of `wrist_yaw` (on the path, since wrist_yaw is a chain variable
+        // and mimics of it are not allowed below).
+        let path = arm.link_names();
+        let wrist = robot
+            .joints
+            .iter()
+            .find(|j| j.name == PSM_JOINT_NAMES[5])
+            .and_then(|j| path.iter().position(|l| *l == j.child.link))
+            .ok_or_else(|| {
+                PsmError::NotAPsm(format!(
+                    "`{}` is not on the path from {base_link} to {tool_link} itself (only \
+                     through a mimic)",
+                    PSM_JOINT_NAMES[5]
+                ))
+            })?;
         let mut attachments = Vec::new();
         for link in &robot.links {
-            if link.name == name {
+            if path.contains(&link.name.as_str()) {
                 continue;
             }
-            match Chain::from_urdf(&robot, name, &link.name) {
+            match Chain::from_urdf(&robot, path[wrist], &link.name) {
                 Ok(chain) => attachments.push(chain),
                 Err(ChainError::NoPath { .. }) => {}
                 Err(other) => return Err(other.into()),
@@ -141,7 +301,7 @@ impl Psm {
             for joint in chain.joints() {
                 if joint.name != JAW_JOINT_NAME {
                     return Err(PsmError::NotAPsm(format!(
-                        "joint `{}` moves link `{}` below the tool frame; only `{JAW_JOINT_NAME}` \
+                        "joint `{}` moves link `{}` below the wrist; only `{JAW_JOINT_NAME}` \
                          (and its mimics) may",
                         joint.name,
                         chain.tip_link()
@@ -150,30 +310,48 @@ impl Psm {
                 jaw = Some(joint.clone());
             }
         }
-        let jaw = jaw.ok_or_else(|| {
+        let mut jaw = jaw.ok_or_else(|| {
             PsmError::NotAPsm(format!(
-                "no `{JAW_JOINT_NAME}` joint below the tool frame {name}"
+                "no `{JAW_JOINT_NAME}` joint below the wrist {}",
+                path[wrist]
             ))
         })?;
 
-        let arm_joints = arm.joints().to_vec();
+        let mut arm_joints = arm.joints().to_vec();
         for joint in arm_joints.iter().chain([&jaw]) {
-            let usable = joint.lower.is_finite()
-                && joint.upper.is_finite()
-                && joint.max_velocity.is_finite()
-                && joint.max_velocity > 0.0;
-            if !usable {
+            if !(joint.lower.is_finite() && joint.upper.is_finite()) {
                 return Err(PsmError::NotAPsm(format!(
-                    "joint `{}` needs finite position limits and a positive velocity limit \
-                     (move_jp speed), got [{}, {}] and {}",
-                    joint.name, joint.lower, joint.upper, joint.max_velocity
+                    "joint `{}` needs finite position limits, got [{}, {}]",
+                    joint.name, joint.lower, joint.upper
                 )));
             }
         }
+        for (joint, speed) in arm_joints.iter_mut().zip(DVRK_PSM_SPEEDS) {
+            joint.max_velocity = speed;
+        }
+        jaw.max_velocity = DVRK_JAW_SPEED;
+        let meshes = urdf::mesh_count(&robot);
+        if meshes > 0 {
+            tracing::info!(
+                "arm {name}: {meshes} mesh(es) in the URDF are not read (kinematics only)"
+            );
+        }
+        tracing::info!(
+            "arm {name}: base link {base_link}, tool frame {name}{}; joint limits from the URDF, \
+             speed limits dVRK's",
+            if setback.is_some() {
+                format!(" ({tool_link} moved back {DVRK_MODEL_TOOL_TIP_SETBACK} m)")
+            } else if tool_link != name {
+                format!(" = {tool_link}")
+            } else {
+                String::new()
+            }
+        );
         Ok(Psm {
             name: name.to_owned(),
-            base_frame,
+            base_frame: format!("{name}_base"),
             arm,
+            wrist,
             attachments,
             joints: JointGroup::new(arm_joints),
             jaw: JointGroup::new(vec![jaw]),
@@ -181,12 +359,36 @@ impl Psm {
         })
     }
 
+    /// Replaces the `move_jp` speed limits (arm joints in canonical order, then the jaw), e.g.
+    /// from a scene; resets the servo jump bounds that derive from them.
+    pub fn set_speed_limits(&mut self, arm: &[f64; 6], jaw: f64) -> Result<(), PsmError> {
+        let mut joints = self.joints.joints().to_vec();
+        let mut jaw_joint = self.jaw.joints().to_vec();
+        for (joint, &value) in joints
+            .iter_mut()
+            .chain(jaw_joint.iter_mut())
+            .zip(arm.iter().chain([&jaw]))
+        {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(PsmError::InvalidSpeed {
+                    joint: joint.name.clone(),
+                    value,
+                });
+            }
+            joint.max_velocity = value;
+        }
+        self.joints = JointGroup::new(joints);
+        self.jaw = JointGroup::new(jaw_joint);
+        Ok(())
+    }
+
     /// The arm name (`PSM1`), which is also the tool frame's name.
     pub fn name(&self) -> &str {
         &self.name
     }
 
-    /// The RCM frame, `<name>_base`: the frame of `measured_cp`.
+    /// The RCM frame's name, `<name>_base` (dVRK's), whatever the URDF calls the base link: the
+    /// frame of `measured_cp`.
     pub fn base_frame(&self) -> &str {
         &self.base_frame
     }
@@ -232,11 +434,11 @@ impl Psm {
         Ok(self.arm.jacobian(q)?)
     }
 
-    /// Every link's pose in the RCM frame (base first, then the arm, the tool frame, the tool tip
-    /// and the jaws), for /tf.
+    /// The pose of every link on the arm's path and below the wrist in the RCM frame (base
+    /// first, then the arm, the tool frame, the tool tip and the jaws), for /tf.
     pub fn link_frames(&self, q: &[f64], jaw: f64) -> Result<Vec<LinkFrame>, PsmError> {
         let poses = self.arm.link_poses(q)?;
-        let tool = *poses.last().unwrap_or(&Isometry3::identity());
+        let wrist = poses[self.wrist];
         let mut frames: Vec<LinkFrame> = self
             .arm
             .link_names()
@@ -252,7 +454,7 @@ impl Psm {
             let q = &jaw_q[..chain.dof()];
             frames.push(LinkFrame {
                 link: chain.tip_link().to_owned(),
-                pose: tool * chain.tip_pose(q)?,
+                pose: wrist * chain.tip_pose(q)?,
             });
         }
         Ok(frames)
@@ -334,6 +536,66 @@ impl Psm {
             &self.jaw.max_velocities(),
         )?)
     }
+}
+
+/// The arm prefix of a base link name and the rank of its suffix in [`BASE_SUFFIXES`]
+/// (`PSM1_psm_base_link` → `PSM1`, not `PSM1_psm`).
+fn base_prefix(link: &str) -> Option<(&str, usize)> {
+    BASE_SUFFIXES
+        .iter()
+        .enumerate()
+        .rev()
+        .find_map(|(rank, suffix)| {
+            link.strip_suffix(suffix)
+                .filter(|p| urdf::check_arm_name(p).is_ok())
+                .map(|p| (p, rank))
+        })
+}
+
+/// The default base rule of [`Psm::from_urdf_with_roles`]: the file's arm prefix and base link.
+fn find_base(robot: &urdf_rs::Robot, name: &str) -> Result<(String, String), PsmError> {
+    let candidates: Vec<(&str, usize, &str)> = robot
+        .links
+        .iter()
+        .filter_map(|l| base_prefix(&l.name).map(|(p, rank)| (p, rank, l.name.as_str())))
+        .collect();
+    let mut prefixes: Vec<&str> = candidates.iter().map(|c| c.0).collect();
+    prefixes.sort_unstable();
+    prefixes.dedup();
+    let prefix = if prefixes.contains(&name) {
+        name
+    } else if prefixes.contains(&URDF_ARM_PREFIX) {
+        URDF_ARM_PREFIX
+    } else {
+        match prefixes[..] {
+            [] => {
+                return Err(PsmError::NoBaseLink {
+                    tried: BASE_SUFFIXES
+                        .iter()
+                        .map(|s| format!("`{name}{s}`"))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                })
+            }
+            [only] => only,
+            _ => {
+                return Err(PsmError::AmbiguousBase {
+                    found: candidates
+                        .iter()
+                        .map(|c| format!("`{}`", c.2))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                })
+            }
+        }
+    };
+    let (_, _, base) = candidates
+        .iter()
+        .filter(|c| c.0 == prefix)
+        .min_by_key(|c| c.1)
+        .copied()
+        .unwrap_or((prefix, 0, prefix));
+    Ok((prefix.to_owned(), base.to_owned()))
 }
 
 #[cfg(test)]
@@ -516,6 +778,71 @@ mod tests {
         assert_eq!(previous, goal);
         let jaw = psm.plan_move_jaw(0.0, 1.2).unwrap();
         assert!((jaw.duration() - 15.0 / 8.0 * 1.2 / (4.0 * PI)).abs() < 1e-12);
+    }
+
+    fn fixture(file: &str) -> urdf_rs::Robot {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/urdf")
+            .join(file);
+        urdf::load_urdf_file(&path).unwrap()
+    }
+
+    #[test]
+    fn roles_can_be_named_and_bad_names_are_explained() {
+        let roles = UrdfRoles {
+            base_link: Some("PSM1_base_link".into()),
+            tool_link: Some("PSM1_wrist_yaw_link".into()),
+        };
+        let psm =
+            Psm::from_urdf_with_roles(fixture("PSM1_current_layout.urdf"), "PSM2", &roles).unwrap();
+        assert_eq!(psm.chain().link_names()[0], "PSM2_base_link");
+        assert_eq!(psm.chain().tip_link(), "PSM2_wrist_yaw_link");
+        let missing = UrdfRoles {
+            tool_link: Some("PSM1_tip".into()),
+            ..UrdfRoles::default()
+        };
+        let err = Psm::from_urdf_with_roles(fixture("PSM1_current_layout.urdf"), "PSM1", &missing)
+            .unwrap_err();
+        assert!(
+            matches!(&err, PsmError::NoSuchRoleLink { key: "tool_link", link } if link == "PSM1_tip"),
+            "{err}"
+        );
+        let no_base = CLASSIC_PSM_URDF.replace("PSM1_base", "PSM1_root");
+        let err = Psm::from_urdf(urdf::parse_urdf(&no_base).unwrap(), "PSM1").unwrap_err();
+        assert!(err.to_string().contains("`PSM1_base_link`"), "{err}");
+        let two_bases = CLASSIC_PSM_URDF
+            .replace("PSM1", "ECM")
+            .replace("</robot>", r#"<link name="SUJ_base"/></robot>"#);
+        assert!(matches!(
+            Psm::from_urdf(urdf::parse_urdf(&two_bases).unwrap(), "PSM1"),
+            Err(PsmError::AmbiguousBase { .. })
+        ));
+    }
+
+    #[test]
+    fn speeds_are_dvrks_unless_set() {
+        let mut psm = Psm::from_urdf(fixture("PSM1_current_layout.urdf"), "PSM1").unwrap();
+        assert_eq!(psm.joints().max_velocities(), DVRK_PSM_SPEEDS);
+        assert_eq!(psm.jaw().max_velocities(), [DVRK_JAW_SPEED]);
+        // Limits are the file's.
+        // The fixture's pitch range is ±π/4 to four digits, narrower than the built-in ±0.925.
+        let pitch = &psm.joints().joints()[1];
+        assert!((pitch.upper - std::f64::consts::FRAC_PI_4).abs() < 1e-4);
+        assert_eq!(psm.jaw().joints()[0].lower, -0.349);
+        psm.set_speed_limits(&[1.0, 1.0, 0.1, 2.0, 2.0, 2.0], 3.0)
+            .unwrap();
+        assert_eq!(
+            psm.joints().max_velocities(),
+            [1.0, 1.0, 0.1, 2.0, 2.0, 2.0]
+        );
+        assert_eq!(
+            psm.joints().max_jump()[2],
+            0.1 * crate::robot::joints::DEFAULT_JUMP_WINDOW_S
+        );
+        assert!(matches!(
+            psm.set_speed_limits(&[1.0, 0.0, 0.1, 2.0, 2.0, 2.0], 3.0),
+            Err(PsmError::InvalidSpeed { joint, .. }) if joint == "pitch"
+        ));
     }
 
     #[test]

@@ -26,6 +26,22 @@ pub enum UrdfError {
         source: urdf_rs::UrdfError,
     },
     #[error(
+        "cannot expand {path}: the `{program}` command is not installed ({source}). Expand it \
+         yourself, e.g. `xacro {path} > PSM1.urdf` (xacro from PyPI or ROS, with dvrk_model on \
+         ROS_PACKAGE_PATH or in a sourced ROS workspace), and point `urdf =` at the .urdf"
+    )]
+    XacroMissing {
+        path: PathBuf,
+        program: String,
+        source: std::io::Error,
+    },
+    #[error("`xacro {path}` failed ({status}): {stderr}")]
+    XacroFailed {
+        path: PathBuf,
+        status: std::process::ExitStatus,
+        stderr: String,
+    },
+    #[error(
         "arm name `{0}` is not usable as a frame prefix: use letters, digits and `_`, \
          starting with a letter (e.g. `PSM2`)"
     )]
@@ -39,14 +55,66 @@ pub fn parse_urdf(text: &str) -> Result<urdf_rs::Robot, UrdfError> {
 
 /// Reads and parses a URDF file (read and parse failures are told apart, with the path).
 pub fn load_urdf_file(path: &Path) -> Result<urdf_rs::Robot, UrdfError> {
-    let text = std::fs::read_to_string(path).map_err(|source| UrdfError::Read {
-        path: path.to_owned(),
-        source,
-    })?;
+    load_urdf(path, None)
+}
+
+/// Reads and parses a URDF file, or a `.xacro` file expanded by the `xacro` command first
+/// (see [`expand_xacro`]).
+pub fn load_urdf(path: &Path, dvrk_model: Option<&Path>) -> Result<urdf_rs::Robot, UrdfError> {
+    let text = if path.extension().is_some_and(|e| e == "xacro") {
+        expand_xacro("xacro", path, dvrk_model)?
+    } else {
+        std::fs::read_to_string(path).map_err(|source| UrdfError::Read {
+            path: path.to_owned(),
+            source,
+        })?
+    };
     urdf_rs::read_from_string(&text).map_err(|source| UrdfError::Parse {
         path: Some(path.to_owned()),
         source,
     })
+}
+
+/// Runs `program` (the `xacro` command) on `path` and returns the URDF it prints. `$(find
+/// dvrk_model)` is resolved by xacro from ROS_PACKAGE_PATH (or a sourced ROS 2 workspace);
+/// `dvrk_model`, the package's folder, is put in front of ROS_PACKAGE_PATH.
+pub fn expand_xacro(
+    program: &str,
+    path: &Path,
+    dvrk_model: Option<&Path>,
+) -> Result<String, UrdfError> {
+    if !path.exists() {
+        return Err(UrdfError::Read {
+            path: path.to_owned(),
+            source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+        });
+    }
+    let mut command = std::process::Command::new(program);
+    command.arg(path);
+    if let Some(package) = dvrk_model {
+        let parent = package.parent().unwrap_or(package);
+        let mut paths = vec![parent.to_owned()];
+        if let Some(existing) = std::env::var_os("ROS_PACKAGE_PATH") {
+            paths.extend(std::env::split_paths(&existing));
+        }
+        if let Ok(joined) = std::env::join_paths(paths) {
+            command.env("ROS_PACKAGE_PATH", joined);
+        }
+    }
+    let output = command.output().map_err(|source| UrdfError::XacroMissing {
+        path: path.to_owned(),
+        program: program.to_owned(),
+        source,
+    })?;
+    if !output.status.success() {
+        return Err(UrdfError::XacroFailed {
+            path: path.to_owned(),
+            status: output.status,
+            stderr: String::from_utf8_lossy(&output.stderr).trim().to_owned(),
+        });
+    }
+    tracing::info!("expanded {} with {program}", path.display());
+    Ok(String::from_utf8_lossy(&output.stdout).into_owned())
 }
 
 /// Checks that `name` can prefix ROS frame names.
@@ -60,6 +128,17 @@ pub fn check_arm_name(name: &str) -> Result<(), UrdfError> {
     }
 }
 
+/// `name` with the arm prefix `from` replaced by `to` when it is `from` or starts `from_`;
+/// otherwise unchanged.
+pub fn rename_link(name: &str, from: &str, to: &str) -> String {
+    if name == from {
+        return to.to_owned();
+    }
+    name.strip_prefix(from)
+        .and_then(|rest| rest.strip_prefix('_'))
+        .map_or_else(|| name.to_owned(), |rest| format!("{to}_{rest}"))
+}
+
 /// Renames every link `from` or `from_*` to `to` / `to_*`, in links and in the joints that name
 /// them. Links without the prefix and joint names are left alone.
 pub fn rename_arm_prefix(
@@ -68,18 +147,7 @@ pub fn rename_arm_prefix(
     to: &str,
 ) -> Result<(), UrdfError> {
     check_arm_name(to)?;
-    let rename = |name: &mut String| {
-        let renamed = if name == from {
-            Some(to.to_owned())
-        } else {
-            name.strip_prefix(from)
-                .and_then(|rest| rest.strip_prefix('_'))
-                .map(|rest| format!("{to}_{rest}"))
-        };
-        if let Some(renamed) = renamed {
-            *name = renamed;
-        }
-    };
+    let rename = |name: &mut String| *name = rename_link(name, from, to);
     for link in &mut robot.links {
         rename(&mut link.name);
     }
@@ -88,6 +156,20 @@ pub fn rename_arm_prefix(
         rename(&mut joint.child.link);
     }
     Ok(())
+}
+
+/// How many visual and collision meshes the URDF names. Kinematics never reads them (they are
+/// usually `package://` paths into a ROS package); the loader only says they were skipped.
+pub fn mesh_count(robot: &urdf_rs::Robot) -> usize {
+    let is_mesh = |g: &urdf_rs::Geometry| matches!(g, urdf_rs::Geometry::Mesh { .. });
+    robot
+        .links
+        .iter()
+        .map(|l| {
+            l.visual.iter().filter(|v| is_mesh(&v.geometry)).count()
+                + l.collision.iter().filter(|c| is_mesh(&c.geometry)).count()
+        })
+        .sum()
 }
 
 #[cfg(test)]
@@ -144,6 +226,27 @@ mod tests {
             );
         }
         check_arm_name("PSM2").unwrap();
+    }
+
+    #[test]
+    fn xacro_without_the_command_says_how_to_expand_it() {
+        let xacro = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/urdf/PSM1.urdf.xacro");
+        let err = expand_xacro("dvrk-no-such-xacro", &xacro, None).unwrap_err();
+        let message = err.to_string();
+        assert!(matches!(err, UrdfError::XacroMissing { .. }), "{message}");
+        for fragment in [
+            "PSM1.urdf.xacro",
+            "not installed",
+            "xacro ",
+            "point `urdf =`",
+        ] {
+            assert!(message.contains(fragment), "{message} lacks {fragment}");
+        }
+        let missing = expand_xacro("xacro", Path::new("/nonexistent/PSM1.urdf.xacro"), None);
+        assert!(matches!(missing, Err(UrdfError::Read { .. })));
+        // `false` stands for a xacro that fails.
+        let failed = expand_xacro("false", &xacro, Some(Path::new("/opt/dvrk_model")));
+        assert!(matches!(failed, Err(UrdfError::XacroFailed { .. })));
     }
 
     #[test]

@@ -12,6 +12,8 @@ use crate::config::{Outputs, Scene};
 use crate::output::mesh::MeshError;
 use crate::output::snapshot::SnapshotSchedule;
 use crate::output::{CloudOptions, TissueSurface};
+use crate::robot::psm::{UrdfRoles, DVRK_JAW_SPEED, DVRK_PSM_SPEEDS};
+use crate::robot::urdf::{self, CLASSIC_PSM_URDF};
 use crate::robot::{Psm, PsmError, Teleop, TeleopConfig, TeleopError};
 use crate::sim::arm::{ArmError, ArmSim};
 use crate::sim::input::ReplayInput;
@@ -23,8 +25,8 @@ use crate::world::{World, WorldError};
 pub enum SetupError {
     #[error(transparent)]
     World(#[from] WorldError),
-    #[error("arm {arm}: {source}")]
-    Psm { arm: String, source: PsmError },
+    #[error(transparent)]
+    Psm(#[from] Box<ArmUrdfProblem>),
     #[error("arm {arm}: {source}")]
     Arm { arm: String, source: ArmError },
     #[error("arm {arm}: no tool {tool}")]
@@ -94,19 +96,79 @@ pub fn arm_base(arm: &crate::config::Arm) -> Isometry3<f64> {
     )
 }
 
+/// Why an arm's URDF cannot be used: the scene key to look at, the URDF file and the reason.
+#[derive(Debug, thiserror::Error)]
+#[error("arm[{index}] ({arm}).{key} = \"{file}\": {source}")]
+pub struct ArmUrdfProblem {
+    /// Position of the `[[arm]]` table in the scene.
+    pub index: usize,
+    pub arm: String,
+    /// `urdf`, `base_link`, `tool_link` or `joint_speeds`.
+    pub key: &'static str,
+    /// The `urdf` value.
+    pub file: String,
+    pub source: PsmError,
+}
+
 /// Loads an arm's PSM: its URDF file, or the built-in classic PSM when the default path
-/// `urdf/psm.urdf` is not found from the working directory.
-pub fn load_psm(arm: &crate::config::Arm) -> Result<Psm, SetupError> {
-    let path = Path::new(&arm.urdf);
-    let psm = if !path.exists() && arm.urdf == "urdf/psm.urdf" {
-        Psm::classic(&arm.name)
-    } else {
-        Psm::from_urdf_file(path, &arm.name)
-    };
-    psm.map_err(|source| SetupError::Psm {
-        arm: arm.name.clone(),
-        source,
+/// `urdf/psm.urdf` is not found from the working directory; base and tool links as the scene
+/// names them or by the default rule; speed limits the scene's, else dVRK's.
+pub fn load_psm(index: usize, arm: &crate::config::Arm) -> Result<Psm, Box<ArmUrdfProblem>> {
+    load_arm_psm(arm).map_err(|source| {
+        let key = match &source {
+            PsmError::NoSuchRoleLink { key, .. } => key,
+            PsmError::NoBaseLink { .. } | PsmError::AmbiguousBase { .. } => "base_link",
+            PsmError::NoToolLink { .. } => "tool_link",
+            PsmError::InvalidSpeed { .. } => "joint_speeds",
+            _ => "urdf",
+        };
+        Box::new(ArmUrdfProblem {
+            index,
+            arm: arm.name.clone(),
+            key,
+            file: arm.urdf.clone(),
+            source,
+        })
     })
+}
+
+fn load_arm_psm(arm: &crate::config::Arm) -> Result<Psm, PsmError> {
+    let path = Path::new(&arm.urdf);
+    let roles = UrdfRoles {
+        base_link: arm.base_link.clone(),
+        tool_link: arm.tool_link.clone(),
+    };
+    let robot = if !path.exists() && arm.urdf == "urdf/psm.urdf" {
+        urdf::parse_urdf(CLASSIC_PSM_URDF)?
+    } else {
+        urdf::load_urdf(path, arm.dvrk_model.as_deref().map(Path::new))?
+    };
+    let mut psm = Psm::from_urdf_with_roles(robot, &arm.name, &roles)?;
+    if arm.joint_speeds.is_some() || arm.jaw_speed.is_some() {
+        let joints = arm.joint_speeds.unwrap_or(DVRK_PSM_SPEEDS);
+        let jaw = arm.jaw_speed.unwrap_or(DVRK_JAW_SPEED);
+        psm.set_speed_limits(&joints, jaw)?;
+        tracing::info!(
+            "arm {}: move_jp speed limits from the scene: {joints:?}, jaw {jaw} rad/s",
+            arm.name
+        );
+    } else {
+        tracing::info!(
+            "arm {}: move_jp speed limits dVRK's (not the URDF's velocity)",
+            arm.name
+        );
+    }
+    Ok(psm)
+}
+
+/// Loads every arm's URDF as a run would (for `check`): one problem per arm that fails.
+pub fn check_arm_urdfs(scene: &Scene) -> Vec<ArmUrdfProblem> {
+    scene
+        .arms
+        .iter()
+        .enumerate()
+        .filter_map(|(index, arm)| load_psm(index, arm).err().map(|p| *p))
+        .collect()
 }
 
 fn cloud_options(outputs: &Outputs) -> CloudOptions {
@@ -122,8 +184,8 @@ pub fn build_setup(scene: &Scene) -> Result<SimSetup, SetupError> {
     let world = World::try_new(scene)?;
     let mut arms = Vec::new();
     let mut arm_tools = Vec::new();
-    for arm in &scene.arms {
-        let psm = load_psm(arm)?;
+    for (index, arm) in scene.arms.iter().enumerate() {
+        let psm = load_psm(index, arm)?;
         let sim = ArmSim::new(
             psm,
             arm.mode,
