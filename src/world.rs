@@ -436,40 +436,39 @@ impl World {
     /// Holds tool `index` still at `pose` until it is commanded again (an arm's tool starts
     /// where the arm is, not where the scene's keyframes are).
     pub fn hold_tool(&mut self, index: usize, pose: ToolPose) -> Result<(), CommandError> {
-        let time = self.time;
-        let tool = self
-            .tools
-            .get_mut(index)
-            .ok_or(CommandError::NoSuchTool(index))?;
-        if !pose.is_finite() {
-            return Err(CommandError::NonFinitePose(tool.name.clone()));
-        }
-        tool.driver = ToolDriver::Commanded {
-            from: pose,
-            to: pose,
-            t0: time,
-            t1: time,
-        };
-        Ok(())
+        self.drive_tool(index, Some(pose), pose, 0.0)
     }
 
     /// Makes tool `index` follow commanded poses: it reaches `pose` at the end of the next
     /// frame, moving smoothly from where it is now. Non-finite poses are refused.
     pub fn command_tool_pose(&mut self, index: usize, pose: ToolPose) -> Result<(), CommandError> {
         let frame_dt = self.frame_dt();
+        self.drive_tool(index, None, pose, frame_dt)
+    }
+
+    /// Moves tool `index` linearly from `from` (where it is now when `None`) to `to` over
+    /// `duration` seconds from now, so contact sees a smooth velocity.
+    fn drive_tool(
+        &mut self,
+        index: usize,
+        from: Option<ToolPose>,
+        to: ToolPose,
+        duration: f64,
+    ) -> Result<(), CommandError> {
+        let time = self.time;
         let tool = self
             .tools
             .get_mut(index)
             .ok_or(CommandError::NoSuchTool(index))?;
-        if !pose.is_finite() {
+        if !to.is_finite() {
             return Err(CommandError::NonFinitePose(tool.name.clone()));
         }
-        let now = tool.pose_at(self.time);
+        let from = from.unwrap_or_else(|| tool.pose_at(time));
         tool.driver = ToolDriver::Commanded {
-            from: now,
-            to: pose,
-            t0: self.time,
-            t1: self.time + frame_dt,
+            from,
+            to,
+            t0: time,
+            t1: time + duration,
         };
         Ok(())
     }
