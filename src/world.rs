@@ -14,7 +14,10 @@ use crate::mpm::{
 };
 use crate::sleep::SleepSettings;
 use crate::sleep::{Aabb, SleepState};
-use crate::tools::{ContactModel, Shape, ToolKinematics, ToolPose, ToolVelocity, Trajectory};
+use crate::tools::{
+    ContactModel, JawCommand, JawGains, JawServo, Shape, ToolKinematics, ToolPose, ToolVelocity,
+    Trajectory,
+};
 use nalgebra::{UnitQuaternion, Vector3};
 
 /// Force (N) and torque (N·m) a tool receives from the tissue: world frame, torque about
@@ -63,6 +66,10 @@ pub enum CommandError {
     NoSuchTool(usize),
     #[error("tool {0}: commanded pose is not finite; keeping the last valid one")]
     NonFinitePose(String),
+    #[error("tool {0} has no jaws")]
+    NoJaws(String),
+    #[error("tool {0}: jaw effort {1} N·m is not finite")]
+    NonFiniteEffort(String, f64),
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -95,11 +102,51 @@ pub struct WorldTool {
     pub contact: ContactModel,
     /// Set through [`World::command_tool_pose`] and [`World::hold_tool`].
     driver: ToolDriver,
+    /// A gripper's jaws: the driver's jaw angle is their setpoint.
+    jaws: Option<Jaws>,
+}
+
+/// A gripper's jaws between frames (see [`crate::tools::jaw`]).
+#[derive(Clone, Debug)]
+struct Jaws {
+    servo: JawServo,
+    /// An effort command (N·m) that replaces the position servo until a pose command.
+    effort: Option<f64>,
+    /// The opening at the start and end of the frame being stepped: (t0, θ0, t1, θ1).
+    span: (f64, f64, f64, f64),
+    /// Generalised force of the tissue on the opening over the last frame (N·m).
+    tissue_torque: f64,
+}
+
+impl Jaws {
+    fn new(gains: JawGains, angle: f64) -> Self {
+        Jaws {
+            servo: JawServo::new(gains, angle),
+            effort: None,
+            span: (0.0, angle, 0.0, angle),
+            tissue_torque: 0.0,
+        }
+    }
+
+    /// Opening at time `t` of the frame being stepped.
+    fn angle_at(&self, t: f64) -> f64 {
+        let (t0, a0, t1, a1) = self.span;
+        if t1 > t0 {
+            a0 + (a1 - a0) * ((t - t0) / (t1 - t0)).clamp(0.0, 1.0)
+        } else {
+            a1
+        }
+    }
 }
 
 impl WorldTool {
     pub fn driver(&self) -> &ToolDriver {
         &self.driver
+    }
+
+    /// A gripper's jaw state: the opening reached, the controller's effort, the squeeze.
+    pub fn jaw(&self) -> Option<&JawServo> {
+        self.jaws.as_ref().map(|j| &j.servo)
     }
 
     /// Box that every grid node this tool can touch between `t0` and `t1` lies in: its
@@ -128,7 +175,18 @@ impl WorldTool {
         reach
     }
 
+    /// The tool's pose at `t`; a gripper's jaw is the opening its jaws reach, not their
+    /// setpoint.
     pub fn pose_at(&self, t: f64) -> ToolPose {
+        let mut pose = self.setpoint_at(t);
+        if let Some(jaws) = &self.jaws {
+            pose.jaw = jaws.angle_at(t);
+        }
+        pose
+    }
+
+    /// The pose the driver asks for at `t`, jaw setpoint included.
+    pub fn setpoint_at(&self, t: f64) -> ToolPose {
         match &self.driver {
             ToolDriver::Scripted(trajectory) => trajectory.sample(t),
             ToolDriver::Commanded { from, to, t0, t1 } => {
@@ -315,6 +373,10 @@ impl World {
                 name: t.name.clone(),
                 shape: t.shape,
                 contact: t.contact,
+                jaws: matches!(t.shape, Shape::Gripper { .. }).then(|| {
+                    let first = t.keyframes.first().map_or(0.0, |k| k.jaw_deg.to_radians());
+                    Jaws::new(t.jaw, first)
+                }),
                 driver: ToolDriver::Scripted(Trajectory::new(
                     t.keyframes
                         .iter()
@@ -463,7 +525,14 @@ impl World {
         if !to.is_finite() {
             return Err(CommandError::NonFinitePose(tool.name.clone()));
         }
-        let from = from.unwrap_or_else(|| tool.pose_at(time));
+        if let Some(jaws) = &mut tool.jaws {
+            match from {
+                // Held: the jaws are where the pose says.
+                Some(held) => *jaws = Jaws::new(jaws.servo.gains, held.jaw),
+                None => jaws.effort = None,
+            }
+        }
+        let from = from.unwrap_or_else(|| tool.setpoint_at(time));
         tool.driver = ToolDriver::Commanded {
             from,
             to,
@@ -471,6 +540,52 @@ impl World {
             t1: time + duration,
         };
         Ok(())
+    }
+
+    /// Drives gripper `index`'s jaws with an effort (N·m, positive opens; dVRK's
+    /// `jaw/servo_jf`) until the next pose command, or back to its position setpoint with
+    /// `None`. The effort is clamped to the jaw's limit.
+    pub fn command_jaw_effort(
+        &mut self,
+        index: usize,
+        effort: Option<f64>,
+    ) -> Result<(), CommandError> {
+        let tool = self
+            .tools
+            .get_mut(index)
+            .ok_or(CommandError::NoSuchTool(index))?;
+        let name = tool.name.clone();
+        let jaws = tool
+            .jaws
+            .as_mut()
+            .ok_or(CommandError::NoJaws(name.clone()))?;
+        if let Some(e) = effort {
+            if !e.is_finite() {
+                return Err(CommandError::NonFiniteEffort(name, e));
+            }
+        }
+        let limit = jaws.servo.gains.effort_max;
+        jaws.effort = effort.map(|e| e.clamp(-limit, limit));
+        Ok(())
+    }
+
+    /// Moves every gripper's jaws over the frame [t_start, t_end] under their command,
+    /// against the tissue's torque of the last frame.
+    fn advance_jaws(&mut self, t_start: f64, t_end: f64) {
+        for tool in &mut self.tools {
+            let setpoint = tool.setpoint_at(t_end).jaw;
+            let Some(jaws) = &mut tool.jaws else {
+                continue;
+            };
+            let command = match jaws.effort {
+                Some(e) => JawCommand::Effort(e),
+                None => JawCommand::Position(setpoint),
+            };
+            let start = jaws.servo.angle;
+            jaws.servo
+                .update(command, jaws.tissue_torque, t_end - t_start);
+            jaws.span = (t_start, start, t_end, jaws.servo.angle);
+        }
     }
 
     /// Advances one frame: [`World::begin_frame`] then [`World::finish_frame`].
@@ -496,6 +611,7 @@ impl World {
         let frame_dt = self.frame_dt();
         let t_start = self.time;
         let t_end = t_start + frame_dt;
+        self.advance_jaws(t_start, t_end);
         if let Some(report) = self.skip_sleeping_frame(t_start, t_end) {
             self.in_flight = Some(InFlight::Skipped(report));
             return;
@@ -692,6 +808,11 @@ impl World {
             })
             .collect();
         report.contact_nodes = impulses.iter().map(|i| i.contact_nodes).collect();
+        for (tool, imp) in self.tools.iter_mut().zip(impulses) {
+            if let Some(jaws) = &mut tool.jaws {
+                jaws.tissue_torque = imp.jaw_opening / elapsed;
+            }
+        }
         Ok(report)
     }
 }

@@ -87,6 +87,9 @@ pub struct ToolImpulse {
     pub angular: nalgebra::Vector3<f64>,
     /// Grid nodes this tool touched.
     pub contact_nodes: u32,
+    /// Angular impulse on a gripper's jaw opening from contact with its jaws (N·m·s;
+    /// positive pushes them apart).
+    pub jaw_opening: f64,
 }
 
 impl ToolImpulse {
@@ -94,6 +97,7 @@ impl ToolImpulse {
         self.linear += other.linear;
         self.angular += other.angular;
         self.contact_nodes += other.contact_nodes;
+        self.jaw_opening += other.jaw_opening;
     }
 }
 

@@ -2,11 +2,13 @@
 //! contact model.
 
 pub mod contact;
+pub mod jaw;
 pub mod pose;
 pub mod sdf;
 pub mod trajectory;
 
 pub use contact::ContactModel;
+pub use jaw::{JawCommand, JawGains, JawServo};
 pub use pose::{ToolPose, ToolVelocity};
 pub use sdf::{SdfHit, Shape};
 pub use trajectory::Trajectory;

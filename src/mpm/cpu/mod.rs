@@ -408,9 +408,17 @@ fn apply_tools(
     let dp = ((v - v_new) * m).cast::<f64>();
     let arm = (x - tool.translation).cast::<f64>();
     let imp = &mut impulses[t];
+    let torque = arm.cross(&dp);
     imp.linear += dp;
-    imp.angular += arm.cross(&dp);
+    imp.angular += torque;
     imp.contact_nodes += 1;
+    if hit.part != 0 {
+        // Jaw k turns by jaw_angle(k, θ) about the hinge (the tool's x axis): the opening θ
+        // takes that share of the torque about it.
+        let hinge = tool.rotation.column(0).into_owned().cast::<f64>();
+        let share = crate::tools::sdf::jaw_angle(hit.part, 1.0) as f64;
+        imp.jaw_opening += share * torque.dot(&hinge);
+    }
     v_new
 }
 

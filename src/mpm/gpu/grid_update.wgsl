@@ -27,6 +27,7 @@ fn grid_update(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_
     var hit_tool = NO_TOOL;
     var dp = vec3<f32>(0.0);
     var dl = vec3<f32>(0.0);
+    var jaw_opening = 0.0;
     if (m > 0.0) {
         let ijk = node_coords(b, lid);
         let x = sim.origin_dx.xyz + vec3<f32>(ijk) * sim.origin_dx.w;
@@ -54,6 +55,11 @@ fn grid_update(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_
                                 best_hit.normal, best_hit.tangent);
             dp = (v - v_new) * m;
             dl = cross(x - tool.trans.xyz, dp);
+            if (best_hit.part != 0u) {
+                // Jaw k turns by jaw_angle(k, θ) about the hinge (the tool's x axis): the
+                // opening θ takes that share of the torque about it.
+                jaw_opening = jaw_angle(best_hit.part, 1.0) * dot(dl, tool.rot[0]);
+            }
             v = v_new;
             atomicAdd(&wg_contacts, 1u);
         }
@@ -70,7 +76,7 @@ fn grid_update(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_
     wg_val[at + 4u] = dl.y;
     wg_val[at + 5u] = dl.z;
     wg_val[at + 6u] = select(0.0, 1.0, hit_tool != NO_TOOL);
-    wg_val[at + 7u] = 0.0;
+    wg_val[at + 7u] = jaw_opening;
     workgroupBarrier();
     if (lid == 0u) {
         wg_any = atomicLoad(&wg_contacts);

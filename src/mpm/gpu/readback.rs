@@ -27,7 +27,7 @@ pub mod word {
     pub const GUARD_SPEED: usize = 7;
     /// 3 words.
     pub const GUARD_POS: usize = 8;
-    /// MAX_TOOLS × IMPULSE_WORDS: linear xyz, angular xyz, contact nodes, 0.
+    /// MAX_TOOLS × IMPULSE_WORDS: linear xyz, angular xyz, contact nodes, jaw opening.
     pub const IMPULSE: usize = 16;
 
     /// Names (without the `S_` the shaders prefix) and indices, for the shader prelude.
@@ -237,6 +237,7 @@ fn parse_stats(w: &[u32]) -> FrameStats {
         imp.linear = nalgebra::Vector3::new(f(0), f(1), f(2));
         imp.angular = nalgebra::Vector3::new(f(3), f(4), f(5));
         imp.contact_nodes = f(6).round() as u32;
+        imp.jaw_opening = f(7);
     }
     if w[word::GUARD] != 0 {
         out.substeps_done = w[word::GUARD] - 1;
