@@ -2,6 +2,7 @@
 //! `check`, `bench`); the benchmarks and the stress matrix live here, beside the commands
 //! that print them, not in the library.
 
+mod bag;
 mod bench;
 mod check;
 mod run;
@@ -42,6 +43,8 @@ enum Command {
     /// scenes × solver settings × backends × resolutions, printed as a table and written as
     /// CSV, Markdown and a PNG plot; exits non-zero if an error exceeds its bound.
     Bench(bench::BenchArgs),
+    /// Bag tools: `bag recover IN OUT` rebuilds a readable bag from one a killed run left.
+    Bag(bag::BagArgs),
 }
 
 fn main() {
@@ -66,5 +69,6 @@ fn dispatch(cli: Cli) -> Result<()> {
         Command::Stress(args) => stress::run(args),
         Command::Check(args) => check::run(args),
         Command::Bench(args) => bench::run(args),
+        Command::Bag(args) => bag::run(args),
     }
 }

@@ -394,7 +394,11 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
     }
     sim.shutdown();
     if let Some(summary) = finish_recording(recorder)? {
-        tracing::info!("bag finished: {summary}");
+        if summary.stopped.is_some() {
+            tracing::warn!("bag finished early: {summary}");
+        } else {
+            tracing::info!("bag finished: {summary}");
+        }
     }
     Ok(())
 }
