@@ -5,6 +5,7 @@
 mod bag;
 mod bench;
 mod check;
+mod dds_log;
 mod run;
 mod scene_args;
 mod snapshot;
@@ -48,6 +49,8 @@ enum Command {
 }
 
 fn main() {
+    use tracing_subscriber::layer::SubscriberExt;
+    use tracing_subscriber::util::SubscriberInitExt;
     tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| {
@@ -55,6 +58,8 @@ fn main() {
             }),
         )
         .with_writer(std::io::stderr)
+        .finish()
+        .with(dds_log::KeepLastRepairNoise)
         .init();
     if let Err(e) = dispatch(Cli::parse()) {
         eprintln!("error: {e:#}");

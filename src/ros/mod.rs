@@ -2,7 +2,8 @@
 //! ([`names`]), messages to simulation inputs ([`inputs`]) and finished frames to messages
 //! ([`outputs`]), the node's topic wiring ([`node`]), the bag recorder and replay
 //! ([`recorder`], [`replay`], [`recover`] for a bag a killed run left) and a run's setup shared by the node and a headless replay
-//! ([`session`]). The simulation itself is `crate::sim`.
+//! ([`session`]), `/clock` ([`sim_clock`]) and the node's status ([`status`]). The
+//! simulation itself is `crate::sim`.
 
 pub mod inputs;
 pub mod msgs;
@@ -14,6 +15,8 @@ pub mod recover;
 pub mod replay;
 pub mod schema;
 pub mod session;
+pub mod sim_clock;
+pub mod status;
 
 pub use node::{run_node, NodeError};
 pub use session::{NodeSettings, SessionError};
