@@ -82,20 +82,18 @@ fn wait_for_log(log: &Path, text: &str, limit: Duration) -> bool {
 
 /// The last "bag chunk closed: N messages through t = T s" of a log: (N, T in ns).
 fn last_chunk(log: &str) -> Option<(u64, u64)> {
-    log.lines()
-        .filter_map(|l| {
-            let rest = l.split("bag chunk closed: ").nth(1)?;
-            let n: u64 = rest.split(' ').next()?.parse().ok()?;
-            let t: f64 = rest
-                .split("through t = ")
-                .nth(1)?
-                .split(' ')
-                .next()?
-                .parse()
-                .ok()?;
-            Some((n, (t * 1e9).round() as u64))
-        })
-        .last()
+    log.lines().rev().find_map(|l| {
+        let rest = l.split("bag chunk closed: ").nth(1)?;
+        let n: u64 = rest.split(' ').next()?.parse().ok()?;
+        let t: f64 = rest
+            .split("through t = ")
+            .nth(1)?
+            .split(' ')
+            .next()?
+            .parse()
+            .ok()?;
+        Some((n, (t * 1e9).round() as u64))
+    })
 }
 
 /// Per reader (rosbags, mcap): (total messages, messages with log time <= `upto` ns, last
