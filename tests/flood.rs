@@ -2,7 +2,8 @@
 //! (tests/ros/test_flood.py) against the node on the small scene. The node keeps its frame
 //! rate (its status's frames per second during the flood against before), applies the newest
 //! command, and its memory stays bounded (resident set sampled here every 200 ms across the
-//! flood, against the sample at its start).
+//! flood, against the sample at its start). And a cloud subscriber that stops reading does
+//! not slow the simulation.
 //!
 //! Starts DDS participants: runs only inside a loopback-only network namespace (as
 //! tests/ros_node.rs; `.ci/run` makes one); elsewhere prints `SKIPPED: <reason>` and passes,
@@ -112,5 +113,50 @@ fn a_servo_flood_keeps_the_frame_rate_bounded_memory_and_the_newest_command() {
         peak <= first + 16 * 1024,
         "memory grew by {} kB during the flood",
         peak - first
+    );
+}
+
+/// A cloud subscriber that stops reading (tests/ros/test_stalled_reader.py) does not slow
+/// the simulation: its frame rate (its status) with the stalled reader matched, against before.
+#[test]
+fn a_cloud_subscriber_that_stops_reading_does_not_slow_the_simulation() {
+    if !network_prerequisites(true) {
+        return;
+    }
+    let log = std::env::temp_dir().join(format!("dvrk-stalled-{}.log", std::process::id()));
+    let mut node = Command::new(env!("CARGO_BIN_EXE_dvrk-tissue-sim"))
+        .current_dir(root())
+        .args([
+            "run",
+            "--scene",
+            "tests/ros/scenes/small.toml",
+            "--backend",
+            "cpu",
+        ])
+        .env("ROS_DOMAIN_ID", "49")
+        .env("NO_COLOR", "1")
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(&log).unwrap())
+        .spawn()
+        .expect("cannot start the node");
+    let out = Command::new(python())
+        .arg(root().join("tests/ros/test_stalled_reader.py"))
+        .current_dir(root().join("tests/ros"))
+        .env("ROS_DOMAIN_ID", "49")
+        .env("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
+        .env("PYTHONUNBUFFERED", "1")
+        .output()
+        .expect("cannot run python");
+    let _ = Command::new("kill")
+        .args(["-INT", &node.id().to_string()])
+        .status();
+    let _ = node.wait();
+    let text = std::fs::read_to_string(&log).unwrap_or_default();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    println!("{stdout}");
+    assert!(
+        out.status.success(),
+        "test_stalled_reader.py failed:\n{stdout}\n{}\n--- node ---\n{text}",
+        String::from_utf8_lossy(&out.stderr)
     );
 }
