@@ -320,3 +320,87 @@ fn a_dvrk_model_xacro_expands_with_pypi_xacro_and_gives_the_dh_tool_frame() {
     );
     assert!(unresolved.is_err());
 }
+
+/// The Si PSM fixture (tests/urdf/PSM1_si_layout.urdf: dvrk_model's Si layout, with the RCM link
+/// above a base link 0.78 m away and the parallelogram in the chain) as PSM1, PSM2 and PSM3:
+/// the RCM is the base, the jaws are found, the limits are the file's (dVRK's Si values), the
+/// speeds dVRK's, and the tool frame is the Si DH table's (PSM_Si.json + the 420006 tool).
+#[test]
+fn si_layout_gives_the_si_dh_tool_frame() {
+    for name in ["PSM1", "PSM2", "PSM3"] {
+        let psm = dvrk_model_psm("PSM1_si_layout.urdf", name);
+        assert_eq!(psm.base_frame(), format!("{name}_base"));
+        assert_eq!(psm.chain().link_names()[0], format!("{name}_RCM_link"));
+        assert_eq!(psm.chain().tip_link(), name);
+        let frames = psm
+            .link_frames(&[0.1, 0.2, 0.1, 0.3, 0.2, 0.1], 0.4)
+            .unwrap();
+        for jaw in ["_jaw_link", "_jaw_1_link", "_jaw_2_link"] {
+            assert!(
+                frames.iter().any(|f| f.link == format!("{name}{jaw}")),
+                "{name}: no {jaw} frame"
+            );
+        }
+        let limits: Vec<(f64, f64)> = psm
+            .joints()
+            .joints()
+            .iter()
+            .chain(psm.jaw().joints())
+            .map(|j| (j.lower, j.upper))
+            .collect();
+        assert_eq!(
+            limits,
+            [
+                (-2.964, 2.964),
+                (-1.265, 1.301),
+                (0.0, 0.29),
+                (-4.53786, 4.53786),
+                (-1.39626, 1.39626),
+                (-1.39626, 1.39626),
+                (-0.349066, 1.39626),
+            ]
+        );
+        assert_eq!(
+            psm.joints().max_velocities(),
+            dvrk_tissue_sim::robot::psm::DVRK_PSM_SPEEDS
+        );
+
+        // The tool frame, and the instrument's frames (DH frames 3..6: adaptor, roll, wrist
+        // pitch, wrist yaw). The Si table differs from the Classic one at the adaptor (the
+        // instrument's back end 0.4826 m behind the RCM at zero insertion against 0.4318 m);
+        // from the roll on the two coincide, the Si shaft being longer by the same 50.8 mm.
+        let links = ["_adaptor_link", "_roll_link", "_wrist_pitch_link", "_wrist_yaw_link"];
+        let mut rng = Rng(11);
+        let (mut dp, mut dr, mut from_classic) = (0.0f64, 0.0f64, f64::INFINITY);
+        let mut compare = |a: &Isometry3<f64>, b: &Isometry3<f64>| {
+            dp = dp.max((a.translation.vector - b.translation.vector).norm());
+            dr = dr.max(a.rotation.angle_to(&b.rotation));
+        };
+        for _ in 0..2000 {
+            let q = rng.joints(&psm, 0.0);
+            let tool = psm.forward(&q).unwrap();
+            compare(
+                &tool,
+                &dh::tool_pose(&dh::PSM_SI_LARGE_NEEDLE_DRIVER_420006, &q),
+            );
+            let si = dh::forward(&dh::PSM_SI_LARGE_NEEDLE_DRIVER_420006, &q);
+            let classic = dh::forward(&dh::PSM_LARGE_NEEDLE_DRIVER, &q);
+            let frames = psm.link_frames(&q, 0.0).unwrap();
+            for (suffix, (si, classic)) in links.iter().zip(si[2..].iter().zip(&classic[2..])) {
+                let link = format!("{name}{suffix}");
+                let frame = &frames.iter().find(|f| f.link == link).unwrap().pose;
+                compare(frame, si);
+                if *suffix == "_adaptor_link" {
+                    from_classic = from_classic
+                        .min((frame.translation.vector - classic.translation.vector).norm());
+                }
+            }
+        }
+        println!(
+            "Si layout as {name}: tool and instrument frames within {dp:.3e} m, {dr:.3e} rad of \
+             the Si DH table; adaptor >= {from_classic:.4} m from the Classic table's"
+        );
+        assert!(dp < 1e-6 && dr < 1e-6, "{name}: {dp:e} m, {dr:e} rad");
+        assert!(from_classic > 0.05, "{from_classic}");
+    }
+}

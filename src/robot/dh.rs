@@ -75,6 +75,25 @@ pub const PSM_LARGE_NEEDLE_DRIVER: [DhRow; 6] = [
     revolute(-FRAC_PI_2, 0.0091, 0.0, -FRAC_PI_2),
 ];
 
+/// Si PSM (sawIntuitiveResearchKit `share/kinematic/PSM_Si.json`) with the Si Large Needle
+/// Driver 420006 (`share/tool/LARGE_NEEDLE_DRIVER_420006.json`): the classic rows but for the
+/// insertion offset (−0.4826 m) and the longer shaft (roll d = 0.4670 m).
+pub const PSM_SI_LARGE_NEEDLE_DRIVER_420006: [DhRow; 6] = [
+    revolute(FRAC_PI_2, 0.0, 0.0, FRAC_PI_2),
+    revolute(-FRAC_PI_2, 0.0, 0.0, -FRAC_PI_2),
+    DhRow {
+        kind: JointKind::Prismatic,
+        alpha: FRAC_PI_2,
+        a: 0.0,
+        theta: 0.0,
+        d: 0.0,
+        offset: -0.4826,
+    },
+    revolute(0.0, 0.0, 0.4670, 0.0),
+    revolute(-FRAC_PI_2, 0.0, 0.0, -FRAC_PI_2),
+    revolute(-FRAC_PI_2, 0.0091, 0.0, -FRAC_PI_2),
+];
+
 /// dVRK's tool offset: the pure rotation from DH frame 6 to the reported tool frame.
 pub fn psm_tool_offset() -> Isometry3<f64> {
     let rotation = Rotation3::from_matrix_unchecked(Matrix3::new(
@@ -99,7 +118,13 @@ pub fn forward<const N: usize>(rows: &[DhRow; N], q: &[f64; N]) -> [Isometry3<f6
 
 /// The PSM tool frame (what `measured_cp` reports) in the RCM frame.
 pub fn psm_tool_pose(q: &[f64; 6]) -> Isometry3<f64> {
-    forward(&PSM_LARGE_NEEDLE_DRIVER, q)[5] * psm_tool_offset()
+    tool_pose(&PSM_LARGE_NEEDLE_DRIVER, q)
+}
+
+/// The tool frame of the PSM that `rows` describe, in its RCM frame (the same tool offset for
+/// the Classic and the Si instruments).
+pub fn tool_pose(rows: &[DhRow; 6], q: &[f64; 6]) -> Isometry3<f64> {
+    forward(rows, q)[5] * psm_tool_offset()
 }
 
 #[cfg(test)]

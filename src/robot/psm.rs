@@ -177,7 +177,9 @@ impl Psm {
     ///   precedes `_base`, `_base_link` or `_psm_base_link`, else its first `_`), else the link
     ///   `P_base`,
     ///   `P_base_link` or `P_psm_base_link` (tried in that order), where the prefix `P` is the
-    ///   arm's name, else `PSM1`, else the only prefix such a link has. Links above the base
+    ///   arm's name, else `PSM1`, else the only prefix such a link has; but `P_RCM_link`
+    ///   (dvrk_model's current layout, where the Si's `P_base_link` is the arm's mounting
+    ///   away from the RCM) wherever the tool hangs below it. Links above the base
     ///   (`world`) are ignored: the scene places the base.
     /// - The base is published as dVRK's frame `name_base` (`measured_cp`'s frame id).
     /// - **Names**: every link `P` / `P_*` is renamed `name` / `name_*`, so a file written for
@@ -255,6 +257,18 @@ impl Psm {
                     });
                 }
             }
+        };
+        // dvrk_model's current layout names the remote centre of motion `P_RCM_link`; in its Si
+        // layout `P_base_link` is the arm's mounting, on the yaw axis 0.8 m from the RCM, so
+        // the RCM link is the base wherever the tool hangs below it.
+        let rcm_link = format!("{name}_RCM_link");
+        let base_link = if roles.base_link.is_none()
+            && has_link(&robot, &rcm_link)
+            && Chain::from_urdf(&robot, &rcm_link, &tool_link).is_ok()
+        {
+            rcm_link
+        } else {
+            base_link
         };
         let mut arm = Chain::from_urdf(&robot, &base_link, &tool_link)?;
         if let Some(setback) = setback {
