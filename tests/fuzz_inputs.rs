@@ -168,6 +168,7 @@ fn mutated_and_truncated_shipped_scenes_never_panic_and_name_the_key() {
     let mut rng = Rng(0x51_7cc1_b727_220a);
     let mut refused = 0u32;
     let mut tried = 0u32;
+    let mut accepted_huge = Vec::new();
     for name in ["default", "teleop", "retraction", "push", "needle"] {
         let path = root.join(format!("config/{name}.toml"));
         let text = std::fs::read_to_string(&path).unwrap();
@@ -194,12 +195,16 @@ fn mutated_and_truncated_shipped_scenes_never_panic_and_name_the_key() {
                     });
                 match result {
                     Ok(_) => {
-                        // Accepted: only a value the key allows (a huge bound, a text name).
+                        // Accepted: only a value the key allows (a text name where a string
+                        // fits). No scene quantity is physical at ±infinity or ±1e308.
                         assert!(
                             !bad.contains("nan"),
                             "{name}.toml line {}: `{replaced}` accepted",
                             i + 1
                         );
+                        if bad.contains("inf") || bad.contains("e308") {
+                            accepted_huge.push(format!("{name}.toml:{} {replaced}", i + 1));
+                        }
                     }
                     Err(e) => {
                         refused += 1;
@@ -230,5 +235,11 @@ fn mutated_and_truncated_shipped_scenes_never_panic_and_name_the_key() {
         }
     }
     println!("{tried} mutated scene files, {refused} value edits refused naming their key");
+    assert!(
+        accepted_huge.is_empty(),
+        "{} infinite or 1e308 values accepted:\n{}",
+        accepted_huge.len(),
+        accepted_huge.join("\n")
+    );
     assert!(refused > 100);
 }

@@ -52,7 +52,39 @@ impl Checker {
             "must be a finite number > 0",
         );
     }
+
+    /// `lower ≤ value ≤ upper` (finite), `what` saying the unit and why the bound.
+    fn within(&mut self, key: impl Into<String>, value: f64, lower: f64, upper: f64, what: &str) {
+        self.require(
+            value.is_finite() && (lower..=upper).contains(&value),
+            key,
+            value,
+            format!("{lower} ≤ value ≤ {upper} {what}"),
+        );
+    }
+
+    /// `0 < value ≤ upper` (finite).
+    fn positive_up_to(&mut self, key: impl Into<String>, value: f64, upper: f64, what: &str) {
+        self.require(
+            value.is_finite() && value > 0.0 && value <= upper,
+            key,
+            value,
+            format!("0 < value ≤ {upper} {what}"),
+        );
+    }
 }
+
+/// Largest length anywhere in a scene (m): positions, sizes and offsets beyond it are typing
+/// errors, not an operating table.
+const MAX_LENGTH: f64 = 100.0;
+/// Largest angle written in degrees: a turn and a half either way covers every orientation.
+const MAX_DEGREES: f64 = 540.0;
+/// Largest speed limit (rad/s or m/s): far beyond any surgical robot joint.
+const MAX_JOINT_SPEED: f64 = 100.0;
+/// Largest friction coefficient: real contacts stay below a few.
+const MAX_FRICTION: f64 = 10.0;
+/// Longest scripted time (s): a day of simulated time.
+const MAX_TIME: f64 = 86_400.0;
 
 /// All problems of `scene`; empty when it can be simulated.
 pub fn validate(scene: &Scene) -> Vec<Problem> {
@@ -72,17 +104,19 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
     c.positive("domain.dx", d.dx);
     for (a, axis) in ["x", "y", "z"].iter().enumerate() {
         c.positive(format!("domain.size[{a}] ({axis})"), d.size[a]);
-        c.require(
-            d.origin[a].is_finite(),
+        c.within(
             format!("domain.origin[{a}]"),
             d.origin[a],
-            "a finite number (m)",
+            -MAX_LENGTH,
+            MAX_LENGTH,
+            "m",
         );
-        c.require(
-            d.gravity[a].is_finite(),
+        c.within(
             format!("domain.gravity[{a}]"),
             d.gravity[a],
-            "a finite number (m/s²)",
+            -1000.0,
+            1000.0,
+            "m/s² (100 g)",
         );
     }
     let domain_ok = d.dx > 0.0 && d.size.iter().all(|s| *s > 0.0);
@@ -118,15 +152,20 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
         "0 < cfl ≤ 1",
     );
     if let Some(dt) = s.dt {
-        c.positive("solver.dt", dt);
+        c.positive_up_to("solver.dt", dt, 0.1, "s (a substep, shorter than a frame)");
     }
     c.require(
-        s.max_substeps_per_frame >= 1,
+        (1..=1_000_000).contains(&s.max_substeps_per_frame),
         "solver.max_substeps_per_frame",
         s.max_substeps_per_frame,
-        "≥ 1",
+        "1 ≤ value ≤ 1000000",
     );
-    c.positive("solver.max_speed", s.max_speed);
+    c.positive_up_to(
+        "solver.max_speed",
+        s.max_speed,
+        1000.0,
+        "m/s (a guard on particle speed: faster is no guard)",
+    );
     c.require(
         (1..=100).contains(&s.iterations),
         "solver.iterations",
@@ -139,11 +178,12 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
         s.relaxation,
         "0 < relaxation < 2 (PB-MPM over-relaxation; 2 and above overshoots without converging)",
     );
-    c.require(
-        scene.sleep.speed.is_finite() && scene.sleep.speed >= 0.0,
+    c.within(
         "sleep.speed",
         scene.sleep.speed,
-        "≥ 0 m/s",
+        0.0,
+        10.0,
+        "m/s (the speed below which tissue may sleep)",
     );
 
     if let Some(t) = &scene.table {
@@ -157,11 +197,12 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
             ),
         );
         if t.hold == Hold::Resting {
-            c.require(
-                t.friction >= 0.0 && t.friction.is_finite(),
+            c.within(
                 "table.friction",
                 t.friction,
-                "≥ 0",
+                0.0,
+                MAX_FRICTION,
+                "(Coulomb coefficient)",
             );
         }
     }
@@ -193,11 +234,12 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
             m.density,
             "0 < ρ ≤ 1e5 kg/m³",
         );
-        c.require(
-            m.damping.is_finite() && m.damping >= 0.0,
+        c.within(
             key("material.damping"),
             m.damping,
-            "≥ 0 (1/s)",
+            0.0,
+            10_000.0,
+            "1/s (a decay time of 0.1 ms and more)",
         );
         c.require(
             (1..=4).contains(&t.particles_per_axis),
@@ -206,7 +248,7 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
             "1 to 4",
         );
         for a in 0..3 {
-            c.positive(key(&format!("size[{a}]")), t.size[a]);
+            c.positive_up_to(key(&format!("size[{a}]")), t.size[a], MAX_LENGTH, "m");
             if d.dx > 0.0 && t.size[a] > 0.0 {
                 c.require(
                     t.size[a] >= 2.0 * d.dx,
@@ -249,17 +291,17 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
             c.require(false, key("name"), &tool.name, "unique among tools");
         }
         match tool.shape {
-            Shape::Sphere { radius } => c.positive(key("shape.radius"), radius as f64),
+            Shape::Sphere { radius } => length(&mut c, key("shape.radius"), radius),
             Shape::Capsule {
                 radius,
                 half_length,
             } => {
-                c.positive(key("shape.radius"), radius as f64);
-                c.positive(key("shape.half_length"), half_length as f64);
+                length(&mut c, key("shape.radius"), radius);
+                length(&mut c, key("shape.half_length"), half_length);
             }
             Shape::Box { half_extents } => {
                 for (a, h) in half_extents.iter().enumerate() {
-                    c.positive(key(&format!("shape.half_extents[{a}]")), *h as f64);
+                    length(&mut c, key(&format!("shape.half_extents[{a}]")), *h);
                 }
             }
             Shape::Gripper {
@@ -267,17 +309,17 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
                 jaw_width,
                 jaw_thickness,
             } => {
-                c.positive(key("shape.jaw_length"), jaw_length as f64);
-                c.positive(key("shape.jaw_width"), jaw_width as f64);
-                c.positive(key("shape.jaw_thickness"), jaw_thickness as f64);
+                length(&mut c, key("shape.jaw_length"), jaw_length);
+                length(&mut c, key("shape.jaw_width"), jaw_width);
+                length(&mut c, key("shape.jaw_thickness"), jaw_thickness);
             }
             Shape::Needle {
                 radius,
                 arc_angle,
                 wire_radius,
             } => {
-                c.positive(key("shape.radius"), radius as f64);
-                c.positive(key("shape.wire_radius"), wire_radius as f64);
+                length(&mut c, key("shape.radius"), radius);
+                length(&mut c, key("shape.wire_radius"), wire_radius);
                 c.require(
                     arc_angle > 0.0 && arc_angle < std::f32::consts::TAU,
                     key("shape.arc_angle"),
@@ -301,11 +343,12 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
             );
         }
         if let ContactModel::Coulomb { friction, drag } = tool.contact {
-            c.require(
-                friction.is_finite() && friction >= 0.0,
+            c.within(
                 key("contact.friction"),
-                friction,
-                "≥ 0",
+                friction as f64,
+                0.0,
+                MAX_FRICTION,
+                "(Coulomb coefficient)",
             );
             c.require(
                 (0.0..=1.0).contains(&drag),
@@ -317,6 +360,17 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
         if let Some((k, v)) = tool.jaw.invalid() {
             c.require(false, key(&format!("jaw.{k}")), v, "finite and > 0");
         }
+        // dVRK's jaw: p 6 N·m/rad, d 0.09 N·m·s/rad, effort 0.16 N·m; a thousand times more
+        // is no instrument.
+        for (k, v, upper, unit) in [
+            ("p_gain", tool.jaw.p_gain, 6000.0, "N·m/rad"),
+            ("d_gain", tool.jaw.d_gain, 90.0, "N·m·s/rad"),
+            ("effort_max", tool.jaw.effort_max, 160.0, "N·m"),
+        ] {
+            if v.is_finite() && v > 0.0 {
+                c.positive_up_to(key(&format!("jaw.{k}")), v, upper, unit);
+            }
+        }
         c.require(
             !tool.keyframes.is_empty(),
             key("keyframe"),
@@ -325,12 +379,7 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
         );
         for (k, kf) in tool.keyframes.iter().enumerate() {
             let kkey = |f: &str| key(&format!("keyframe[{k}].{f}"));
-            c.require(
-                kf.t.is_finite() && kf.t >= 0.0,
-                kkey("t"),
-                kf.t,
-                "a time ≥ 0 s",
-            );
+            c.within(kkey("t"), kf.t, 0.0, MAX_TIME, "s (a day)");
             if k > 0 {
                 let prev = tool.keyframes[k - 1].t;
                 c.require(
@@ -347,10 +396,10 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
                 format!("tool outside the domain: must be {region}"),
             );
             c.require(
-                kf.rpy_deg.iter().all(|v| v.is_finite()),
+                kf.rpy_deg.iter().all(|v| v.abs() <= MAX_DEGREES),
                 kkey("rpy_deg"),
                 kf.rpy_deg,
-                "finite angles (deg)",
+                format!("angles of at most ±{MAX_DEGREES}°"),
             );
             c.require(
                 kf.jaw_deg.is_finite() && (-40.0..=80.0).contains(&kf.jaw_deg),
@@ -364,6 +413,11 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
     validate_arms(&mut c, scene);
     validate_outputs(&mut c, scene);
     c.problems
+}
+
+/// A tool dimension: a positive length up to [`MAX_LENGTH`].
+fn length(c: &mut Checker, key: String, value: f32) {
+    c.positive_up_to(key, value as f64, MAX_LENGTH, "m");
 }
 
 /// Arm names are used as topic namespaces and frame prefixes.
@@ -404,38 +458,41 @@ fn validate_arms(c: &mut Checker, scene: &Scene) {
         }
         if let Some(speeds) = arm.joint_speeds {
             c.require(
-                speeds.iter().all(|v| v.is_finite() && *v > 0.0),
+                speeds.iter().all(|v| *v > 0.0 && *v <= MAX_JOINT_SPEED),
                 key("joint_speeds"),
                 speeds,
-                "six finite speeds > 0 (rad/s; insertion m/s)",
+                format!("six speeds, 0 < speed ≤ {MAX_JOINT_SPEED} (rad/s; insertion m/s)"),
             );
         }
         if let Some(speed) = arm.jaw_speed {
-            c.positive(key("jaw_speed"), speed);
+            c.positive_up_to(key("jaw_speed"), speed, MAX_JOINT_SPEED, "rad/s");
         }
         c.require(
-            arm.base_xyz.iter().all(|v| v.is_finite()),
+            arm.base_xyz.iter().all(|v| v.abs() <= MAX_LENGTH),
             key("base_xyz"),
             arm.base_xyz,
-            "finite coordinates (m)",
+            format!("coordinates of at most ±{MAX_LENGTH} m"),
         );
         c.require(
-            arm.base_rpy_deg.iter().all(|v| v.is_finite()),
+            arm.base_rpy_deg.iter().all(|v| v.abs() <= MAX_DEGREES),
             key("base_rpy_deg"),
             arm.base_rpy_deg,
-            "finite angles (deg)",
+            format!("angles of at most ±{MAX_DEGREES}°"),
         );
+        // The URDF's limits are checked when the arm is built; no PSM joint turns more than a
+        // turn either way, nor inserts more than a metre.
         c.require(
-            arm.home_joints.iter().all(|v| v.is_finite()),
+            arm.home_joints.iter().all(|v| v.abs() <= std::f64::consts::TAU),
             key("home_joints"),
             arm.home_joints,
-            "finite joint values (rad, insertion in m), inside the URDF's limits",
+            "joint values of at most ±2π rad (insertion ±2π m), inside the URDF's limits",
         );
-        c.require(
-            arm.home_jaw_deg.is_finite(),
+        c.within(
             key("home_jaw_deg"),
             arm.home_jaw_deg,
-            "a finite angle (deg) inside the jaw limits",
+            -40.0,
+            80.0,
+            "° (the PSM jaw range; the URDF's limits are checked when the arm is built)",
         );
         let tool = scene.tools.iter().position(|t| t.name == arm.tool);
         c.require(
@@ -486,12 +543,18 @@ fn validate_arms(c: &mut Checker, scene: &Scene) {
                 "a ROS namespace (letters, digits, _ and /)",
             );
         }
-        c.positive("teleop.scale", t.scale);
-        c.require(
-            t.force_feedback_scale.is_finite() && t.force_feedback_scale >= 0.0,
+        c.positive_up_to(
+            "teleop.scale",
+            t.scale,
+            10.0,
+            "(PSM motion per MTM motion; dVRK's default is 0.2)",
+        );
+        c.within(
             "teleop.force_feedback_scale",
             t.force_feedback_scale,
-            "≥ 0",
+            0.0,
+            10.0,
+            "(MTM force per PSM force)",
         );
     }
 }
@@ -513,15 +576,16 @@ fn validate_outputs(c: &mut Checker, scene: &Scene) {
         );
     }
     c.require(
-        o.points_downsample >= 1,
+        (1..=1_000_000).contains(&o.points_downsample),
         "outputs.points_downsample",
         o.points_downsample,
-        "≥ 1 (1 publishes every particle)",
+        "1 ≤ value ≤ 1000000 (1 publishes every particle)",
     );
-    c.require(
-        o.points_voxel.is_finite() && o.points_voxel >= 0.0,
+    c.within(
         "outputs.points_voxel",
         o.points_voxel,
-        "0 (off) or a cube edge > 0 m",
+        0.0,
+        1.0,
+        "m (0: off, else a cube edge)",
     );
 }
