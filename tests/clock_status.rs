@@ -68,3 +68,46 @@ fn clock_follows_the_simulation_and_the_status_reports_its_real_time_factor() {
         "ERROR in the node's log:\n{text}"
     );
 }
+
+/// No ROS installation, and a user's own `RUST_LOG` that shows every warning: the node says at
+/// info which distribution's messages it speaks and logs no `ROS_DISTRO` warning.
+#[test]
+fn no_ros_distro_warning_without_a_ros_installation() {
+    if !network_prerequisites(false) {
+        return;
+    }
+    for (user_distro, expected) in [
+        (None, "ROS_DISTRO was not set and is taken as"),
+        (Some("kilted"), "(ROS_DISTRO = kilted)"),
+    ] {
+        let mut command = Command::new(env!("CARGO_BIN_EXE_dvrk-tissue-sim"));
+        command
+            .current_dir(root())
+            .args([
+                "run",
+                "--scene",
+                "tests/ros/scenes/small.toml",
+                "--backend",
+                "cpu",
+                "--seconds",
+                "0.5",
+            ])
+            .env("ROS_DOMAIN_ID", "48")
+            .env("RUST_LOG", "info")
+            .env("NO_COLOR", "1")
+            .env_remove("ROS_DISTRO");
+        if let Some(distro) = user_distro {
+            command.env("ROS_DISTRO", distro);
+        }
+        let out = command.output().expect("cannot run the node");
+        let log = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{log}");
+        assert!(log.contains("speaking ROS 2"), "{log}");
+        assert!(log.contains(expected), "lacks {expected}: {log}");
+        assert!(
+            !log.lines()
+                .any(|l| l.contains("ROS_DISTRO") && (l.contains("WARN") || l.contains("ERROR"))),
+            "{log}"
+        );
+    }
+}

@@ -49,6 +49,8 @@ enum Command {
 }
 
 fn main() {
+    // Before any thread exists: the environment is not thread-safe to change.
+    dvrk_tissue_sim::ros::node::adopt_wire_distribution();
     use tracing_subscriber::layer::SubscriberExt;
     use tracing_subscriber::util::SubscriberInitExt;
     tracing_subscriber::fmt()

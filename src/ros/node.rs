@@ -243,16 +243,32 @@ pub fn run_node(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeError>
     runtime.block_on(run_async(scene, settings))
 }
 
-/// Says which ROS 2 distribution's wire format the node speaks. The node needs no ROS
-/// installation, so an unset `ROS_DISTRO` is the normal case, not a warning (ros2-client's
-/// own check warns about it; the default log filter keeps only its errors, which report a
-/// `ROS_DISTRO` that names another distribution).
+/// Whether [`adopt_wire_distribution`] set `ROS_DISTRO` for this process.
+static DISTRO_ADOPTED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// The node needs no ROS installation, so an unset `ROS_DISTRO` is the normal case; ros2-client
+/// warns about it whatever the log filter a user sets. Setting the variable to the distribution
+/// whose wire format the crate was built for silences that warning and changes nothing else
+/// (ros2-client only compares it). Call it at program start, before any thread exists
+/// (changing the environment is not thread-safe); a user's own `ROS_DISTRO` is left alone.
+pub fn adopt_wire_distribution() {
+    if std::env::var_os("ROS_DISTRO").is_none() {
+        std::env::set_var("ROS_DISTRO", ros2_client::COMPILED_ROS_DISTRO.as_str());
+        DISTRO_ADOPTED.store(true, std::sync::atomic::Ordering::Relaxed);
+    }
+}
+
+/// Says at info which ROS 2 distribution's wire format the node speaks.
 fn log_wire_distribution() {
     let built = ros2_client::COMPILED_ROS_DISTRO;
-    if std::env::var_os("ROS_DISTRO").is_none() {
+    if DISTRO_ADOPTED.load(std::sync::atomic::Ordering::Relaxed) {
         tracing::info!(
-            "speaking ROS 2 {built} over DDS (no ROS installation needed; ROS_DISTRO not set)"
+            "speaking ROS 2 {built} over DDS (no ROS installation needed; ROS_DISTRO was not \
+             set and is taken as {built})"
         );
+    } else {
+        let distro = std::env::var("ROS_DISTRO").unwrap_or_default();
+        tracing::info!("speaking ROS 2 {built} over DDS (ROS_DISTRO = {distro})");
     }
 }
 
