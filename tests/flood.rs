@@ -2,8 +2,9 @@
 //! (tests/ros/test_flood.py) against the node on the small scene. The node keeps its frame
 //! rate (its status's frames per second during the flood against before), applies the newest
 //! command, and its memory stays bounded (resident set sampled here every 200 ms across the
-//! flood, against the sample at its start). And a cloud subscriber that stops reading does
-//! not slow the simulation.
+//! flood, against the sample at its start). A cloud subscriber that stops reading does not
+//! slow the simulation. And an MTM that stops publishing mid-teleoperation leaves the PSM
+//! holding, with one warning, until it is back.
 //!
 //! Starts DDS participants: runs only inside a loopback-only network namespace (as
 //! tests/ros_node.rs; `.ci/run` makes one); elsewhere prints `SKIPPED: <reason>` and passes,
@@ -159,4 +160,62 @@ fn a_cloud_subscriber_that_stops_reading_does_not_slow_the_simulation() {
         "test_stalled_reader.py failed:\n{stdout}\n{}\n--- node ---\n{text}",
         String::from_utf8_lossy(&out.stderr)
     );
+}
+
+/// An MTM that stops publishing mid-teleoperation (tests/ros/test_vanished_mtm.py on the small
+/// scene): the PSM holds, the node warns once, and teleoperation resumes without a jump when
+/// the MTM is back (said once at info).
+#[test]
+fn a_vanished_mtm_leaves_the_psm_holding_and_teleop_resumes() {
+    if !network_prerequisites(true) {
+        return;
+    }
+    let log = std::env::temp_dir().join(format!("dvrk-mtm-{}.log", std::process::id()));
+    let mut node = Command::new(env!("CARGO_BIN_EXE_dvrk-tissue-sim"))
+        .current_dir(root())
+        .args([
+            "run",
+            "--scene",
+            "tests/ros/scenes/small.toml",
+            "--backend",
+            "cpu",
+        ])
+        .env("ROS_DOMAIN_ID", "49")
+        .env("NO_COLOR", "1")
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(&log).unwrap())
+        .spawn()
+        .expect("cannot start the node");
+    let out = Command::new(python())
+        .arg(root().join("tests/ros/test_vanished_mtm.py"))
+        .current_dir(root().join("tests/ros"))
+        .env("ROS_DOMAIN_ID", "49")
+        .env("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
+        .env("PYTHONUNBUFFERED", "1")
+        .output()
+        .expect("cannot run python");
+    let _ = Command::new("kill")
+        .args(["-INT", &node.id().to_string()])
+        .status();
+    let _ = node.wait();
+    let node_log = std::fs::read_to_string(&log).unwrap_or_default();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    println!("{stdout}");
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}\n--- node log ---\n{node_log}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let warnings: Vec<&str> = node_log
+        .lines()
+        .filter(|l| l.contains("no MTM message"))
+        .collect();
+    assert_eq!(warnings.len(), 1, "{node_log}");
+    assert!(warnings[0].contains("WARN") && warnings[0].contains("PSM1 holds"));
+    assert_eq!(
+        node_log.matches("teleop: the MTM publishes again").count(),
+        1,
+        "{node_log}"
+    );
+    assert!(!node_log.contains("ERROR"), "{node_log}");
 }

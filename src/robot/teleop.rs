@@ -9,6 +9,9 @@
 //! - Clutch pressed or operator absent: no target (the PSM holds); on release / return the
 //!   mapping re-anchors on the current MTM pose and PSM setpoint.
 //! - Jaw = gripper · jaw_max / 60°, clamped to the jaw limits, at most `jaw_max_speed` fast.
+//! - An MTM silent for [`MTM_SILENCE_S`] counts as gone: no target (the PSM holds where it
+//!   was); when it publishes again the mapping re-anchors, so the PSM resumes without a jump
+//!   however far the MTM moved meanwhile.
 //!
 //! MTM and PSM poses must be given in one common frame (dVRK: the camera frame); converting
 //! from each arm's base is the caller's job. dVRK's engage checks (orientation error ≤ 5°, a
@@ -26,6 +29,10 @@ pub const MTM_GRIPPER_SPAN: f64 = 60.0 * std::f64::consts::PI / 180.0;
 
 /// dVRK's teleop jaw speed limit (rad/s).
 pub const DEFAULT_JAW_MAX_SPEED: f64 = 720.0 * std::f64::consts::PI / 180.0;
+
+/// How long (s of simulated time) the MTM may be silent before it counts as gone. dVRK's MTM
+/// publishes at 100 Hz or more, so this is dozens of lost messages, not jitter.
+pub const MTM_SILENCE_S: f64 = 0.5;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TeleopConfig {
@@ -70,6 +77,8 @@ pub enum TeleopState {
     OperatorAbsent,
     /// Clutch pedal pressed: the PSM holds while the MTM moves freely.
     Clutched,
+    /// The MTM stopped publishing: the PSM holds until it is back.
+    MtmSilent,
     Following,
 }
 
@@ -99,6 +108,9 @@ pub struct Teleop {
     psm: Option<(Isometry3<f64>, f64)>,
     anchor: Option<Anchor>,
     target: Option<TeleopTarget>,
+    /// Time since the last MTM message (s), once there was one.
+    mtm_silent_for: f64,
+    mtm_gone: bool,
 }
 
 impl Teleop {
@@ -124,6 +136,8 @@ impl Teleop {
             psm: None,
             anchor: None,
             target: None,
+            mtm_silent_for: 0.0,
+            mtm_gone: false,
         })
     }
 
@@ -134,6 +148,8 @@ impl Teleop {
             TeleopState::OperatorAbsent
         } else if self.clutched {
             TeleopState::Clutched
+        } else if self.mtm_gone {
+            TeleopState::MtmSilent
         } else {
             TeleopState::WaitingForArms
         }
@@ -187,8 +203,29 @@ impl Teleop {
         Ok(())
     }
 
+    /// `dt` seconds passed without an MTM message. True exactly when this makes the MTM count
+    /// as gone (silent for [`MTM_SILENCE_S`] after having published): the mapping disengages
+    /// and the PSM holds.
+    pub fn mtm_silent(&mut self, dt: f64) -> bool {
+        if self.mtm.is_none() || self.mtm_gone {
+            return false;
+        }
+        self.mtm_silent_for += dt.max(0.0);
+        if self.mtm_silent_for < MTM_SILENCE_S {
+            return false;
+        }
+        self.mtm_gone = true;
+        self.refresh_engagement();
+        true
+    }
+
+    /// Whether the MTM counts as gone (see [`Teleop::mtm_silent`]).
+    pub fn mtm_gone(&self) -> bool {
+        self.mtm_gone
+    }
+
     /// A new MTM pose and gripper angle (rad), `dt` seconds after the previous one; updates the
-    /// target while following.
+    /// target while following. An MTM that was gone is back: the mapping re-anchors.
     pub fn update_mtm(
         &mut self,
         pose: Isometry3<f64>,
@@ -201,6 +238,8 @@ impl Teleop {
             return Err(TeleopError::InvalidTimeStep(dt));
         }
         self.mtm = Some((pose, gripper));
+        self.mtm_silent_for = 0.0;
+        self.mtm_gone = false;
         self.refresh_engagement();
         let (Some(anchor), Some(held)) = (self.anchor, self.target) else {
             return Ok(());
@@ -221,7 +260,7 @@ impl Teleop {
 
     /// Engages when everything allows it, disengages when something forbids it.
     fn refresh_engagement(&mut self) {
-        if !self.operator_present || self.clutched {
+        if !self.operator_present || self.clutched || self.mtm_gone {
             self.anchor = None;
             self.target = None;
             return;
@@ -456,6 +495,34 @@ mod tests {
             rig.teleop.set_scale(f64::NAN),
             Err(TeleopError::InvalidScale(_))
         ));
+    }
+
+    #[test]
+    fn a_silent_mtm_holds_the_psm_and_its_return_reanchors() {
+        let mut rig = Rig::new();
+        rig.teleop.set_operator_present(true);
+        rig.mtm(pose(0.0, 0.0, 0.0, 0.0, 0.0, 0.0), 0.3);
+        rig.mtm(pose(0.05, 0.0, 0.0, 0.0, 0.0, 0.0), 0.3);
+        let held = rig.teleop.target().unwrap().pose;
+        // Silent just short of the limit: still following, nothing said.
+        let frames = (MTM_SILENCE_S / 0.01).round() as usize;
+        for _ in 0..frames - 1 {
+            assert!(!rig.teleop.mtm_silent(0.01));
+        }
+        assert_eq!(rig.teleop.state(), TeleopState::Following);
+        // Then gone, said once; the PSM has no target (holds).
+        assert!(rig.teleop.mtm_silent(0.01));
+        assert!(!rig.teleop.mtm_silent(0.01));
+        assert_eq!(rig.teleop.state(), TeleopState::MtmSilent);
+        assert!(rig.teleop.target().is_none());
+        // Back 80 mm further on: re-anchored where the PSM held, no jump; then following.
+        rig.mtm(pose(0.13, 0.0, 0.0, 0.0, 0.0, 0.0), 0.3);
+        assert_eq!(rig.teleop.state(), TeleopState::Following);
+        let back = rig.teleop.target().unwrap().pose;
+        assert!((back.translation.vector - held.translation.vector).norm() < 1e-12);
+        rig.mtm(pose(0.18, 0.0, 0.0, 0.0, 0.0, 0.0), 0.3);
+        let moved = rig.teleop.target().unwrap().pose.translation.vector - held.translation.vector;
+        assert!((moved - Vector3::new(0.2 * 0.05, 0.0, 0.0)).norm() < 1e-12);
     }
 
     #[test]

@@ -18,6 +18,7 @@ use std::time::{Duration, Instant};
 use nalgebra::Isometry3;
 
 use crate::output::TissueCloud;
+use crate::robot::teleop::MTM_SILENCE_S;
 use crate::robot::RcmPolicy;
 use crate::sim::arm::ArmEvent;
 use crate::sim::frame::{Due, Frame, ToolState};
@@ -363,8 +364,21 @@ impl FrameLoop {
         }
         let _ = binding.teleop.update_psm_setpoint(arm.cp(), arm.jaw());
         if let (Some(pose), true) = (self.mtm_pose, self.mtm_fresh) {
+            let was_gone = binding.teleop.mtm_gone();
             let _ = binding.teleop.update_mtm(pose, self.mtm_gripper, dt);
             self.mtm_fresh = false;
+            if was_gone {
+                tracing::info!(
+                    "teleop: the MTM publishes again; {} follows it from where it held",
+                    arm.name()
+                );
+            }
+        } else if binding.teleop.mtm_silent(dt) {
+            tracing::warn!(
+                "teleop: no MTM message for {MTM_SILENCE_S} s; {} holds where it is until the \
+                 MTM publishes again",
+                arm.name()
+            );
         }
         let Some(target) = binding.teleop.target() else {
             return;
