@@ -369,7 +369,12 @@ fn si_layout_gives_the_si_dh_tool_frame() {
         // pitch, wrist yaw). The Si table differs from the Classic one at the adaptor (the
         // instrument's back end 0.4826 m behind the RCM at zero insertion against 0.4318 m);
         // from the roll on the two coincide, the Si shaft being longer by the same 50.8 mm.
-        let links = ["_adaptor_link", "_roll_link", "_wrist_pitch_link", "_wrist_yaw_link"];
+        let links = [
+            "_adaptor_link",
+            "_roll_link",
+            "_wrist_pitch_link",
+            "_wrist_yaw_link",
+        ];
         let mut rng = Rng(11);
         let (mut dp, mut dr, mut from_classic) = (0.0f64, 0.0f64, f64::INFINITY);
         let mut compare = |a: &Isometry3<f64>, b: &Isometry3<f64>| {

@@ -9,8 +9,8 @@ fn check(scene: &str) -> (bool, String) {
         .args(["check", scene])
         .output()
         .expect("the binary runs");
-    let text = String::from_utf8_lossy(&out.stdout).into_owned()
-        + &String::from_utf8_lossy(&out.stderr);
+    let text =
+        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
     (out.status.success(), text)
 }
 
@@ -21,7 +21,8 @@ fn check_opens_the_si_layout_urdf() {
     let (ok, text) = check("tests/ros/scenes/si_layout.toml");
     assert!(ok, "{text}");
     assert!(
-        text.contains("si_layout.toml: ok (scene \"ros-test-si-layout\"") && text.contains("1 arm(s)"),
+        text.contains("si_layout.toml: ok (scene \"ros-test-si-layout\"")
+            && text.contains("1 arm(s)"),
         "{text}"
     );
 
@@ -89,7 +90,17 @@ fn mutate(text: &str, rng: &mut Rng) -> (String, String) {
         1 | 2 => {
             let (a, b) = attribute(rng);
             let value = [
-                "nan", "NaN", "inf", "-inf", "1e308", "-1e308", "1e400", "x", "", "0 0", "1 2 3 4",
+                "nan",
+                "NaN",
+                "inf",
+                "-inf",
+                "1e308",
+                "-1e308",
+                "1e400",
+                "x",
+                "",
+                "0 0",
+                "1 2 3 4",
                 "nan nan nan",
             ][rng.below(12)];
             let old = &text[a..b];

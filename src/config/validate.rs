@@ -482,7 +482,9 @@ fn validate_arms(c: &mut Checker, scene: &Scene) {
         // The URDF's limits are checked when the arm is built; no PSM joint turns more than a
         // turn either way, nor inserts more than a metre.
         c.require(
-            arm.home_joints.iter().all(|v| v.abs() <= std::f64::consts::TAU),
+            arm.home_joints
+                .iter()
+                .all(|v| v.abs() <= std::f64::consts::TAU),
             key("home_joints"),
             arm.home_joints,
             "joint values of at most ±2π rad (insertion ±2π m), inside the URDF's limits",
