@@ -92,7 +92,7 @@ fn no_ros_distro_warning_without_a_ros_installation() {
                 "--seconds",
                 "0.5",
             ])
-            .env("ROS_DOMAIN_ID", "48")
+            .env("ROS_DOMAIN_ID", "52")
             .env("RUST_LOG", "info")
             .env("NO_COLOR", "1")
             .env_remove("ROS_DISTRO");

@@ -180,7 +180,7 @@ fn a_vanished_mtm_leaves_the_psm_holding_and_teleop_resumes() {
             "--backend",
             "cpu",
         ])
-        .env("ROS_DOMAIN_ID", "49")
+        .env("ROS_DOMAIN_ID", "51")
         .env("NO_COLOR", "1")
         .stdout(Stdio::null())
         .stderr(std::fs::File::create(&log).unwrap())
@@ -189,7 +189,7 @@ fn a_vanished_mtm_leaves_the_psm_holding_and_teleop_resumes() {
     let out = Command::new(python())
         .arg(root().join("tests/ros/test_vanished_mtm.py"))
         .current_dir(root().join("tests/ros"))
-        .env("ROS_DOMAIN_ID", "49")
+        .env("ROS_DOMAIN_ID", "51")
         .env("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
         .env("PYTHONUNBUFFERED", "1")
         .output()
