@@ -9,12 +9,16 @@ use crate::mpm::cpu::CpuSolver;
 use crate::mpm::gpu::{self, GpuError, GpuSolver};
 use crate::mpm::grid::{Boundary, GridLayout, TableHold};
 use crate::mpm::guard::{GuardEvent, GuardPolicy};
+use crate::mpm::GripSums;
 use crate::mpm::{
     timestep, Lame, MaterialParams, Method, Particles, PbMpmParams, SolverSetup, Vec3,
 };
 use crate::sleep::SleepSettings;
 use crate::sleep::{Aabb, SleepState};
-use crate::tools::{ContactModel, Shape, ToolKinematics, ToolPose, ToolVelocity, Trajectory};
+use crate::tools::{
+    ContactModel, JawCommand, JawGains, JawServo, Shape, ToolKinematics, ToolPose, ToolVelocity,
+    Trajectory,
+};
 use nalgebra::{UnitQuaternion, Vector3};
 
 /// Force (N) and torque (N·m) a tool receives from the tissue: world frame, torque about
@@ -63,6 +67,10 @@ pub enum CommandError {
     NoSuchTool(usize),
     #[error("tool {0}: commanded pose is not finite; keeping the last valid one")]
     NonFinitePose(String),
+    #[error("tool {0} has no jaws")]
+    NoJaws(String),
+    #[error("tool {0}: jaw effort {1} N·m is not finite")]
+    NonFiniteEffort(String, f64),
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -95,11 +103,96 @@ pub struct WorldTool {
     pub contact: ContactModel,
     /// Set through [`World::command_tool_pose`] and [`World::hold_tool`].
     driver: ToolDriver,
+    /// A gripper's jaws: the driver's jaw angle is their setpoint.
+    jaws: Option<Jaws>,
+}
+
+/// A gripper's jaws between frames (see [`crate::tools::jaw`] and [`crate::tools::grip`]).
+#[derive(Clone, Debug)]
+struct Jaws {
+    servo: JawServo,
+    /// An effort command (N·m) that replaces the position servo until a pose command.
+    effort: Option<f64>,
+    /// The opening at the start and end of the frame being stepped: (t0, θ0, t1, θ1).
+    span: (f64, f64, f64, f64),
+    /// Generalised force of the tissue on the opening over the last frame (N·m).
+    tissue_torque: f64,
+    /// What the grip measured over the last frame, and that frame's length.
+    sums: GripSums,
+    sums_elapsed: f64,
+    /// Grip ratio for the frame being stepped.
+    grip: f32,
+}
+
+impl Jaws {
+    fn new(gains: JawGains, angle: f64) -> Self {
+        Jaws {
+            servo: JawServo::new(gains, angle),
+            effort: None,
+            span: (0.0, angle, 0.0, angle),
+            tissue_torque: 0.0,
+            sums: GripSums::default(),
+            sums_elapsed: 0.0,
+            grip: -1.0,
+        }
+    }
+
+    /// Opening at time `t` of the frame being stepped.
+    fn angle_at(&self, t: f64) -> f64 {
+        let (t0, a0, t1, a1) = self.span;
+        if t1 > t0 {
+            a0 + (a1 - a0) * ((t - t0) / (t1 - t0)).clamp(0.0, 1.0)
+        } else {
+            a1
+        }
+    }
+
+    /// Coulomb on the grip as a whole: the share of the tangential hold the squeeze can
+    /// pay for, from the force holding took over the last frame; negative (no hold) while
+    /// the controller does not push the jaws closed.
+    fn grip_ratio(&self, shape: Shape, contact: ContactModel) -> f32 {
+        if self.servo.effort >= 0.0 {
+            return -1.0;
+        }
+        let squeeze = self.servo.squeeze();
+        if squeeze <= 0.0 {
+            return 0.0;
+        }
+        let friction = match contact {
+            ContactModel::Sticky => return 1.0,
+            ContactModel::Coulomb { friction, .. } => friction as f64,
+        };
+        let Shape::Gripper { jaw_length, .. } = shape else {
+            return 0.0;
+        };
+        let lever = if self.sums.mass > 0.0 {
+            self.sums.mass_lever / self.sums.mass
+        } else {
+            0.5 * jaw_length as f64
+        }
+        .max(1e-4);
+        let capacity = friction * 2.0 * squeeze / lever;
+        let needed = if self.sums_elapsed > 0.0 {
+            self.sums.required.norm() / self.sums_elapsed
+        } else {
+            0.0
+        };
+        if needed <= capacity {
+            1.0
+        } else {
+            (capacity / needed) as f32
+        }
+    }
 }
 
 impl WorldTool {
     pub fn driver(&self) -> &ToolDriver {
         &self.driver
+    }
+
+    /// A gripper's jaw state: the opening reached, the controller's effort, the squeeze.
+    pub fn jaw(&self) -> Option<&JawServo> {
+        self.jaws.as_ref().map(|j| &j.servo)
     }
 
     /// Box that every grid node this tool can touch between `t0` and `t1` lies in: its
@@ -128,7 +221,18 @@ impl WorldTool {
         reach
     }
 
+    /// The tool's pose at `t`; a gripper's jaw is the opening its jaws reach, not their
+    /// setpoint.
     pub fn pose_at(&self, t: f64) -> ToolPose {
+        let mut pose = self.setpoint_at(t);
+        if let Some(jaws) = &self.jaws {
+            pose.jaw = jaws.angle_at(t);
+        }
+        pose
+    }
+
+    /// The pose the driver asks for at `t`, jaw setpoint included.
+    pub fn setpoint_at(&self, t: f64) -> ToolPose {
         match &self.driver {
             ToolDriver::Scripted(trajectory) => trajectory.sample(t),
             ToolDriver::Commanded { from, to, t0, t1 } => {
@@ -315,6 +419,10 @@ impl World {
                 name: t.name.clone(),
                 shape: t.shape,
                 contact: t.contact,
+                jaws: matches!(t.shape, Shape::Gripper { .. }).then(|| {
+                    let first = t.keyframes.first().map_or(0.0, |k| k.jaw_deg.to_radians());
+                    Jaws::new(t.jaw, first)
+                }),
                 driver: ToolDriver::Scripted(Trajectory::new(
                     t.keyframes
                         .iter()
@@ -463,7 +571,13 @@ impl World {
         if !to.is_finite() {
             return Err(CommandError::NonFinitePose(tool.name.clone()));
         }
-        let from = from.unwrap_or_else(|| tool.pose_at(time));
+        if let (Some(jaws), Some(held)) = (&mut tool.jaws, from) {
+            *jaws = Jaws::new(jaws.servo.gains, held.jaw);
+        }
+        if let Some(jaws) = &mut tool.jaws {
+            jaws.effort = None;
+        }
+        let from = from.unwrap_or_else(|| tool.setpoint_at(time));
         tool.driver = ToolDriver::Commanded {
             from,
             to,
@@ -471,6 +585,54 @@ impl World {
             t1: time + duration,
         };
         Ok(())
+    }
+
+    /// Drives gripper `index`'s jaws with an effort (N·m, positive opens; dVRK's
+    /// `jaw/servo_jf`) until the next pose command, or back to its position setpoint with
+    /// `None`. The effort is clamped to the jaw's limit.
+    pub fn command_jaw_effort(
+        &mut self,
+        index: usize,
+        effort: Option<f64>,
+    ) -> Result<(), CommandError> {
+        let tool = self
+            .tools
+            .get_mut(index)
+            .ok_or(CommandError::NoSuchTool(index))?;
+        let name = tool.name.clone();
+        let jaws = tool
+            .jaws
+            .as_mut()
+            .ok_or(CommandError::NoJaws(name.clone()))?;
+        if let Some(e) = effort {
+            if !e.is_finite() {
+                return Err(CommandError::NonFiniteEffort(name, e));
+            }
+        }
+        let limit = jaws.servo.gains.effort_max;
+        jaws.effort = effort.map(|e| e.clamp(-limit, limit));
+        Ok(())
+    }
+
+    /// Moves every gripper's jaws over the frame [t_start, t_end] against the tissue's
+    /// torque of the last frame, and sets the grip ratio the frame steps with.
+    fn advance_jaws(&mut self, t_start: f64, t_end: f64) {
+        for tool in &mut self.tools {
+            let setpoint = tool.setpoint_at(t_end).jaw;
+            let (shape, contact) = (tool.shape, tool.contact);
+            let Some(jaws) = &mut tool.jaws else {
+                continue;
+            };
+            let command = match jaws.effort {
+                Some(e) => JawCommand::Effort(e),
+                None => JawCommand::Position(setpoint),
+            };
+            let start = jaws.servo.angle;
+            jaws.servo
+                .update(command, jaws.tissue_torque, t_end - t_start);
+            jaws.span = (t_start, start, t_end, jaws.servo.angle);
+            jaws.grip = jaws.grip_ratio(shape, contact);
+        }
     }
 
     /// Advances one frame: [`World::begin_frame`] then [`World::finish_frame`].
@@ -496,6 +658,7 @@ impl World {
         let frame_dt = self.frame_dt();
         let t_start = self.time;
         let t_end = t_start + frame_dt;
+        self.advance_jaws(t_start, t_end);
         if let Some(report) = self.skip_sleeping_frame(t_start, t_end) {
             self.in_flight = Some(InFlight::Skipped(report));
             return;
@@ -599,13 +762,9 @@ impl World {
                 let from = tool.pose_at(t0);
                 let to = tool.pose_at(t0 + dt);
                 let velocity = ToolVelocity::between(&from, &to, dt);
-                self.kinematics.push(ToolKinematics::new(
-                    tool.shape,
-                    tool.contact,
-                    &from,
-                    &velocity,
-                    dx,
-                ));
+                let mut k = ToolKinematics::new(tool.shape, tool.contact, &from, &velocity, dx);
+                k.grip = tool.jaws.as_ref().map_or(-1.0, |j| j.grip);
+                self.kinematics.push(k);
             }
         }
         PlannedFrame {
@@ -665,9 +824,10 @@ impl World {
             }
         } else {
             self.last_max_speed = stats.max_speed;
+            // Tissue a gripper holds is in contact too, though no grid node may touch a jaw.
             let any_contact = stats.tool_impulses[..self.tools.len()]
                 .iter()
-                .any(|i| i.contact_nodes > 0);
+                .any(|i| i.contact_nodes > 0 || i.grip.mass > 0.0);
             self.sleep.observe(
                 &self.params.sleep,
                 stats.max_speed,
@@ -692,6 +852,16 @@ impl World {
             })
             .collect();
         report.contact_nodes = impulses.iter().map(|i| i.contact_nodes).collect();
+        for (tool, imp) in self.tools.iter_mut().zip(impulses) {
+            if let Some(jaws) = &mut tool.jaws {
+                jaws.tissue_torque = imp.jaw_opening / elapsed;
+                if std::env::var("DBG_GRIP").is_ok() {
+                    eprintln!("DBG t={:.3} angle={:.3} effort={:.3} squeeze={:.3} grip={:.3} torque={:.2e} mass={:.2e} req={:.2e} lever={:.2e} F={:?}", self.time, jaws.servo.angle, jaws.servo.effort, jaws.servo.squeeze(), jaws.grip, jaws.tissue_torque, imp.grip.mass, imp.grip.required.norm()/elapsed, imp.grip.mass_lever/imp.grip.mass.max(1e-12), imp.linear/elapsed);
+                }
+                jaws.sums = imp.grip;
+                jaws.sums_elapsed = elapsed;
+            }
+        }
         Ok(report)
     }
 }

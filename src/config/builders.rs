@@ -58,6 +58,7 @@ pub fn tool(name: &str, shape: Shape, contact: ContactModel, keyframes: Vec<Keyf
         name: name.into(),
         shape,
         contact,
+        jaw: Default::default(),
         keyframes,
     }
 }

@@ -219,6 +219,9 @@ pub struct Tool {
     pub shape: Shape,
     #[serde(default)]
     pub contact: ContactModel,
+    /// A gripper's jaw controller (dVRK's gains and effort limit unless given).
+    #[serde(default)]
+    pub jaw: crate::tools::JawGains,
     #[serde(default, rename = "keyframe")]
     pub keyframes: Vec<Keyframe>,
 }

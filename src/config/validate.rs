@@ -314,6 +314,9 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
                 "0 ≤ drag ≤ 1",
             );
         }
+        if let Some((k, v)) = tool.jaw.invalid() {
+            c.require(false, key(&format!("jaw.{k}")), v, "finite and > 0");
+        }
         c.require(
             !tool.keyframes.is_empty(),
             key("keyframe"),

@@ -15,6 +15,7 @@ pub enum InputKind {
     MoveJp,
     JawServoJp,
     JawMoveJp,
+    JawServoJf,
     ServoCp,
     MoveCp,
     Hold,
@@ -47,9 +48,8 @@ impl InputKind {
     pub fn type_name(&self) -> String {
         use InputKind::*;
         match self {
-            ServoJp | MoveJp | JawServoJp | JawMoveJp | MirrorJs | MirrorJaw | MtmGripper => {
-                JointState::type_name()
-            }
+            ServoJp | MoveJp | JawServoJp | JawMoveJp | JawServoJf | MirrorJs | MirrorJaw
+            | MtmGripper => JointState::type_name(),
             ServoCp | MoveCp | MtmCp => PoseStamped::type_name(),
             Hold | Free => Empty::type_name(),
             StateCommand => StringStamped::type_name(),
@@ -63,9 +63,8 @@ impl InputKind {
     pub fn decode(&self, cdr: &[u8]) -> Result<InputMessage, CdrError> {
         use InputKind::*;
         Ok(match self {
-            ServoJp | MoveJp | JawServoJp | JawMoveJp | MirrorJs | MirrorJaw | MtmGripper => {
-                InputMessage::Joints(from_cdr(cdr)?)
-            }
+            ServoJp | MoveJp | JawServoJp | JawMoveJp | JawServoJf | MirrorJs | MirrorJaw
+            | MtmGripper => InputMessage::Joints(from_cdr(cdr)?),
             ServoCp | MoveCp | MtmCp => InputMessage::Pose(from_cdr(cdr)?),
             Hold | Free => InputMessage::Empty(Empty {}),
             StateCommand => InputMessage::Command(from_cdr(cdr)?),
@@ -140,6 +139,7 @@ pub fn input_topics(scene: &Scene, namespace: &str) -> Vec<InputTopic> {
                     ("move_jp", MoveJp),
                     ("jaw/servo_jp", JawServoJp),
                     ("jaw/move_jp", JawMoveJp),
+                    ("jaw/servo_jf", JawServoJf),
                     ("servo_cp", ServoCp),
                     ("move_cp", MoveCp),
                     ("hold", Hold),
@@ -219,6 +219,13 @@ impl InputTopic {
                 ArmInput::JawMoveJp {
                     names: m.name,
                     positions: m.position,
+                },
+            ),
+            (JawServoJf, InputMessage::Joints(m)) => arm(
+                "jaw/servo_jf",
+                ArmInput::JawServoJf {
+                    names: m.name,
+                    efforts: m.effort,
                 },
             ),
             (ServoCp, InputMessage::Pose(m)) => {

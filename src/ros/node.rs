@@ -113,9 +113,8 @@ impl Topics<'_> {
         use InputKind::*;
         let name = topic.topic.clone();
         let subscription = match topic.kind {
-            ServoJp | MoveJp | JawServoJp | JawMoveJp | MirrorJs | MirrorJaw | MtmGripper => {
-                AnySubscription::Joints(self.subscribe(&name)?)
-            }
+            ServoJp | MoveJp | JawServoJp | JawMoveJp | JawServoJf | MirrorJs | MirrorJaw
+            | MtmGripper => AnySubscription::Joints(self.subscribe(&name)?),
             ServoCp | MoveCp | MtmCp => AnySubscription::Pose(self.subscribe(&name)?),
             Hold | Free => AnySubscription::Empty(self.subscribe(&name)?),
             StateCommand => AnySubscription::Command(self.subscribe(&name)?),
@@ -579,8 +578,8 @@ impl Io {
             let m = outputs::arm_messages(&self.arm_outputs[index], status, stamp);
             let _ = p.measured_js.publish(m.js.clone());
             let _ = p.setpoint_js.publish(m.js);
-            let _ = p.jaw_measured_js.publish(m.jaw.clone());
-            let _ = p.jaw_setpoint_js.publish(m.jaw);
+            let _ = p.jaw_measured_js.publish(m.jaw);
+            let _ = p.jaw_setpoint_js.publish(m.jaw_setpoint);
             let _ = p.measured_cp.publish(m.cp.clone());
             let _ = p.setpoint_cp.publish(m.cp);
             let _ = p.measured_cv.publish(m.cv);

@@ -155,10 +155,12 @@ pub fn joint_state(stamp: Time, names: &[&str], position: &[f64], velocity: &[f6
     }
 }
 
-/// A simulated arm's periodic state messages (measured = setpoint).
+/// A simulated arm's periodic state messages (joints: measured = setpoint; the jaw: what
+/// the tool's jaws reached, with the controller's effort, and the setpoint apart).
 pub struct ArmMessages {
     pub js: JointState,
     pub jaw: JointState,
+    pub jaw_setpoint: JointState,
     pub cp: PoseStamped,
     pub cv: TwistStamped,
 }
@@ -167,7 +169,11 @@ pub fn arm_messages(arm: &ArmOutput, status: &ArmStatus, stamp: Time) -> ArmMess
     let names = arm.psm.joints().names();
     ArmMessages {
         js: joint_state(stamp, &names, &status.q, &status.qdot),
-        jaw: joint_state(stamp, &["jaw"], &[status.jaw], &[status.jaw_rate]),
+        jaw: JointState {
+            effort: vec![status.jaw_effort],
+            ..joint_state(stamp, &["jaw"], &[status.jaw], &[status.jaw_rate])
+        },
+        jaw_setpoint: joint_state(stamp, &["jaw"], &[status.jaw_setpoint], &[]),
         cp: PoseStamped {
             header: Header::new(stamp, &arm.base_frame),
             pose: Pose::from_isometry(&status.cp),

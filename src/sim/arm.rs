@@ -31,6 +31,11 @@ pub enum ArmInput {
         names: Vec<String>,
         positions: Vec<f64>,
     },
+    /// Jaw effort (N·m, positive opens), as dVRK's `jaw/servo_jf`.
+    JawServoJf {
+        names: Vec<String>,
+        efforts: Vec<f64>,
+    },
     /// Position (m) and quaternion x, y, z, w, in the arm's base frame.
     ServoCp {
         position: [f64; 3],
@@ -114,6 +119,8 @@ pub enum ArmError {
     NotMirrored,
     #[error("wrench has NaN or infinite values")]
     Wrench,
+    #[error("expected one finite jaw effort, got {0:?}")]
+    JawEffort(Vec<f64>),
     #[error("arm is PAUSED: send resume")]
     Paused,
     #[error("cannot {action} from {}", .state.as_str())]
@@ -149,8 +156,12 @@ impl std::fmt::Display for Rejection {
 pub struct ArmStatus {
     pub q: Vec<f64>,
     pub qdot: Vec<f64>,
+    /// The jaw opening reached (rad), its rate and the controller's effort (N·m).
     pub jaw: f64,
     pub jaw_rate: f64,
+    pub jaw_effort: f64,
+    /// The commanded opening (`jaw/setpoint_js`).
+    pub jaw_setpoint: f64,
     /// Tool frame in the base frame (`measured_cp`; equals `setpoint_cp`).
     pub cp: Isometry3<f64>,
     /// Tool twist in the base frame: linear (m/s), angular (rad/s).
@@ -177,6 +188,13 @@ pub struct ArmSim {
     jaw_rate: f64,
     motion: Motion,
     jaw_motion: Option<(Trajectory, f64)>,
+    /// An effort command replacing the jaw's position servo (`jaw/servo_jf`).
+    jaw_effort: Option<f64>,
+    /// The jaw controller's effort limit (N·m).
+    jaw_effort_max: f64,
+    warned_jaw_effort: bool,
+    /// The jaw as the tool reached it: opening, rate, effort.
+    jaw_measured: Option<(f64, f64, f64)>,
     /// Time of the last `advance`.
     time: f64,
     events: Vec<ArmEvent>,
@@ -214,6 +232,10 @@ impl ArmSim {
             jaw_rate: 0.0,
             motion: Motion::Hold,
             jaw_motion: None,
+            jaw_effort: None,
+            jaw_effort_max: crate::tools::JawGains::default().effort_max,
+            warned_jaw_effort: false,
+            jaw_measured: None,
             time: 0.0,
             events: Vec::new(),
             warned_cf: false,
@@ -256,8 +278,24 @@ impl ArmSim {
         &self.q
     }
 
+    /// The jaw setpoint (rad).
     pub fn jaw(&self) -> f64 {
         self.jaw
+    }
+
+    /// The jaw effort command in force, if any (N·m, within the limit).
+    pub fn jaw_effort(&self) -> Option<f64> {
+        self.jaw_effort
+    }
+
+    /// The effort limit of the jaw controller driving this arm's tool (N·m).
+    pub fn set_jaw_effort_limit(&mut self, limit: f64) {
+        self.jaw_effort_max = limit;
+    }
+
+    /// What the tool's jaws reached this frame: opening (rad), rate (rad/s), effort (N·m).
+    pub fn set_jaw_measured(&mut self, angle: f64, rate: f64, effort: f64) {
+        self.jaw_measured = Some((angle, rate, effort));
     }
 
     /// Events since the last call (operating state changes, error / warning / status text).
@@ -289,11 +327,15 @@ impl ArmSim {
             .jacobian(&self.q)
             .expect("arm joint vector has the chain's length");
         let twist = j * nalgebra::DVector::from_column_slice(&self.qdot);
+        let (jaw, jaw_rate, jaw_effort) =
+            self.jaw_measured.unwrap_or((self.jaw, self.jaw_rate, 0.0));
         ArmStatus {
             q: self.q.clone(),
             qdot: self.qdot.clone(),
-            jaw: self.jaw,
-            jaw_rate: self.jaw_rate,
+            jaw,
+            jaw_rate,
+            jaw_effort,
+            jaw_setpoint: self.jaw,
             cp,
             linear_velocity: Vector3::new(twist[0], twist[1], twist[2]),
             angular_velocity: Vector3::new(twist[3], twist[4], twist[5]),
@@ -424,6 +466,27 @@ impl ArmSim {
                     self.push_state();
                 }
                 self.jaw = jaw[0];
+                self.jaw_effort = None;
+                Ok(())
+            }
+            ArmInput::JawServoJf { names, efforts } => {
+                self.ready()?;
+                let effort = match (names.as_slice(), efforts.as_slice()) {
+                    ([] | [_], [e]) if e.is_finite() && names.iter().all(|n| n == "jaw") => *e,
+                    _ => return Err(ArmError::JawEffort(efforts.clone())),
+                };
+                let limit = self.jaw_effort_max;
+                if effort.abs() > limit && !self.warned_jaw_effort {
+                    self.warned_jaw_effort = true;
+                    self.events.push(ArmEvent::Warning(format!(
+                        "{}: jaw/servo_jf {effort} N·m is beyond the jaw's limit; clamped to ±{limit} N·m",
+                        self.name()
+                    )));
+                }
+                if self.jaw_motion.take().is_some() {
+                    self.push_state();
+                }
+                self.jaw_effort = Some(effort.clamp(-limit, limit));
                 Ok(())
             }
             ArmInput::MoveJp { names, positions } => {
@@ -435,6 +498,7 @@ impl ArmSim {
                 self.ready()?;
                 let goal = self.psm.jaw().validate(names, positions, None)?;
                 let trajectory = self.psm.plan_move_jaw(self.jaw, goal[0])?;
+                self.jaw_effort = None;
                 let was_busy = self.is_busy();
                 self.jaw_motion = Some((trajectory, now));
                 if !was_busy {
@@ -487,6 +551,7 @@ impl ArmSim {
             let mut v = [jaw];
             self.psm.jaw().clamp(&mut v);
             self.jaw = v[0];
+            self.jaw_effort = None;
         }
     }
 

@@ -156,6 +156,11 @@ impl FrameLoop {
             if let Err(e) = self.setup.world.command_tool_pose(tool, arm.tool_pose()) {
                 tracing::error!("{}: {e}", arm.name());
             }
+            if self.setup.world.tools()[tool].jaw().is_some() {
+                if let Err(e) = self.setup.world.command_jaw_effort(tool, arm.jaw_effort()) {
+                    tracing::error!("{}: {e}", arm.name());
+                }
+            }
             for event in arm.take_events() {
                 self.event(a, event);
             }
@@ -182,6 +187,11 @@ impl FrameLoop {
         }
         let report = self.setup.world.finish_frame();
         let wall = began.elapsed();
+        for (arm, &tool) in self.setup.arms.iter_mut().zip(&self.setup.arm_tools) {
+            if let Some(jaw) = self.setup.world.tools()[tool].jaw() {
+                arm.set_jaw_measured(jaw.angle, jaw.rate, jaw.effort);
+            }
+        }
         if let Err(e) = &report {
             if let Some(line) = self.log.admit("guard", &e.to_string()) {
                 tracing::error!("{line}");

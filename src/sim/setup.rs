@@ -186,7 +186,7 @@ pub fn build_setup(scene: &Scene) -> Result<SimSetup, SetupError> {
     let mut arm_tools = Vec::new();
     for (index, arm) in scene.arms.iter().enumerate() {
         let psm = load_psm(index, arm)?;
-        let sim = ArmSim::new(
+        let mut sim = ArmSim::new(
             psm,
             arm.mode,
             arm_base(arm),
@@ -197,7 +197,6 @@ pub fn build_setup(scene: &Scene) -> Result<SimSetup, SetupError> {
             arm: arm.name.clone(),
             source,
         })?;
-        arms.push(sim);
         let tool = scene
             .tools
             .iter()
@@ -206,6 +205,8 @@ pub fn build_setup(scene: &Scene) -> Result<SimSetup, SetupError> {
                 arm: arm.name.clone(),
                 tool: arm.tool.clone(),
             })?;
+        sim.set_jaw_effort_limit(scene.tools[tool].jaw.effort_max);
+        arms.push(sim);
         arm_tools.push(tool);
     }
     let teleop = match &scene.teleop {

@@ -2,11 +2,14 @@
 //! contact model.
 
 pub mod contact;
+pub mod grip;
+pub mod jaw;
 pub mod pose;
 pub mod sdf;
 pub mod trajectory;
 
 pub use contact::ContactModel;
+pub use jaw::{JawCommand, JawGains, JawServo};
 pub use pose::{ToolPose, ToolVelocity};
 pub use sdf::{SdfHit, Shape};
 pub use trajectory::Trajectory;
@@ -34,6 +37,11 @@ pub struct ToolKinematics {
     /// cell still constrains a full stencil of nodes around it (seed 002 §IV-B); with less,
     /// tissue flows through the wire when it moves sideways.
     pub contact_threshold: f32,
+    /// A gripper's grip ratio this substep (see [`grip`]): negative while its controller
+    /// does not push the jaws closed (nothing is held); otherwise what they pinch is held
+    /// along the jaw normal, and across the faces at this ratio: 1 while friction holds it,
+    /// less when it slips, 0 without squeeze.
+    pub grip: f32,
     pub aabb_min: Vec3,
     pub aabb_max: Vec3,
 }
@@ -72,6 +80,7 @@ impl ToolKinematics {
             jaw: pose.jaw as f32,
             jaw_rate: velocity.jaw_rate as f32,
             contact_threshold,
+            grip: -1.0,
             aabb_min: translation - reach,
             aabb_max: translation + reach,
         }

@@ -112,8 +112,10 @@ impl CpuSolver {
         self.clear_touched_blocks();
         let stress_scale = -input.dt * 4.0 * self.layout.inv_dx * self.layout.inv_dx;
         self.particle_to_grid(Some(stress_scale), self.method.affine_transfer());
-        let tool_impulses = self.update_grid(input);
-        let (max_speed, clamped_particles, guard) = self.grid_to_particle(input.dt, true);
+        let mut tool_impulses = self.update_grid(input);
+        let (max_speed, clamped_particles, guard, grip) =
+            self.grid_to_particle(input.dt, Some(input.tools));
+        add_impulses(&mut tool_impulses, &grip);
         SubstepStats {
             tool_impulses,
             max_speed,
@@ -257,7 +259,10 @@ impl CpuSolver {
                         let ijk = layout.node_coords(b as usize, local);
                         let x = layout.node_position(ijk);
                         let mut v = Vec3::new(node[0], node[1], node[2]) / m + gravity * dt;
-                        v = apply_tools(tools, x, v, m, &mut impulses);
+                        v = match hold_node(tools, x, v, m, &mut impulses) {
+                            Some(held) => held,
+                            None => apply_tools(tools, x, v, m, &mut impulses),
+                        };
                         v = apply_boundary(&layout, &boundary, ijk, x, v);
                         *node = [v.x, v.y, v.z, m];
                     }
@@ -275,11 +280,13 @@ impl CpuSolver {
             )
     }
 
-    /// Gathers velocity and affine velocity. With `integrate` the particles also move, F
-    /// is updated and damping applies (the end of a substep); without it (PB-MPM's inner
-    /// iterations) only v and C are stored.
-    fn grid_to_particle(&mut self, dt: f32, integrate: bool) -> (f32, u32, Option<GuardEvent>) {
+    /// Gathers velocity and affine velocity. With `integrate` (the substep's tools) the
+    /// particles also move, F is updated, damping and the grippers' grip apply (the end of a
+    /// substep); without it (PB-MPM's inner iterations) only v and C are stored.
+    fn grid_to_particle(&mut self, dt: f32, integrate: Option<&[ToolKinematics]>) -> G2pStats {
         let layout = self.layout;
+        let tools = integrate.unwrap_or(&[]);
+        let integrate = integrate.is_some();
         let grid = &self.grid[..];
         let materials = &self.materials[..];
         let max_speed_limit = self.max_speed;
@@ -293,10 +300,19 @@ impl CpuSolver {
             .zip(parts.c.par_chunks_mut(CHUNK))
             .zip(parts.f.par_chunks_mut(CHUNK))
             .zip(parts.material.par_chunks(CHUNK))
+            .zip(parts.mass.par_chunks(CHUNK))
             .enumerate()
             .fold(
-                || (0.0f32, 0u32, None::<GuardEvent>),
-                |(mut max_speed, mut clamped, mut guard), (chunk, ((((xs, vs), cs), fs), mats))| {
+                || {
+                    (
+                        0.0f32,
+                        0u32,
+                        None::<GuardEvent>,
+                        [ToolImpulse::default(); MAX_TOOLS],
+                    )
+                },
+                |(mut max_speed, mut clamped, mut guard, mut grip),
+                 (chunk, (((((xs, vs), cs), fs), mats), masses))| {
                     for i in 0..xs.len() {
                         let x0 = xs[i];
                         let g = (x0 - layout.origin) * layout.inv_dx;
@@ -330,6 +346,8 @@ impl CpuSolver {
                         let c_new = b * (4.0 * layout.inv_dx);
                         let (mut g_new, mut f_new) = (g, fs[i]);
                         if integrate {
+                            // Pinched particles move with the jaws that hold them.
+                            v = apply_grip(tools, x0, v, masses[i], &mut grip);
                             g_new += v * (dt * layout.inv_dx);
                             let inside = g_new.sup(&lo).inf(&hi);
                             if inside != g_new {
@@ -370,14 +388,87 @@ impl CpuSolver {
                             fs[i] = f_new;
                         }
                     }
-                    (max_speed, clamped, guard)
+                    (max_speed, clamped, guard, grip)
                 },
             )
             .reduce(
-                || (0.0, 0, None),
-                |a, b| (a.0.max(b.0), a.1 + b.1, GuardEvent::first(a.2, b.2)),
+                || (0.0, 0, None, [ToolImpulse::default(); MAX_TOOLS]),
+                |mut a, b| {
+                    add_impulses(&mut a.3, &b.3);
+                    (a.0.max(b.0), a.1 + b.1, GuardEvent::first(a.2, b.2), a.3)
+                },
             )
     }
+}
+
+/// G2P's results: the largest speed, the particles clamped to the domain, the guard's
+/// first event, and per tool the grip's impulses and sums.
+type G2pStats = (f32, u32, Option<GuardEvent>, [ToolImpulse; MAX_TOOLS]);
+
+fn add_impulses(acc: &mut [ToolImpulse; MAX_TOOLS], more: &[ToolImpulse; MAX_TOOLS]) {
+    for (a, b) in acc.iter_mut().zip(more) {
+        a.add(b);
+    }
+}
+
+/// The grip of every gripper whose jaws pinch the particle at `x` (see
+/// [`crate::tools::grip`]), recording its sums and the impulse the tool receives. Its
+/// velocity gradient stays the grid's: the nodes inside the jaws are held too
+/// ([`hold_node`]), so it deforms with the jaws inside and with its neighbours at the edge.
+#[inline(always)]
+fn apply_grip(
+    tools: &[ToolKinematics],
+    x: Vec3,
+    mut v: Vec3,
+    m: f32,
+    sums: &mut [ToolImpulse; MAX_TOOLS],
+) -> Vec3 {
+    for (t, tool) in tools.iter().enumerate() {
+        let Some(held) = tool.hold(x, v) else {
+            continue;
+        };
+        let dp = ((v - held.v) * m).cast::<f64>();
+        let arm = (x - tool.translation).cast::<f64>();
+        let s = &mut sums[t];
+        s.linear += dp;
+        s.angular += arm.cross(&dp);
+        s.grip.required += (held.required * m).cast::<f64>();
+        s.grip.mass += m as f64;
+        s.grip.mass_lever += (m * held.lever) as f64;
+        v = held.v;
+    }
+    v
+}
+
+/// A grid node inside the jaws of a gripper that holds (grip ratio ≥ 0) moves with the
+/// jaws as its particles do (see [`crate::tools::grip`]): binding the particles alone
+/// would let them leave the grid field around them, which the rest of the tissue follows,
+/// and tear the grasped piece off. Grid contact does not apply to it.
+#[inline(always)]
+fn hold_node(
+    tools: &[ToolKinematics],
+    x: Vec3,
+    v: Vec3,
+    m: f32,
+    impulses: &mut [ToolImpulse; MAX_TOOLS],
+) -> Option<Vec3> {
+    for (t, tool) in tools.iter().enumerate() {
+        if tool.grip < 0.0 {
+            continue;
+        }
+        let Some(held) = tool.hold(x, v) else {
+            continue;
+        };
+        let dp = ((v - held.v) * m).cast::<f64>();
+        let arm = (x - tool.translation).cast::<f64>();
+        let imp = &mut impulses[t];
+        imp.linear += dp;
+        imp.angular += arm.cross(&dp);
+        imp.contact_nodes += 1;
+        imp.grip.required += (held.required * m).cast::<f64>();
+        return Some(held.v);
+    }
+    None
 }
 
 /// Contact with the nearest tool the node is inside of (seed 000's collision-objects table:
@@ -408,9 +499,17 @@ fn apply_tools(
     let dp = ((v - v_new) * m).cast::<f64>();
     let arm = (x - tool.translation).cast::<f64>();
     let imp = &mut impulses[t];
+    let torque = arm.cross(&dp);
     imp.linear += dp;
-    imp.angular += arm.cross(&dp);
+    imp.angular += torque;
     imp.contact_nodes += 1;
+    if hit.part != 0 {
+        // Jaw k turns by jaw_angle(k, θ) about the hinge (the tool's x axis): the opening θ
+        // takes that share of the torque about it.
+        let hinge = tool.rotation.column(0).into_owned().cast::<f64>();
+        let share = crate::tools::sdf::jaw_angle(hit.part, 1.0) as f64;
+        imp.jaw_opening += share * torque.dot(&hinge);
+    }
     v_new
 }
 

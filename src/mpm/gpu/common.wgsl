@@ -387,3 +387,37 @@ fn apply_boundary(ijk: vec3<u32>, x: vec3<f32>, v_in: vec3<f32>) -> vec3<f32> {
     }
     return v;
 }
+
+// Adds to an f32 kept as bits in an atomic word (no float atomics needed).
+fn stats_add_f32(i: u32, v: f32) {
+    var old = atomicLoad(&stats[i]);
+    loop {
+        let r = atomicCompareExchangeWeak(&stats[i], old, bitcast<u32>(bitcast<f32>(old) + v));
+        if (r.exchanged) {
+            break;
+        }
+        old = r.old_value;
+    }
+}
+
+// Distance from the hinge when `x` is pinched between gripper `t`'s jaws (ToolKinematics::
+// pinch in tools/grip.rs), negative when it is not.
+fn pinch(t: Tool, x: vec3<f32>) -> f32 {
+    if (t.kind.x != 3u || !in_aabb(t, x)) {
+        return -1.0;
+    }
+    let p = transpose(t.rot) * (x - t.trans.xyz);
+    let len = t.shape.x;
+    let thickness = t.shape.z;
+    if (abs(p.x) > 0.5 * t.shape.y) {
+        return -1.0;
+    }
+    let in1 = rotate_x(p, -jaw_angle(1u, t.lin.w));
+    let in2 = rotate_x(p, -jaw_angle(2u, t.lin.w));
+    let along = in1.z >= 0.0 && in1.z <= len && in2.z >= 0.0 && in2.z <= len;
+    if (in1.y <= thickness && in2.y >= -thickness && along) {
+        return sqrt(p.y * p.y + p.z * p.z);
+    }
+    return -1.0;
+}
+

