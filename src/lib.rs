@@ -12,6 +12,7 @@ pub mod config;
 pub mod mpm;
 pub mod output;
 pub mod robot;
+pub mod rod;
 pub mod ros;
 pub mod sim;
 pub mod sleep;

@@ -571,11 +571,12 @@ impl World {
         if !to.is_finite() {
             return Err(CommandError::NonFinitePose(tool.name.clone()));
         }
-        if let (Some(jaws), Some(held)) = (&mut tool.jaws, from) {
-            *jaws = Jaws::new(jaws.servo.gains, held.jaw);
-        }
         if let Some(jaws) = &mut tool.jaws {
-            jaws.effort = None;
+            match from {
+                // Held: the jaws are where the pose says.
+                Some(held) => *jaws = Jaws::new(jaws.servo.gains, held.jaw),
+                None => jaws.effort = None,
+            }
         }
         let from = from.unwrap_or_else(|| tool.setpoint_at(time));
         tool.driver = ToolDriver::Commanded {

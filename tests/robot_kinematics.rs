@@ -287,3 +287,36 @@ fn dvrk_model_layouts_give_the_dh_tool_frame() {
         );
     }
 }
+
+/// A `.urdf.xacro` in dvrk_model's package layout, expanded by PyPI's xacro (the venv
+/// `.ci/run` makes) with `$(find dvrk_model)` resolved through the scene's `dvrk_model`
+/// folder: the arm it describes has the DH tool frame.
+#[test]
+fn a_dvrk_model_xacro_expands_with_pypi_xacro_and_gives_the_dh_tool_frame() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let xacro = root.join(".venv/bin/xacro");
+    if !xacro.exists() {
+        let reason = format!("{} is not installed (.ci/run installs it)", xacro.display());
+        assert!(std::env::var_os("CI").is_none(), "CI is set but {reason}");
+        eprintln!("SKIPPED: {reason}");
+        return;
+    }
+    let text = dvrk_tissue_sim::robot::urdf::expand_xacro(
+        xacro.to_str().unwrap(),
+        &root.join("tests/urdf/PSM1.urdf.xacro"),
+        Some(&root.join("tests/urdf/dvrk_model")),
+    )
+    .unwrap();
+    let robot = dvrk_tissue_sim::robot::urdf::parse_urdf(&text).unwrap();
+    let psm = Psm::from_urdf(robot, "PSM1").unwrap();
+    let (dp, dr) = tool_frame_disagreement(&psm, 500);
+    println!("expanded xacro: tool frame within {dp:.3e} m, {dr:.3e} rad of DH and psm.urdf");
+    assert!(dp < 1e-6 && dr < 1e-6, "{dp:e} m, {dr:e} rad");
+    // Without the package folder, ROS 2's xacro cannot resolve $(find dvrk_model).
+    let unresolved = dvrk_tissue_sim::robot::urdf::expand_xacro(
+        xacro.to_str().unwrap(),
+        &root.join("tests/urdf/PSM1.urdf.xacro"),
+        None,
+    );
+    assert!(unresolved.is_err());
+}

@@ -127,6 +127,11 @@ fn rclpy_teleop_follows_at_scale_and_holds_while_clutched() {
 }
 
 #[test]
+fn rclpy_jaw_servo_and_effort_commands_follow_dvrk() {
+    rclpy_test("test_jaw.py", "tests/ros/scenes/gripper.toml", 20);
+}
+
+#[test]
 fn rclpy_bad_input_is_rejected_and_node_keeps_publishing() {
     rclpy_test("test_bad_input.py", SMALL, 15);
 }

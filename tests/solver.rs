@@ -318,3 +318,41 @@ fn pic_reference_dissipates_the_spin_that_apic_keeps() {
     assert!(apic > 0.95, "APIC kept {apic} of the spin");
     assert!(pic < 0.8 * apic, "PIC kept {pic} of the spin, APIC {apic}");
 }
+
+/// The jaw's effort limit against the tissue: closing with a weak controller, the jaws stop
+/// where the block's reaction about the hinge (from the momentum the jaws exchange with it)
+/// balances the limit; with the tool moved off the block the same command closes them.
+#[test]
+fn weak_jaws_stop_on_the_tissue_and_close_on_air() {
+    let closing = |over_block: bool| {
+        let mut scene = grasp_scene();
+        let tool = &mut scene.tools[0];
+        // A weak jaw that still closes on air at 2 rad/s (effort over damping).
+        tool.jaw.effort_max = 2e-4;
+        tool.jaw.d_gain = 1e-4;
+        for k in &mut tool.keyframes {
+            k.jaw_deg = if k.t > 0.25 { -20.0 } else { 70.0 };
+            k.position[2] = 0.0135;
+            if !over_block {
+                k.position[0] = 0.012;
+            }
+        }
+        let mut world = World::new(&scene);
+        while world.time() < 1.2 {
+            world.step_frame().unwrap();
+        }
+        let jaw = *world.tools()[0].jaw().unwrap();
+        (jaw.angle, jaw.effort)
+    };
+    let (on_block, effort) = closing(true);
+    let (on_air, _) = closing(false);
+    assert!(
+        (effort + 2e-4).abs() < 1e-12,
+        "saturated closing effort: {effort}"
+    );
+    assert!(on_air == 0.0, "on air the jaws meet: {on_air} rad");
+    assert!(
+        on_block > 0.1,
+        "the block holds the weak jaws open: {on_block} rad"
+    );
+}

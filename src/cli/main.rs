@@ -2,8 +2,10 @@
 //! `check`, `bench`); the benchmarks and the stress matrix live here, beside the commands
 //! that print them, not in the library.
 
+mod bag;
 mod bench;
 mod check;
+mod dds_log;
 mod run;
 mod scene_args;
 mod snapshot;
@@ -42,9 +44,13 @@ enum Command {
     /// scenes × solver settings × backends × resolutions, printed as a table and written as
     /// CSV, Markdown and a PNG plot; exits non-zero if an error exceeds its bound.
     Bench(bench::BenchArgs),
+    /// Bag tools: `bag recover IN OUT` rebuilds a readable bag from one a killed run left.
+    Bag(bag::BagArgs),
 }
 
 fn main() {
+    use tracing_subscriber::layer::SubscriberExt;
+    use tracing_subscriber::util::SubscriberInitExt;
     tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| {
@@ -52,6 +58,8 @@ fn main() {
             }),
         )
         .with_writer(std::io::stderr)
+        .finish()
+        .with(dds_log::KeepLastRepairNoise)
         .init();
     if let Err(e) = dispatch(Cli::parse()) {
         eprintln!("error: {e:#}");
@@ -66,5 +74,6 @@ fn dispatch(cli: Cli) -> Result<()> {
         Command::Stress(args) => stress::run(args),
         Command::Check(args) => check::run(args),
         Command::Bench(args) => bench::run(args),
+        Command::Bag(args) => bag::run(args),
     }
 }

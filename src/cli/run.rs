@@ -5,6 +5,7 @@ use crate::scene_args::SolverOverrides;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use dvrk_tissue_sim::output::snapshot::{SnapshotOptions, SnapshotSchedule};
+use dvrk_tissue_sim::output::TissueSurface;
 use dvrk_tissue_sim::ros;
 use dvrk_tissue_sim::sim::{headless, FrameLoop, SimSetup};
 use dvrk_tissue_sim::world::World;
@@ -42,9 +43,15 @@ pub struct RunArgs {
     #[arg(long, default_value = "snapshots")]
     snapshot_dir: PathBuf,
     /// Record the node's outputs and the inputs it applied to this rosbag2-compatible
-    /// MCAP file (finished on Ctrl-C and at the end of --seconds).
+    /// MCAP file (finished on Ctrl-C and at the end of --seconds); with --headless, the
+    /// scripted run's outputs at the scene's rates in simulated time.
     #[arg(long, value_name = "OUT.mcap")]
     record: Option<PathBuf>,
+    /// Close a chunk of the --record bag, synced to disk, at least every S simulated
+    /// seconds: a killed run or a power loss loses at most that span (`bag recover` reads
+    /// the rest back).
+    #[arg(long, value_name = "S", default_value_t = ros::recorder::DEFAULT_CHUNK_SECONDS)]
+    record_chunk: f64,
     /// Drive the arms from the inputs of a bag written by --record, each at the frame it
     /// was applied originally (the input topics are not subscribed); runs until the bag's
     /// end unless --seconds is given. With --headless: no network, as fast as it computes.
@@ -54,12 +61,6 @@ pub struct RunArgs {
 
 pub fn run(args: RunArgs) -> Result<()> {
     let snapshots = snapshot_schedule(args.snapshot_every, args.snapshot_dir)?;
-    if args.headless && args.replay.is_none() && args.record.is_some() {
-        bail!(
-            "--record in a headless run needs --replay: the scripted headless run \
-             has no ROS inputs or outputs to record (run as a node, or replay a bag)"
-        );
-    }
     if args.headless && args.replay.is_none() {
         return run_headless(
             &args.scene,
@@ -67,6 +68,7 @@ pub fn run(args: RunArgs) -> Result<()> {
             args.print_every.max(1),
             &args.solver,
             snapshots,
+            args.record.as_deref().map(|path| (path, args.record_chunk)),
         );
     }
     let path = args.scene;
@@ -77,6 +79,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         seconds: args.seconds,
         snapshots,
         record: args.record,
+        record_chunk: args.record_chunk,
         replay: args.replay,
     };
     if args.headless {
@@ -122,6 +125,7 @@ fn run_headless(
     print_every: u32,
     solver: &SolverOverrides,
     snapshots: Option<SnapshotSchedule>,
+    record: Option<(&Path, f64)>,
 ) -> Result<()> {
     let scene = solver.load(path)?;
     let world = World::try_new(&scene).context("choosing the solver backend")?;
@@ -145,6 +149,10 @@ fn run_headless(
         .unwrap_or_default();
     let mut setup = SimSetup::scripted(world);
     setup.snapshots = snapshots;
+    let recorder = match record {
+        None => None,
+        Some((bag, chunk_every)) => Some(attach_recorder(&mut setup, &scene, bag, chunk_every)?),
+    };
     let mut sim = FrameLoop::new(setup, None);
     let start = Instant::now();
     let mut total_substeps: u64 = 0;
@@ -230,5 +238,35 @@ fn run_headless(
         "summary: tissue centre of mass ({:.4}, {:.4}, {:.4}) m, highest particle z {top:.4} m",
         com.x, com.y, com.z
     );
+    // The recorder's writer ends once the loop, which holds its sending end, is gone.
+    drop(sim);
+    if let Some(recorder) = recorder {
+        println!("summary: recorded {}", recorder.finish()?);
+    }
     Ok(())
+}
+
+/// Records a scripted run's outputs (tools' wrenches, /tf, tissue cloud and surface, at the
+/// scene's rates in simulated time) to `bag`, as the node would publish them.
+fn attach_recorder(
+    setup: &mut SimSetup,
+    scene: &dvrk_tissue_sim::config::Scene,
+    bag: &Path,
+    chunk_every: f64,
+) -> Result<ros::recorder::Recorder> {
+    let outputs = &scene.outputs;
+    setup.surface = Some(
+        TissueSurface::new(
+            outputs.surface,
+            setup.world.particles(),
+            scene.domain.dx as f32,
+            outputs.points_scalar,
+        )
+        .context("tissue surface for the recording")?,
+    );
+    let layout = ros::outputs::OutputLayout::new(scene, setup, "/");
+    let (recorder, tap) = ros::recorder::Recorder::create(bag, layout, chunk_every)?;
+    setup.recorder = Some(Box::new(tap));
+    println!("recording to {}", bag.display());
+    Ok(recorder)
 }

@@ -253,7 +253,8 @@ pub struct Arm {
     #[serde(default = "default_arm_urdf")]
     pub urdf: String,
     /// The dvrk_model package folder, for `$(find dvrk_model)` when `urdf` is a `.urdf.xacro`
-    /// (expanded by the `xacro` command; otherwise ROS_PACKAGE_PATH or a sourced workspace).
+    /// (expanded by the `xacro` command on a copy with it resolved; without it, xacro resolves
+    /// it from a sourced ROS workspace).
     #[serde(default)]
     pub dvrk_model: Option<String>,
     /// The URDF link at the remote centre of motion (default: `<arm>_base`, `<arm>_base_link`

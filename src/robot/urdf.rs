@@ -27,8 +27,9 @@ pub enum UrdfError {
     },
     #[error(
         "cannot expand {path}: the `{program}` command is not installed ({source}). Expand it \
-         yourself, e.g. `xacro {path} > PSM1.urdf` (xacro from PyPI or ROS, with dvrk_model on \
-         ROS_PACKAGE_PATH or in a sourced ROS workspace), and point `urdf =` at the .urdf"
+         yourself, e.g. `xacro {path} > PSM1.urdf` (xacro from PyPI or ROS, with dvrk_model in a \
+         sourced ROS workspace, or the scene's `dvrk_model` key set), and point `urdf =` at \
+         the .urdf"
     )]
     XacroMissing {
         path: PathBuf,
@@ -75,9 +76,14 @@ pub fn load_urdf(path: &Path, dvrk_model: Option<&Path>) -> Result<urdf_rs::Robo
     })
 }
 
-/// Runs `program` (the `xacro` command) on `path` and returns the URDF it prints. `$(find
-/// dvrk_model)` is resolved by xacro from ROS_PACKAGE_PATH (or a sourced ROS 2 workspace);
-/// `dvrk_model`, the package's folder, is put in front of ROS_PACKAGE_PATH.
+/// Runs `program` (the `xacro` command) on `path` and returns the URDF it prints.
+///
+/// `$(find dvrk_model)`: with `dvrk_model` (the package's folder) given, the package's `.xacro`
+/// and `.urdf` files (and `path`, when it lies outside the package) are copied to a
+/// temporary folder with every `$(find dvrk_model)` replaced by that copy's path, and xacro
+/// runs on the copy. ROS 1's xacro would find the package on ROS_PACKAGE_PATH, but ROS 2's
+/// (the PyPI one among them) resolves `$(find)` through the ament index only, which a plain
+/// folder is not in. Without `dvrk_model`, xacro resolves it itself (a sourced workspace).
 pub fn expand_xacro(
     program: &str,
     path: &Path,
@@ -89,23 +95,26 @@ pub fn expand_xacro(
             source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
         });
     }
-    let mut command = std::process::Command::new(program);
-    command.arg(path);
-    if let Some(package) = dvrk_model {
-        let parent = package.parent().unwrap_or(package);
-        let mut paths = vec![parent.to_owned()];
-        if let Some(existing) = std::env::var_os("ROS_PACKAGE_PATH") {
-            paths.extend(std::env::split_paths(&existing));
+    let copy = match dvrk_model {
+        Some(package) => {
+            Some(
+                PackageCopy::new(package, path).map_err(|source| UrdfError::Read {
+                    path: package.to_owned(),
+                    source,
+                })?,
+            )
         }
-        if let Ok(joined) = std::env::join_paths(paths) {
-            command.env("ROS_PACKAGE_PATH", joined);
-        }
-    }
-    let output = command.output().map_err(|source| UrdfError::XacroMissing {
-        path: path.to_owned(),
-        program: program.to_owned(),
-        source,
-    })?;
+        None => None,
+    };
+    let input = copy.as_ref().map_or(path, |c| c.input.as_path());
+    let output = std::process::Command::new(program)
+        .arg(input)
+        .output()
+        .map_err(|source| UrdfError::XacroMissing {
+            path: path.to_owned(),
+            program: program.to_owned(),
+            source,
+        })?;
     if !output.status.success() {
         return Err(UrdfError::XacroFailed {
             path: path.to_owned(),
@@ -115,6 +124,81 @@ pub fn expand_xacro(
     }
     tracing::info!("expanded {} with {program}", path.display());
     Ok(String::from_utf8_lossy(&output.stdout).into_owned())
+}
+
+/// A temporary copy of a dvrk_model package's description files with `$(find dvrk_model)`
+/// resolved to the copy, removed when dropped.
+struct PackageCopy {
+    root: PathBuf,
+    /// The file to expand, inside the copy.
+    input: PathBuf,
+}
+
+const FIND_DVRK_MODEL: &str = "$(find dvrk_model)";
+
+impl PackageCopy {
+    fn new(package: &Path, input: &Path) -> std::io::Result<PackageCopy> {
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        static COUNT: AtomicUsize = AtomicUsize::new(0);
+        if !package.is_dir() {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::NotFound,
+                "dvrk_model: not a folder",
+            ));
+        }
+        let root = std::env::temp_dir().join(format!(
+            "dvrk-tissue-sim-xacro-{}-{}",
+            std::process::id(),
+            COUNT.fetch_add(1, Ordering::Relaxed)
+        ));
+        let mut copy = PackageCopy {
+            input: root.join("input.urdf.xacro"),
+            root,
+        };
+        let package_copy = copy.root.join("dvrk_model");
+        copy_resolved(package, &package_copy, &package_copy)?;
+        let package = package.canonicalize()?;
+        let input = input.canonicalize()?;
+        match input.strip_prefix(&package) {
+            Ok(inside) => copy.input = package_copy.join(inside),
+            Err(_) => {
+                let text = std::fs::read_to_string(&input)?;
+                std::fs::write(&copy.input, resolve_find(&text, &package_copy))?;
+            }
+        }
+        Ok(copy)
+    }
+}
+
+impl Drop for PackageCopy {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.root);
+    }
+}
+
+fn resolve_find(text: &str, package: &Path) -> String {
+    text.replace(FIND_DVRK_MODEL, &package.to_string_lossy())
+}
+
+/// Copies the `.xacro` and `.urdf` files under `from` to `to` (meshes are not needed for
+/// kinematics), resolving `$(find dvrk_model)` to `package`.
+fn copy_resolved(from: &Path, to: &Path, package: &Path) -> std::io::Result<()> {
+    std::fs::create_dir_all(to)?;
+    for entry in std::fs::read_dir(from)? {
+        let entry = entry?;
+        let source = entry.path();
+        let target = to.join(entry.file_name());
+        if entry.file_type()?.is_dir() {
+            copy_resolved(&source, &target, package)?;
+        } else if source
+            .extension()
+            .is_some_and(|e| e == "xacro" || e == "urdf")
+        {
+            let text = std::fs::read_to_string(&source)?;
+            std::fs::write(&target, resolve_find(&text, package))?;
+        }
+    }
+    Ok(())
 }
 
 /// Checks that `name` can prefix ROS frame names.
@@ -245,8 +329,15 @@ mod tests {
         let missing = expand_xacro("xacro", Path::new("/nonexistent/PSM1.urdf.xacro"), None);
         assert!(matches!(missing, Err(UrdfError::Read { .. })));
         // `false` stands for a xacro that fails.
-        let failed = expand_xacro("false", &xacro, Some(Path::new("/opt/dvrk_model")));
+        let package = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/urdf/dvrk_model");
+        let failed = expand_xacro("false", &xacro, Some(&package));
         assert!(matches!(failed, Err(UrdfError::XacroFailed { .. })));
+        // A dvrk_model folder that does not exist is named.
+        let no_package = expand_xacro("false", &xacro, Some(Path::new("/nonexistent/dvrk_model")));
+        assert!(
+            matches!(&no_package, Err(UrdfError::Read { path, .. }) if path.ends_with("dvrk_model")),
+            "{no_package:?}"
+        );
     }
 
     #[test]

@@ -462,3 +462,35 @@ mod tests {
         assert_eq!(zero.to_isometry(), Err(PoseError::NotUnit));
     }
 }
+
+/// rosgraph_msgs/Clock: the simulated time, which nodes with `use_sim_time` follow.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Clock {
+    pub clock: Time,
+}
+ros_message!(Clock, "rosgraph_msgs", "Clock");
+
+/// diagnostic_msgs/KeyValue.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct KeyValue {
+    pub key: String,
+    pub value: String,
+}
+
+/// diagnostic_msgs/DiagnosticStatus (`level`: 0 OK, 1 WARN, 2 ERROR, 3 STALE).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct DiagnosticStatus {
+    pub level: u8,
+    pub name: String,
+    pub message: String,
+    pub hardware_id: String,
+    pub values: Vec<KeyValue>,
+}
+
+/// diagnostic_msgs/DiagnosticArray.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct DiagnosticArray {
+    pub header: Header,
+    pub status: Vec<DiagnosticStatus>,
+}
+ros_message!(DiagnosticArray, "diagnostic_msgs", "DiagnosticArray");

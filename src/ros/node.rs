@@ -23,6 +23,8 @@ use crate::ros::msgs::*;
 use crate::ros::names::resolve;
 use crate::ros::outputs::{self, ArmOutput, EventMessage, EventStamps, OutputLayout};
 use crate::ros::session::{finish_recording, prepare, NodeSettings, SessionError};
+use crate::ros::sim_clock::SimClock;
+use crate::ros::status::{backend_and_adapter, Progress, StatusReport};
 use crate::sim::log::RateLimitedLog;
 use crate::sim::thread::{self, SimHandle};
 use crate::sim::{Frame, RecordedInput, SimInput};
@@ -59,6 +61,13 @@ fn event_qos() -> QosProfile {
     QosProfile::publisher_default()
         .durability(Durability::TransientLocal)
         .history(History::KeepLast { depth: 100 })
+}
+
+/// The status: latched (a late subscriber gets the latest), only the latest kept.
+fn status_qos() -> QosProfile {
+    QosProfile::publisher_default()
+        .durability(Durability::TransientLocal)
+        .history(History::KeepLast { depth: 1 })
 }
 
 fn command_qos() -> QosProfile {
@@ -261,6 +270,7 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
         .new_node(node_name, NodeOptions::new().enable_rosout(true))
         .map_err(|e| err("node", e))?;
     let spinner = node.spinner().map_err(|e| err("spinner", e))?;
+    let mut clock = SimClock::start(domain_id, &settings.name, &settings.namespace)?;
 
     let mut topics = Topics {
         node: &mut node,
@@ -308,7 +318,16 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
         wrenches.push(topics.publisher(&format!("tools/{}/wrench", tool.name), periodic_qos())?);
     }
     let tf: Publisher<TFMessage> = topics.publisher("/tf", periodic_qos())?;
+    let status: Publisher<DiagnosticArray> = topics.publisher("sim/status", status_qos())?;
     drop(topics);
+    let (backend, adapter) = backend_and_adapter(&setup.world);
+    let mut status_report = StatusReport::new(&settings.name, &backend, &adapter);
+    status_report.start(Progress {
+        wall: Instant::now(),
+        time: 0.0,
+        frames: 0,
+        substeps: 0,
+    });
 
     let mut sim = thread::spawn(setup);
     tracing::info!(
@@ -367,6 +386,18 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
             io.publish_events(&sim);
             let frame = sim.frames.borrow().clone();
             io.publish_frame(&node, &sim, &frame);
+            clock.publish(&frame);
+            let progress = Progress {
+                wall: Instant::now(),
+                time: frame.time,
+                frames: frame.index,
+                substeps: sim.substeps.load(Ordering::Relaxed),
+            };
+            if let Some(m) = status_report.due(progress) {
+                if let Err(e) = status.publish(m) {
+                    tracing::debug!("sim/status: {e:?}");
+                }
+            }
             if sim.is_finished() {
                 break;
             }
@@ -393,7 +424,11 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
     }
     sim.shutdown();
     if let Some(summary) = finish_recording(recorder)? {
-        tracing::info!("bag finished: {summary}");
+        if summary.stopped.is_some() {
+            tracing::warn!("bag finished early: {summary}");
+        } else {
+            tracing::info!("bag finished: {summary}");
+        }
     }
     Ok(())
 }

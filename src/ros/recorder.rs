@@ -11,10 +11,17 @@
 //!
 //! The file is finished (summary, footer) when the simulation side lets go of it: at the end
 //! of `--seconds`, on Ctrl-C, or on any orderly shutdown.
+//!
+//! Crash safety: the writer closes its chunk at least every `chunk_every` seconds of
+//! simulated time and syncs it to disk, so a killed process or a power loss leaves a file
+//! whose completed chunks a streaming reader (and `bag recover`, [`crate::ros::recover`])
+//! reads back; at most the open chunk is lost. When a write fails (a full disk, a vanished
+//! device) the file is cut back to its last completed chunk and sealed with a footer, so
+//! every standard reader opens what was written; the simulation goes on without recording.
 
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
-use std::io::BufWriter;
+use std::io::{BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender, TrySendError};
@@ -33,15 +40,51 @@ use crate::sim::{Due, FrameRecord, FrameSink};
 /// Frames whose share may wait for the writer; beyond this they are dropped and counted.
 pub const QUEUE_FRAMES: usize = 256;
 
+/// Default longest span of simulated time (s) a killed run can lose from its bag.
+pub const DEFAULT_CHUNK_SECONDS: f64 = 1.0;
+
 #[derive(Debug, thiserror::Error)]
 pub enum RecordError {
-    #[error("cannot create {path}: {source}")]
+    #[error("cannot create {}: {}", path.display(), io_cause(source, path))]
     Create {
         path: PathBuf,
         source: std::io::Error,
     },
-    #[error("{path}: {source}")]
+    #[error("--record-chunk {0}: must be a positive number of simulated seconds")]
+    ChunkSpan(f64),
+    #[error("{}: {source}", path.display())]
     Write { path: PathBuf, source: BagError },
+}
+
+/// What an I/O error means for a bag at `path`, in the user's words (the cause first, then
+/// the system's own text).
+pub fn io_cause(e: &std::io::Error, path: &Path) -> String {
+    use std::io::ErrorKind;
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_owned(),
+        _ => PathBuf::from("."),
+    };
+    let cause = match e.kind() {
+        ErrorKind::StorageFull => "no space left on the device".to_owned(),
+        ErrorKind::QuotaExceeded => "disk quota exceeded".to_owned(),
+        ErrorKind::PermissionDenied => format!("permission denied (writing in {})", dir.display()),
+        ErrorKind::ReadOnlyFilesystem => format!("{} is on a read-only file system", dir.display()),
+        ErrorKind::NotFound if !dir.is_dir() => {
+            format!("the directory {} does not exist", dir.display())
+        }
+        ErrorKind::IsADirectory => "it is a directory".to_owned(),
+        _ => return e.to_string(),
+    };
+    format!("{cause} ({e})")
+}
+
+/// The I/O error behind a bag error, if there is one.
+fn io_error(e: &BagError) -> Option<&std::io::Error> {
+    match e {
+        BagError::Io(e) => Some(e),
+        BagError::Mcap(mcap::McapError::Io(e)) => Some(e),
+        _ => None,
+    }
 }
 
 /// Why the bag could not be written.
@@ -119,6 +162,8 @@ pub struct RecordSummary {
     pub span: f64,
     pub dropped_frames: u64,
     pub dropped_inputs: u64,
+    /// Why recording stopped early (the file then holds what was written before, sealed).
+    pub stopped: Option<String>,
 }
 
 impl std::fmt::Display for RecordSummary {
@@ -134,7 +179,11 @@ impl std::fmt::Display for RecordSummary {
             self.bytes as f64 / 1e6,
             self.dropped_frames,
             self.dropped_inputs
-        )
+        )?;
+        if let Some(why) = &self.stopped {
+            write!(f, "; recording stopped early: {why}")?;
+        }
+        Ok(())
     }
 }
 
@@ -146,25 +195,48 @@ pub struct Recorder {
 }
 
 impl Recorder {
-    /// Creates `path` and starts the writer thread for a scene's `layout`.
-    pub fn create(path: &Path, layout: OutputLayout) -> Result<(Recorder, RecordTap), RecordError> {
-        let file = File::create(path).map_err(|source| RecordError::Create {
+    /// Creates `path` and starts the writer thread for a scene's `layout`; chunks are closed
+    /// (and synced to disk) at least every `chunk_every` simulated seconds.
+    pub fn create(
+        path: &Path,
+        layout: OutputLayout,
+        chunk_every: f64,
+    ) -> Result<(Recorder, RecordTap), RecordError> {
+        if !(chunk_every.is_finite() && chunk_every > 0.0) {
+            return Err(RecordError::ChunkSpan(chunk_every));
+        }
+        let create = |source| RecordError::Create {
             path: path.to_owned(),
             source,
-        })?;
-        let writer = mcap::WriteOptions::new()
+        };
+        let file = File::create(path).map_err(create)?;
+        let synced = file.try_clone().map_err(create)?;
+        let write_error = |e: mcap::McapError| RecordError::Write {
+            path: path.to_owned(),
+            source: e.into(),
+        };
+        let mut writer = mcap::WriteOptions::new()
             .profile("ros2")
             .library(concat!("dvrk-tissue-sim ", env!("CARGO_PKG_VERSION")))
             .create(BufWriter::with_capacity(1 << 20, file))
-            .map_err(|e| RecordError::Write {
-                path: path.to_owned(),
-                source: e.into(),
-            })?;
+            .map_err(write_error)?;
+        // The header on disk now: a full disk shows before the run starts, and a file cut
+        // back to its last chunk has at least its header.
+        writer.flush().map_err(write_error)?;
+        let safe = Safe {
+            bytes: synced.metadata().map_err(create)?.len(),
+            messages: 0,
+            time: 0.0,
+        };
         let (tx, rx) = sync_channel(QUEUE_FRAMES);
         let dropped = Arc::new(Dropped::default());
         let schedule = SimSchedule::new(&layout.rates);
         let bag = Bag {
-            writer,
+            writer: Some(writer),
+            synced,
+            chunk_every,
+            next_chunk_end: chunk_every,
+            safe,
             schemas: HashMap::new(),
             channels: HashMap::new(),
             layout,
@@ -246,8 +318,24 @@ impl Qos {
     }
 }
 
+/// How much of the file is complete on disk: a reader gets this much back whatever happens.
+#[derive(Clone, Copy, Debug)]
+struct Safe {
+    bytes: u64,
+    messages: u64,
+    /// Simulated time (s) through which every message is in.
+    time: f64,
+}
+
 struct Bag {
-    writer: mcap::Writer<BufWriter<File>>,
+    /// `None` once writing failed.
+    writer: Option<mcap::Writer<BufWriter<File>>>,
+    /// The same file, to sync completed chunks to disk.
+    synced: File,
+    chunk_every: f64,
+    /// Simulated time (s) at which the open chunk is closed.
+    next_chunk_end: f64,
+    safe: Safe,
     schemas: HashMap<String, u16>,
     /// Channel id and next sequence number per topic.
     channels: HashMap<String, (u16, u32)>,
@@ -259,6 +347,46 @@ struct Bag {
 }
 
 impl Bag {
+    fn writer(&mut self) -> Result<&mut mcap::Writer<BufWriter<File>>, BagError> {
+        self.writer.as_mut().ok_or(BagError::Finished)
+    }
+
+    /// Closes the open chunk once its span reaches `chunk_every` at simulated time `t`.
+    fn close_chunk_if_due(&mut self, t: f64) -> Result<(), BagError> {
+        if t + 1e-9 < self.next_chunk_end {
+            return Ok(());
+        }
+        self.writer()?.flush()?;
+        self.synced.sync_data()?;
+        self.safe = Safe {
+            bytes: self.synced.metadata()?.len(),
+            messages: self.messages,
+            time: t,
+        };
+        while self.next_chunk_end <= t + 1e-9 {
+            self.next_chunk_end += self.chunk_every;
+        }
+        tracing::debug!(
+            "bag chunk closed: {} messages through t = {:.3} s on disk ({} bytes)",
+            self.safe.messages,
+            self.safe.time,
+            self.safe.bytes
+        );
+        Ok(())
+    }
+
+    /// After a failed write: drops the writer, cuts the file back to its last completed
+    /// chunk and seals it (data end, footer, magic) so that every reader opens it.
+    fn seal_after_failure(&mut self) -> std::io::Result<()> {
+        // Dropping tries to finish the file; whatever that appends is cut off below.
+        drop(self.writer.take());
+        let file = &mut self.synced;
+        file.set_len(self.safe.bytes)?;
+        file.seek(SeekFrom::Start(self.safe.bytes))?;
+        file.write_all(&sealing_tail())?;
+        file.sync_data()
+    }
+
     fn channel(&mut self, topic: &str, type_name: &str, qos: Qos) -> Result<(u16, u32), BagError> {
         if let Some(entry) = self.channels.get_mut(topic) {
             let current = *entry;
@@ -271,14 +399,16 @@ impl Bag {
                 let text = schema::ros2msg(type_name)
                     .ok_or_else(|| BagError::NoSchema(type_name.to_owned()))?;
                 let id = self
-                    .writer
+                    .writer()?
                     .add_schema(type_name, "ros2msg", text.as_bytes())?;
                 self.schemas.insert(type_name.to_owned(), id);
                 id
             }
         };
         let metadata = BTreeMap::from([("offered_qos_profiles".to_owned(), qos.yaml())]);
-        let id = self.writer.add_channel(schema, topic, "cdr", &metadata)?;
+        let id = self
+            .writer()?
+            .add_channel(schema, topic, "cdr", &metadata)?;
         self.channels.insert(topic.to_owned(), (id, 2));
         Ok((id, 1))
     }
@@ -292,7 +422,7 @@ impl Bag {
         cdr: &[u8],
     ) -> Result<(), BagError> {
         let (channel_id, sequence) = self.channel(topic, type_name, qos)?;
-        self.writer.write_to_known_channel(
+        self.writer()?.write_to_known_channel(
             &mcap::records::MessageHeader {
                 channel_id,
                 sequence,
@@ -404,8 +534,24 @@ impl Bag {
                 self.write("tissue/surface", Qos::Periodic, end, &m)?;
             }
         }
-        Ok(())
+        self.close_chunk_if_due(frame.time)
     }
+}
+
+/// What ends an MCAP file without a summary section: a Data End record (no data CRC), a
+/// Footer pointing at no summary, and the closing magic.
+fn sealing_tail() -> Vec<u8> {
+    let mut tail = Vec::with_capacity(13 + 29 + 8);
+    tail.push(0x0f); // Data End
+    tail.extend_from_slice(&4u64.to_le_bytes());
+    tail.extend_from_slice(&0u32.to_le_bytes());
+    tail.push(0x02); // Footer
+    tail.extend_from_slice(&20u64.to_le_bytes());
+    tail.extend_from_slice(&0u64.to_le_bytes()); // summary start: none
+    tail.extend_from_slice(&0u64.to_le_bytes()); // summary offset start: none
+    tail.extend_from_slice(&0u32.to_le_bytes()); // summary CRC: not computed
+    tail.extend_from_slice(mcap::MAGIC);
+    tail
 }
 
 fn write_all(
@@ -414,29 +560,49 @@ fn write_all(
     path: PathBuf,
     dropped: &Dropped,
 ) -> Result<RecordSummary, BagError> {
-    let mut failed: Option<BagError> = None;
+    let mut stopped: Option<String> = None;
     // Ends when the simulation side lets go of its sender.
     for record in rx {
-        if failed.is_some() {
+        if stopped.is_some() {
             continue;
         }
         if let Err(e) = bag.write_record(record) {
-            tracing::error!(
-                "recording {}: {e}; nothing more is recorded",
-                path.display()
-            );
-            failed = Some(e);
+            let cause = match io_error(&e) {
+                Some(io) => io_cause(io, &path),
+                None => e.to_string(),
+            };
+            let kept = bag.safe;
+            match bag.seal_after_failure() {
+                Ok(()) => tracing::error!(
+                    "recording to {} stopped: {cause}; the simulation goes on unrecorded. The \
+                     bag keeps the {} messages through t = {:.3} s simulated, readable",
+                    path.display(),
+                    kept.messages,
+                    kept.time
+                ),
+                Err(seal) => tracing::error!(
+                    "recording to {} stopped: {cause}; the simulation goes on unrecorded. \
+                     Sealing the file failed too ({}): `bag recover` reads back the {} \
+                     messages through t = {:.3} s simulated",
+                    path.display(),
+                    io_cause(&seal, &path),
+                    kept.messages,
+                    kept.time
+                ),
+            }
+            bag.messages = kept.messages;
+            bag.last = bag.last.min(nanos(kept.time));
+            stopped = Some(format!(
+                "{cause} at t = {:.3} s simulated; {} messages kept",
+                kept.time, kept.messages
+            ));
         }
     }
-    let finished = bag.writer.finish().map_err(BagError::from);
-    let flushed = finished.and_then(|_| {
-        use std::io::Write;
-        bag.writer.into_inner().flush().map_err(BagError::from)
-    });
-    if let Some(e) = failed {
-        return Err(e);
+    if stopped.is_none() {
+        let mut writer = bag.writer.take().ok_or(BagError::Finished)?;
+        writer.finish()?;
+        writer.into_inner().flush()?;
     }
-    flushed?;
     let bytes = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
     let summary = RecordSummary {
         path,
@@ -446,8 +612,9 @@ fn write_all(
         span: bag.last.saturating_sub(bag.first.unwrap_or(0)) as f64 * 1e-9,
         dropped_frames: dropped.frames.load(Ordering::Relaxed),
         dropped_inputs: dropped.inputs.load(Ordering::Relaxed),
+        stopped,
     };
-    if summary.dropped_frames > 0 {
+    if summary.dropped_frames > 0 || summary.stopped.is_some() {
         tracing::warn!("recorded {summary}");
     } else {
         tracing::info!("recorded {summary}");

@@ -36,6 +36,15 @@ pub enum ReplayError {
         path: PathBuf,
         source: std::io::Error,
     },
+    #[error(
+        "{} was never finished (its run was killed, or lost power): \
+         `dvrk-tissue-sim bag recover {} OUT.mcap` rebuilds a readable bag from its completed \
+         chunks; replay that ({source})", path.display(), path.display()
+    )]
+    Unfinished {
+        path: PathBuf,
+        source: mcap::McapError,
+    },
     #[error("{path} is not a readable MCAP file: {source}")]
     Corrupt {
         path: PathBuf,
@@ -98,9 +107,18 @@ pub fn load(
     let mut end = 0u64;
     let mut messages = 0u64;
     for (index, message) in mcap::io::MessageReader::new(BufReader::new(file)).enumerate() {
-        let message = message.map_err(|source| ReplayError::Corrupt {
-            path: path.to_owned(),
-            source,
+        let message = message.map_err(|source| {
+            if crate::ros::recover::is_unfinished(path).unwrap_or(false) {
+                ReplayError::Unfinished {
+                    path: path.to_owned(),
+                    source,
+                }
+            } else {
+                ReplayError::Corrupt {
+                    path: path.to_owned(),
+                    source,
+                }
+            }
         })?;
         messages += 1;
         end = end.max(message.log_time);

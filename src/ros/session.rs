@@ -29,6 +29,8 @@ pub struct NodeSettings {
     pub snapshots: Option<SnapshotSchedule>,
     /// Record inputs and outputs to this MCAP file.
     pub record: Option<PathBuf>,
+    /// Longest span of simulated time (s) between two chunks of the bag closed on disk.
+    pub record_chunk: f64,
     /// Drive the arms from this bag's inputs (the input topics are not subscribed).
     pub replay: Option<PathBuf>,
 }
@@ -79,7 +81,7 @@ pub fn prepare(
     let recorder = match &settings.record {
         None => None,
         Some(path) => {
-            let (recorder, tap) = Recorder::create(path, layout)?;
+            let (recorder, tap) = Recorder::create(path, layout, settings.record_chunk)?;
             setup.recorder = Some(Box::new(tap));
             tracing::info!("recording to {}", path.display());
             Some(recorder)

@@ -4,7 +4,7 @@
 //! never queues them). Commands come in through a bounded channel; when it is full a command
 //! is dropped with a log line rather than blocking the network side.
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender, TryRecvError, TrySendError};
 use std::sync::Arc;
 use std::thread::JoinHandle;
@@ -32,6 +32,8 @@ pub struct SimHandle {
     pub points_wanted: Arc<AtomicBool>,
     /// Set while someone subscribes to the surface.
     pub surface_wanted: Arc<AtomicBool>,
+    /// Substeps taken so far (for the node's status).
+    pub substeps: Arc<AtomicU64>,
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
 }
@@ -91,15 +93,17 @@ pub fn spawn(setup: SimSetup) -> SimHandle {
         surface: Arc::new(AtomicBool::new(false)),
     };
     let stop = Arc::new(AtomicBool::new(false));
+    let substeps = Arc::new(AtomicU64::new(0));
     let frames = FrameLoop::new(setup, Some(event_tx));
     let first = Arc::new(frames.current());
     let (frame_tx, frame_rx) = watch::channel(first);
     let thread = {
         let wanted = wanted.clone();
         let stop = stop.clone();
+        let substeps = substeps.clone();
         std::thread::Builder::new()
             .name("simulation".into())
-            .spawn(move || run(frames, input_rx, frame_tx, &wanted, &stop))
+            .spawn(move || run(frames, input_rx, frame_tx, &wanted, &substeps, &stop))
             .expect("cannot start the simulation thread")
     };
     SimHandle {
@@ -108,6 +112,7 @@ pub fn spawn(setup: SimSetup) -> SimHandle {
         events: event_rx,
         points_wanted: wanted.points,
         surface_wanted: wanted.surface,
+        substeps,
         stop,
         thread: Some(thread),
     }
@@ -118,11 +123,13 @@ fn run(
     inputs: Receiver<Received>,
     latest: watch::Sender<Arc<Frame>>,
     wanted: &WantedFlags,
+    substeps: &AtomicU64,
     stop: &AtomicBool,
 ) {
     let period = Duration::from_secs_f64(frames.world().frame_dt());
     let mut deadline = Instant::now();
-    let mut lagging_since: Option<Instant> = None;
+    // Since when (wall clock, simulated time) frames have been late.
+    let mut lagging_since: Option<(Instant, f64)> = None;
     // A finished frame whose tissue outputs are still to be built: while the simulation runs
     // behind real time, they are built during the next frame's GPU work instead of before it.
     let mut held: Option<Finished> = None;
@@ -142,6 +149,9 @@ fn run(
             frames.step(received.drain(..), wanted.load(), held.take(), |frame| {
                 latest.send_replace(frame);
             });
+        if let Ok(report) = &stepped.report {
+            substeps.fetch_add(report.substeps as u64, Ordering::Relaxed);
+        }
         if let Some(snapshot) = stepped.snapshot {
             frames.log_snapshot(snapshot);
         }
@@ -162,17 +172,32 @@ fn run(
             held = Some(finished);
             // Slower than real time: carry on at full speed, without trying to catch up.
             deadline = now;
-            let since = *lagging_since.get_or_insert(now);
-            if now.duration_since(since) > Duration::from_secs(10) {
+            let time = frames.world().time();
+            let (since, from) = *lagging_since.get_or_insert((now, time));
+            let wall = now.duration_since(since);
+            if wall > Duration::from_secs(10) {
                 tracing::info!(
-                    "simulation runs slower than real time (t = {:.3} s simulated)",
-                    frames.world().time()
+                    "simulation runs {} over the last {:.0} s (t = {time:.3} s simulated)",
+                    slower_than_real_time((time - from) / wall.as_secs_f64()),
+                    wall.as_secs_f64()
                 );
-                lagging_since = Some(now);
+                lagging_since = Some((now, time));
             }
         }
     }
     if let Some(h) = held {
         latest.send_replace(frames.finish(h));
+    }
+}
+
+/// "slower than real time: 0.050× (1 s simulated takes 20.0 s)" for a real-time factor.
+pub fn slower_than_real_time(factor: f64) -> String {
+    if factor > 0.0 {
+        format!(
+            "slower than real time: {factor:.3}× (1 s simulated takes {:.1} s)",
+            1.0 / factor
+        )
+    } else {
+        "slower than real time: simulated time stands still".to_owned()
     }
 }

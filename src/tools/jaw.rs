@@ -93,7 +93,7 @@ impl JawServo {
     /// Advances the jaw by `dt` under `command` against `tissue_torque` (N·m, positive
     /// pushes the jaws apart).
     pub fn update(&mut self, command: JawCommand, tissue_torque: f64, dt: f64) {
-        if !(dt > 0.0) {
+        if dt.is_nan() || dt <= 0.0 {
             return;
         }
         let g = self.gains;

@@ -10,6 +10,7 @@ pub mod skip;
 pub mod stress;
 pub mod surface;
 pub mod sweep;
+pub mod thread;
 pub mod throughput;
 
 use crate::scene_args::{scene_value, SolverOverrides};
@@ -46,6 +47,13 @@ pub enum BenchCommand {
     },
     /// Error of the scenes with analytic answers at a few resolutions.
     Accuracy,
+    /// The suture thread swinging from one fixed end: ms/frame and elongation at 40–1000
+    /// segments, one core.
+    Thread {
+        /// Frames to run each thread (60 Hz).
+        #[arg(long, default_value_t = 60)]
+        frames: u32,
+    },
     /// What a scene does not need costs nothing: resting tissue asleep against stepped, the
     /// same tissue in a 4× larger domain, tools parked out of reach against none.
     Skip {
@@ -147,6 +155,14 @@ pub fn run(args: BenchArgs) -> Result<()> {
             let result = surface::run(&loaded, seconds, every)
                 .with_context(|| format!("surface bench on {}", scene.display()))?;
             print!("{}", result.table());
+            Ok(())
+        }
+        BenchCommand::Thread { frames } => {
+            let frames = frames.max(1);
+            print!(
+                "{}",
+                thread::table(&thread::run(&thread::SEGMENTS, frames), frames)
+            );
             Ok(())
         }
         BenchCommand::Accuracy => {

@@ -1,0 +1,72 @@
+//! `bench thread`: a 15 cm 3-0 nylon thread released from horizontal, swinging from one fixed
+//! end under gravity (seed 001's length test), at 40, 100, 400 and 1000 segments on one core:
+//! ms per 60 Hz frame with the solver's default settings, and the largest elongation of the
+//! centreline over the run (the material's own strain here is ≈ 1e-6, tension of a few
+//! thread weights over EA, so the figure is the solver's error).
+
+use dvrk_tissue_sim::mpm::Vec3;
+use dvrk_tissue_sim::rod::solver::RodSolverSettings;
+use dvrk_tissue_sim::rod::{Rod, RodSolver, ThreadMaterial};
+use std::time::Instant;
+
+pub const SEGMENTS: [usize; 4] = [40, 100, 400, 1000];
+const FRAME_DT: f32 = 1.0 / 60.0;
+
+pub struct ThreadRow {
+    pub segments: usize,
+    pub ms_per_frame: f64,
+    pub mean_substeps: f64,
+    pub elongation: f32,
+}
+
+pub fn run(segments: &[usize], frames: u32) -> Vec<ThreadRow> {
+    segments
+        .iter()
+        .map(|&n| {
+            let mut rod = Rod::straight(
+                ThreadMaterial::nylon_3_0(),
+                Vec3::new(0.0, 0.0, 0.3),
+                Vec3::x(),
+                0.15,
+                n,
+            );
+            rod.pin_point(0);
+            let rest = rod.rest_length();
+            let mut solver = RodSolver::new(
+                &rod,
+                RodSolverSettings::default(),
+                Vec3::new(0.0, 0.0, -9.81),
+            );
+            let mut elongation = 0.0f32;
+            let mut substeps = 0u64;
+            let mut wall = 0.0;
+            for _ in 0..frames {
+                substeps += solver.substeps_for(&rod, FRAME_DT) as u64;
+                let start = Instant::now();
+                solver.step_frame(&mut rod, FRAME_DT);
+                wall += start.elapsed().as_secs_f64();
+                elongation = elongation.max((rod.length() / rest - 1.0).abs());
+            }
+            ThreadRow {
+                segments: n,
+                ms_per_frame: 1e3 * wall / frames as f64,
+                mean_substeps: substeps as f64 / frames as f64,
+                elongation,
+            }
+        })
+        .collect()
+}
+
+pub fn table(rows: &[ThreadRow], frames: u32) -> String {
+    let mut out = format!(
+        "thread swinging from one fixed end, 15 cm 3-0 nylon, {frames} frames at 60 Hz, one core\n\
+         | segments | ms/frame | substeps/frame | elongation |\n|---|---|---|---|\n"
+    );
+    for r in rows {
+        out += &format!(
+            "| {} | {:.3} | {:.1} | {:.2e} |\n",
+            r.segments, r.ms_per_frame, r.mean_substeps, r.elongation
+        );
+    }
+    out
+}
