@@ -149,15 +149,12 @@ impl Jaws {
 
     /// Coulomb on the grip as a whole: the share of the tangential hold the squeeze can
     /// pay for, from the force holding took over the last frame; negative (no hold) while
-    /// the controller does not push the jaws closed.
+    /// the controller does not press the jaws onto what they closed on.
     fn grip_ratio(&self, shape: Shape, contact: ContactModel) -> f32 {
-        if self.servo.effort >= 0.0 {
+        if !self.servo.pressing() {
             return -1.0;
         }
         let squeeze = self.servo.squeeze();
-        if squeeze <= 0.0 {
-            return 0.0;
-        }
         let friction = match contact {
             ContactModel::Sticky => return 1.0,
             ContactModel::Coulomb { friction, .. } => friction as f64,
@@ -193,6 +190,20 @@ impl WorldTool {
     /// A gripper's jaw state: the opening reached, the controller's effort, the squeeze.
     pub fn jaw(&self) -> Option<&JawServo> {
         self.jaws.as_ref().map(|j| &j.servo)
+    }
+
+    /// What a gripper's grip held over the last frame (zero when it held nothing; see
+    /// [`crate::tools::grip`]).
+    pub fn grip_sums(&self) -> GripSums {
+        self.jaws
+            .as_ref()
+            .map_or_else(GripSums::default, |j| j.sums)
+    }
+
+    /// A gripper's grip ratio for the frame being stepped: negative when it holds nothing,
+    /// 1 when friction holds what it grips, less while that slips.
+    pub fn grip_ratio(&self) -> Option<f32> {
+        self.jaws.as_ref().map(|j| j.grip)
     }
 
     /// Box that every grid node this tool can touch between `t0` and `t1` lies in: its
@@ -825,10 +836,9 @@ impl World {
             }
         } else {
             self.last_max_speed = stats.max_speed;
-            // Tissue a gripper holds is in contact too, though no grid node may touch a jaw.
             let any_contact = stats.tool_impulses[..self.tools.len()]
                 .iter()
-                .any(|i| i.contact_nodes > 0 || i.grip.mass > 0.0);
+                .any(|i| i.contact_nodes > 0);
             self.sleep.observe(
                 &self.params.sleep,
                 stats.max_speed,
@@ -856,9 +866,6 @@ impl World {
         for (tool, imp) in self.tools.iter_mut().zip(impulses) {
             if let Some(jaws) = &mut tool.jaws {
                 jaws.tissue_torque = imp.jaw_opening / elapsed;
-                if std::env::var("DBG_GRIP").is_ok() {
-                    eprintln!("DBG t={:.3} angle={:.3} effort={:.3} squeeze={:.3} grip={:.3} torque={:.2e} mass={:.2e} req={:.2e} lever={:.2e} F={:?}", self.time, jaws.servo.angle, jaws.servo.effort, jaws.servo.squeeze(), jaws.grip, jaws.tissue_torque, imp.grip.mass, imp.grip.required.norm()/elapsed, imp.grip.mass_lever/imp.grip.mass.max(1e-12), imp.linear/elapsed);
-                }
                 jaws.sums = imp.grip;
                 jaws.sums_elapsed = elapsed;
             }

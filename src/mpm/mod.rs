@@ -94,7 +94,7 @@ pub struct ToolImpulse {
     pub grip: GripSums,
 }
 
-/// Sums over the particles pinched between a gripper's jaws.
+/// Sums over the grid nodes a gripper's grip held (see [`crate::tools::grip`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct GripSums {
     /// Momentum change across the jaw faces that holding them in full takes (N·s).

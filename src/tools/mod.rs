@@ -38,10 +38,12 @@ pub struct ToolKinematics {
     /// tissue flows through the wire when it moves sideways.
     pub contact_threshold: f32,
     /// A gripper's grip ratio this substep (see [`grip`]): negative while its controller
-    /// does not push the jaws closed (nothing is held); otherwise what they pinch is held
+    /// does not press the jaws closed (nothing is held); otherwise the grip region is held
     /// along the jaw normal, and across the faces at this ratio: 1 while friction holds it,
-    /// less when it slips, 0 without squeeze.
+    /// less when it slips.
     pub grip: f32,
+    /// How far a gripper's grip region reaches beyond its jaws (one grid cell; see [`grip`]).
+    pub grip_reach: f32,
     pub aabb_min: Vec3,
     pub aabb_max: Vec3,
 }
@@ -81,6 +83,10 @@ impl ToolKinematics {
             jaw_rate: velocity.jaw_rate as f32,
             contact_threshold,
             grip: -1.0,
+            grip_reach: match shape {
+                Shape::Gripper { .. } => dx,
+                _ => 0.0,
+            },
             aabb_min: translation - reach,
             aabb_max: translation + reach,
         }

@@ -112,10 +112,8 @@ impl CpuSolver {
         self.clear_touched_blocks();
         let stress_scale = -input.dt * 4.0 * self.layout.inv_dx * self.layout.inv_dx;
         self.particle_to_grid(Some(stress_scale), self.method.affine_transfer());
-        let mut tool_impulses = self.update_grid(input);
-        let (max_speed, clamped_particles, guard, grip) =
-            self.grid_to_particle(input.dt, Some(input.tools));
-        add_impulses(&mut tool_impulses, &grip);
+        let tool_impulses = self.update_grid(input);
+        let (max_speed, clamped_particles, guard) = self.grid_to_particle(input.dt, true);
         SubstepStats {
             tool_impulses,
             max_speed,
@@ -280,13 +278,11 @@ impl CpuSolver {
             )
     }
 
-    /// Gathers velocity and affine velocity. With `integrate` (the substep's tools) the
-    /// particles also move, F is updated, damping and the grippers' grip apply (the end of a
-    /// substep); without it (PB-MPM's inner iterations) only v and C are stored.
-    fn grid_to_particle(&mut self, dt: f32, integrate: Option<&[ToolKinematics]>) -> G2pStats {
+    /// Gathers velocity and affine velocity. With `integrate` the particles also move, F
+    /// is updated and damping applies (the end of a substep); without it (PB-MPM's inner
+    /// iterations) only v and C are stored.
+    fn grid_to_particle(&mut self, dt: f32, integrate: bool) -> (f32, u32, Option<GuardEvent>) {
         let layout = self.layout;
-        let tools = integrate.unwrap_or(&[]);
-        let integrate = integrate.is_some();
         let grid = &self.grid[..];
         let materials = &self.materials[..];
         let max_speed_limit = self.max_speed;
@@ -300,19 +296,10 @@ impl CpuSolver {
             .zip(parts.c.par_chunks_mut(CHUNK))
             .zip(parts.f.par_chunks_mut(CHUNK))
             .zip(parts.material.par_chunks(CHUNK))
-            .zip(parts.mass.par_chunks(CHUNK))
             .enumerate()
             .fold(
-                || {
-                    (
-                        0.0f32,
-                        0u32,
-                        None::<GuardEvent>,
-                        [ToolImpulse::default(); MAX_TOOLS],
-                    )
-                },
-                |(mut max_speed, mut clamped, mut guard, mut grip),
-                 (chunk, (((((xs, vs), cs), fs), mats), masses))| {
+                || (0.0f32, 0u32, None::<GuardEvent>),
+                |(mut max_speed, mut clamped, mut guard), (chunk, ((((xs, vs), cs), fs), mats))| {
                     for i in 0..xs.len() {
                         let x0 = xs[i];
                         let g = (x0 - layout.origin) * layout.inv_dx;
@@ -346,8 +333,6 @@ impl CpuSolver {
                         let c_new = b * (4.0 * layout.inv_dx);
                         let (mut g_new, mut f_new) = (g, fs[i]);
                         if integrate {
-                            // Pinched particles move with the jaws that hold them.
-                            v = apply_grip(tools, x0, v, masses[i], &mut grip);
                             g_new += v * (dt * layout.inv_dx);
                             let inside = g_new.sup(&lo).inf(&hi);
                             if inside != g_new {
@@ -388,62 +373,19 @@ impl CpuSolver {
                             fs[i] = f_new;
                         }
                     }
-                    (max_speed, clamped, guard, grip)
+                    (max_speed, clamped, guard)
                 },
             )
             .reduce(
-                || (0.0, 0, None, [ToolImpulse::default(); MAX_TOOLS]),
-                |mut a, b| {
-                    add_impulses(&mut a.3, &b.3);
-                    (a.0.max(b.0), a.1 + b.1, GuardEvent::first(a.2, b.2), a.3)
-                },
+                || (0.0, 0, None),
+                |a, b| (a.0.max(b.0), a.1 + b.1, GuardEvent::first(a.2, b.2)),
             )
     }
 }
 
-/// G2P's results: the largest speed, the particles clamped to the domain, the guard's
-/// first event, and per tool the grip's impulses and sums.
-type G2pStats = (f32, u32, Option<GuardEvent>, [ToolImpulse; MAX_TOOLS]);
-
-fn add_impulses(acc: &mut [ToolImpulse; MAX_TOOLS], more: &[ToolImpulse; MAX_TOOLS]) {
-    for (a, b) in acc.iter_mut().zip(more) {
-        a.add(b);
-    }
-}
-
-/// The grip of every gripper whose jaws pinch the particle at `x` (see
-/// [`crate::tools::grip`]), recording its sums and the impulse the tool receives. Its
-/// velocity gradient stays the grid's: the nodes inside the jaws are held too
-/// ([`hold_node`]), so it deforms with the jaws inside and with its neighbours at the edge.
-#[inline(always)]
-fn apply_grip(
-    tools: &[ToolKinematics],
-    x: Vec3,
-    mut v: Vec3,
-    m: f32,
-    sums: &mut [ToolImpulse; MAX_TOOLS],
-) -> Vec3 {
-    for (t, tool) in tools.iter().enumerate() {
-        let Some(held) = tool.hold(x, v) else {
-            continue;
-        };
-        let dp = ((v - held.v) * m).cast::<f64>();
-        let arm = (x - tool.translation).cast::<f64>();
-        let s = &mut sums[t];
-        s.linear += dp;
-        s.angular += arm.cross(&dp);
-        s.grip.required += (held.required * m).cast::<f64>();
-        s.grip.mass += m as f64;
-        s.grip.mass_lever += (m * held.lever) as f64;
-        v = held.v;
-    }
-    v
-}
-
-/// A grid node inside the jaws of a gripper that holds (grip ratio ≥ 0) moves with the
-/// jaws as its particles do (see [`crate::tools::grip`]): binding the particles alone
-/// would let them leave the grid field around them, which the rest of the tissue follows,
-/// and tear the grasped piece off. Grid contact does not apply to it.
+/// The grip of the first gripper that holds the node (see [`crate::tools::grip`]),
+/// recording the impulse the tool receives, the share along the jaw normal that pushes the
+/// jaws apart, and the grip's sums. Grid contact does not apply to a held node.
 #[inline(always)]
 fn hold_node(
     tools: &[ToolKinematics],
@@ -452,23 +394,24 @@ fn hold_node(
     m: f32,
     impulses: &mut [ToolImpulse; MAX_TOOLS],
 ) -> Option<Vec3> {
-    for (t, tool) in tools.iter().enumerate() {
-        if tool.grip < 0.0 {
-            continue;
-        }
-        let Some(held) = tool.hold(x, v) else {
-            continue;
-        };
-        let dp = ((v - held.v) * m).cast::<f64>();
-        let arm = (x - tool.translation).cast::<f64>();
-        let imp = &mut impulses[t];
-        imp.linear += dp;
-        imp.angular += arm.cross(&dp);
-        imp.contact_nodes += 1;
-        imp.grip.required += (held.required * m).cast::<f64>();
-        return Some(held.v);
-    }
-    None
+    let (t, tool, held) = tools
+        .iter()
+        .enumerate()
+        .find_map(|(t, tool)| tool.hold(x, v).map(|held| (t, tool, held)))?;
+    let dp = ((v - held.v) * m).cast::<f64>();
+    let arm = (x - tool.translation).cast::<f64>();
+    let normal = tool.jaw_normal().cast::<f64>();
+    let hinge = tool.rotation.column(0).into_owned().cast::<f64>();
+    let share = crate::tools::sdf::jaw_angle(held.jaw, 1.0) as f64;
+    let imp = &mut impulses[t];
+    imp.linear += dp;
+    imp.angular += arm.cross(&dp);
+    imp.contact_nodes += 1;
+    imp.jaw_opening += share * arm.cross(&(normal * normal.dot(&dp))).dot(&hinge);
+    imp.grip.required += (held.required * m).cast::<f64>();
+    imp.grip.mass += m as f64;
+    imp.grip.mass_lever += (m * held.lever) as f64;
+    Some(held.v)
 }
 
 /// Contact with the nearest tool the node is inside of (seed 000's collision-objects table:

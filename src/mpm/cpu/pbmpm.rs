@@ -34,7 +34,6 @@
 //! takes in each iteration's grid update, summed over the iterations, is the momentum it
 //! exchanged with the tissue during the substep.
 
-use super::add_impulses;
 use super::{CpuSolver, SubstepInput};
 use crate::mpm::material::rotation_of;
 use crate::mpm::{Mat3, MaterialParams, PbMpmParams, SubstepStats, ToolImpulse, Vec3, MAX_TOOLS};
@@ -79,11 +78,7 @@ impl CpuSolver {
             for (acc, imp) in tool_impulses.iter_mut().zip(&impulses) {
                 acc.add(imp);
             }
-            let last = k + 1 == iterations;
-            let (speed, clamped, guard, grip) =
-                self.grid_to_particle(input.dt, last.then_some(input.tools));
-            add_impulses(&mut tool_impulses, &grip);
-            end = (speed, clamped, guard);
+            end = self.grid_to_particle(input.dt, k + 1 == iterations);
             if end.2.is_some() {
                 break;
             }

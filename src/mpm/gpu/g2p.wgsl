@@ -3,19 +3,12 @@
 
 var<workgroup> wg_max: atomic<u32>;
 var<workgroup> wg_clamped: atomic<u32>;
-// The workgroup's grip sums (f32 bits), added to the frame's once per workgroup.
-var<workgroup> wg_grip: array<atomic<u32>, MAX_TOOLS * GRIP_WORDS>;
-var<workgroup> wg_pinched: atomic<u32>;
 
 @compute @workgroup_size(WG)
 fn g2p(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     if (lid == 0u) {
         atomicStore(&wg_max, 0u);
         atomicStore(&wg_clamped, 0u);
-        atomicStore(&wg_pinched, 0u);
-    }
-    for (var i = lid; i < MAX_TOOLS * GRIP_WORDS; i += WG) {
-        atomicStore(&wg_grip[i], 0u);
     }
     workgroupBarrier();
     let p = gid.x;
@@ -30,64 +23,6 @@ fn g2p(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_
             atomicAdd(&stats[S_CLAMPED], c);
         }
     }
-    if (atomicLoad(&wg_pinched) != 0u) {
-        for (var i = lid; i < sim.n_tools * GRIP_WORDS; i += WG) {
-            let sum = bitcast<f32>(atomicLoad(&wg_grip[i]));
-            if (sum != 0.0) {
-                stats_add_f32(S_GRIP + i, sum);
-            }
-        }
-    }
-}
-
-fn wg_add_f32(i: u32, v: f32) {
-    var old = atomicLoad(&wg_grip[i]);
-    loop {
-        let r = atomicCompareExchangeWeak(&wg_grip[i], old, bitcast<u32>(bitcast<f32>(old) + v));
-        if (r.exchanged) {
-            break;
-        }
-        old = r.old_value;
-    }
-}
-
-// The grip of every gripper pinching the particle at `x` (tools/grip.rs `hold` and cpu
-// `apply_grip`): its velocity after the grip, with the sums recorded.
-fn apply_grip(x: vec3<f32>, v_in: vec3<f32>, m: f32) -> vec3<f32> {
-    var v = v_in;
-    for (var t = 0u; t < sim.n_tools; t++) {
-        let tool = tools[st.substep * sim.n_tools + t];
-        let lever = pinch(tool, x);
-        if (lever < 0.0) {
-            continue;
-        }
-        let arm = x - tool.trans.xyz;
-        let dv = tool.lin.xyz + cross(tool.ang.xyz, arm) - v;
-        let normal = tool.rot[1];
-        let along_normal = normal * dot(normal, dv);
-        let required = dv - along_normal;
-        var held = v;
-        if (tool.shape.w >= 0.0) {
-            held = v + along_normal + required * tool.shape.w;
-        }
-        let dp = (v - held) * m;
-        let dl = cross(arm, dp);
-        let at = t * GRIP_WORDS;
-        wg_add_f32(at, dp.x);
-        wg_add_f32(at + 1u, dp.y);
-        wg_add_f32(at + 2u, dp.z);
-        wg_add_f32(at + 3u, dl.x);
-        wg_add_f32(at + 4u, dl.y);
-        wg_add_f32(at + 5u, dl.z);
-        wg_add_f32(at + 6u, required.x * m);
-        wg_add_f32(at + 7u, required.y * m);
-        wg_add_f32(at + 8u, required.z * m);
-        wg_add_f32(at + 9u, m);
-        wg_add_f32(at + 10u, m * lever);
-        atomicStore(&wg_pinched, 1u);
-        v = held;
-    }
-    return v;
 }
 
 fn g2p_particle(p: u32) {
@@ -95,8 +30,7 @@ fn g2p_particle(p: u32) {
     let dt = st.dt;
     let g = grid_pos(part.x.xyz);
     let gathered = gather(g);
-    // Pinched particles move with the jaws that hold them.
-    var v = apply_grip(part.x.xyz, gathered.v, pconst[p].x);
+    var v = gathered.v;
     let c_new = gathered.c;
     var g_new = g + v * (dt * sim.inv_dx);
     let lo = vec3<f32>(1.0);

@@ -17,7 +17,7 @@
 
 use super::grid_update::IMPULSE_WORDS;
 use super::pack::WGSL_STRUCTS;
-use super::readback::{word, GRIP_WORDS};
+use super::readback::word;
 use super::resources::{Binding, ARGS_GROUP};
 use super::WG;
 use crate::mpm::grid::{Node, BLOCK, NODES_PER_BLOCK, WALL_NODES};
@@ -28,14 +28,13 @@ use std::fmt::Write;
 /// The shared declarations for a P2G variant (f32 or i32 fixed-point accumulators).
 fn prelude(float_p2g: bool) -> String {
     let mut out = String::from("// Generated from Rust (src/mpm/gpu/prelude.rs).\n\n");
-    let u32s: [(&str, usize); 8] = [
+    let u32s: [(&str, usize); 7] = [
         ("WG", WG as usize),
         ("BLOCK", BLOCK),
         ("NODES_PER_BLOCK", NODES_PER_BLOCK),
         ("NODE_WORDS", std::mem::size_of::<Node>() / 4),
         ("MAX_TOOLS", MAX_TOOLS),
         ("IMPULSE_WORDS", IMPULSE_WORDS),
-        ("GRIP_WORDS", GRIP_WORDS),
         ("WALL_NODES", WALL_NODES as usize),
     ];
     for (name, value) in u32s {

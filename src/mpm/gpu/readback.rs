@@ -27,13 +27,11 @@ pub mod word {
     pub const GUARD_SPEED: usize = 7;
     /// 3 words.
     pub const GUARD_POS: usize = 8;
-    /// MAX_TOOLS × IMPULSE_WORDS: linear xyz, angular xyz, contact nodes, jaw opening.
+    /// MAX_TOOLS × IMPULSE_WORDS (see `IMPULSE_WORDS`).
     pub const IMPULSE: usize = 16;
-    /// MAX_TOOLS × GRIP_WORDS, f32 sums over pinched particles (see `GRIP_WORDS`).
-    pub const GRIP: usize = IMPULSE + crate::mpm::MAX_TOOLS * super::IMPULSE_WORDS;
 
     /// Names (without the `S_` the shaders prefix) and indices, for the shader prelude.
-    pub const ALL: [(&str, usize); 11] = [
+    pub const ALL: [(&str, usize); 10] = [
         ("GUARD", GUARD),
         ("GUARD_PARTICLE", GUARD_PARTICLE),
         ("MAX_SPEED", MAX_SPEED),
@@ -44,15 +42,10 @@ pub mod word {
         ("GUARD_SPEED", GUARD_SPEED),
         ("GUARD_POS", GUARD_POS),
         ("IMPULSE", IMPULSE),
-        ("GRIP", GRIP),
     ];
 }
 
-/// Words of one tool's grip sums, written by G2P: the impulse the grip gives the tool
-/// (linear xyz, angular xyz), the momentum change holding in full takes (xyz), the pinched
-/// mass and its first moment about the hinge, and one unused.
-pub const GRIP_WORDS: usize = 12;
-pub const STATS_WORDS: usize = word::GRIP + MAX_TOOLS * GRIP_WORDS;
+pub const STATS_WORDS: usize = word::IMPULSE + MAX_TOOLS * IMPULSE_WORDS;
 pub const STATS_BYTES: u64 = 1024;
 /// Bytes per particle of the end-of-frame extract: a position and three F columns, vec4 each.
 pub const EXTRACT_BYTES: usize = 64;
@@ -245,12 +238,9 @@ fn parse_stats(w: &[u32]) -> FrameStats {
         imp.angular = nalgebra::Vector3::new(f(3), f(4), f(5));
         imp.contact_nodes = f(6).round() as u32;
         imp.jaw_opening = f(7);
-        let g = |k: usize| f32::from_bits(w[word::GRIP + t * GRIP_WORDS + k]) as f64;
-        imp.linear += nalgebra::Vector3::new(g(0), g(1), g(2));
-        imp.angular += nalgebra::Vector3::new(g(3), g(4), g(5));
-        imp.grip.required = nalgebra::Vector3::new(g(6), g(7), g(8));
-        imp.grip.mass = g(9);
-        imp.grip.mass_lever = g(10);
+        imp.grip.required = nalgebra::Vector3::new(f(8), f(9), f(10));
+        imp.grip.mass = f(11);
+        imp.grip.mass_lever = f(12);
     }
     if w[word::GUARD] != 0 {
         out.substeps_done = w[word::GUARD] - 1;
