@@ -224,7 +224,7 @@ fn a_dragged_grip_slips_at_friction_times_the_squeeze() {
         }
         history.push((world.time(), pull, normal));
     }
-    let expected = friction * normal_at_peak;
+    let expected = friction as f64 * normal_at_peak;
     let report = format!(
         "pull-out {peak_pull:.4} N, μ × normal force {expected:.4} N (normal {normal_at_peak:.3} N); \
          (t, pull, normal): {:?}",
