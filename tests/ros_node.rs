@@ -133,7 +133,7 @@ fn rclpy_jaw_servo_and_effort_commands_follow_dvrk() {
 
 #[test]
 fn rclpy_grasp_lifts_the_default_liver_and_opening_releases_it() {
-    rclpy_test("test_grasp.py", "config/default.toml", 31);
+    rclpy_test("test_grasp.py", "config/default.toml", 61);
 }
 
 #[test]
@@ -142,7 +142,7 @@ fn teleop_demo_grasps_lifts_and_releases_the_liver() {
     if let Some(out) = rclpy_test(
         "../../launch-scripts/teleop_demo.py",
         "config/teleop.toml",
-        41,
+        62,
     ) {
         assert!(out.contains("lifted: the grasped tissue rose"), "{out}");
     }
