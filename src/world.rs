@@ -9,6 +9,7 @@ use crate::mpm::cpu::CpuSolver;
 use crate::mpm::gpu::{self, GpuError, GpuSolver};
 use crate::mpm::grid::{Boundary, GridLayout, TableHold};
 use crate::mpm::guard::{GuardEvent, GuardPolicy};
+use crate::mpm::GripSums;
 use crate::mpm::{
     timestep, Lame, MaterialParams, Method, Particles, PbMpmParams, SolverSetup, Vec3,
 };
@@ -106,7 +107,7 @@ pub struct WorldTool {
     jaws: Option<Jaws>,
 }
 
-/// A gripper's jaws between frames (see [`crate::tools::jaw`]).
+/// A gripper's jaws between frames (see [`crate::tools::jaw`] and [`crate::tools::grip`]).
 #[derive(Clone, Debug)]
 struct Jaws {
     servo: JawServo,
@@ -116,6 +117,11 @@ struct Jaws {
     span: (f64, f64, f64, f64),
     /// Generalised force of the tissue on the opening over the last frame (N·m).
     tissue_torque: f64,
+    /// What the grip measured over the last frame, and that frame's length.
+    sums: GripSums,
+    sums_elapsed: f64,
+    /// Grip ratio for the frame being stepped.
+    grip: f32,
 }
 
 impl Jaws {
@@ -125,6 +131,9 @@ impl Jaws {
             effort: None,
             span: (0.0, angle, 0.0, angle),
             tissue_torque: 0.0,
+            sums: GripSums::default(),
+            sums_elapsed: 0.0,
+            grip: -1.0,
         }
     }
 
@@ -137,6 +146,40 @@ impl Jaws {
             a1
         }
     }
+
+    /// Coulomb on the grip as a whole: the share of the tangential hold the squeeze can
+    /// pay for, from the force holding took over the last frame; negative (no hold) while
+    /// the controller does not press the jaws onto what they closed on.
+    fn grip_ratio(&self, shape: Shape, contact: ContactModel) -> f32 {
+        if !self.servo.pressing() {
+            return -1.0;
+        }
+        let squeeze = self.servo.squeeze();
+        let friction = match contact {
+            ContactModel::Sticky => return 1.0,
+            ContactModel::Coulomb { friction, .. } => friction as f64,
+        };
+        let Shape::Gripper { jaw_length, .. } = shape else {
+            return 0.0;
+        };
+        let lever = if self.sums.mass > 0.0 {
+            self.sums.mass_lever / self.sums.mass
+        } else {
+            0.5 * jaw_length as f64
+        }
+        .max(1e-4);
+        let capacity = friction * 2.0 * squeeze / lever;
+        let needed = if self.sums_elapsed > 0.0 {
+            self.sums.required.norm() / self.sums_elapsed
+        } else {
+            0.0
+        };
+        if needed <= capacity {
+            1.0
+        } else {
+            (capacity / needed) as f32
+        }
+    }
 }
 
 impl WorldTool {
@@ -147,6 +190,20 @@ impl WorldTool {
     /// A gripper's jaw state: the opening reached, the controller's effort, the squeeze.
     pub fn jaw(&self) -> Option<&JawServo> {
         self.jaws.as_ref().map(|j| &j.servo)
+    }
+
+    /// What a gripper's grip held over the last frame (zero when it held nothing; see
+    /// [`crate::tools::grip`]).
+    pub fn grip_sums(&self) -> GripSums {
+        self.jaws
+            .as_ref()
+            .map_or_else(GripSums::default, |j| j.sums)
+    }
+
+    /// A gripper's grip ratio for the frame being stepped: negative when it holds nothing,
+    /// 1 when friction holds what it grips, less while that slips.
+    pub fn grip_ratio(&self) -> Option<f32> {
+        self.jaws.as_ref().map(|j| j.grip)
     }
 
     /// Box that every grid node this tool can touch between `t0` and `t1` lies in: its
@@ -569,11 +626,12 @@ impl World {
         Ok(())
     }
 
-    /// Moves every gripper's jaws over the frame [t_start, t_end] under their command,
-    /// against the tissue's torque of the last frame.
+    /// Moves every gripper's jaws over the frame [t_start, t_end] against the tissue's
+    /// torque of the last frame, and sets the grip ratio the frame steps with.
     fn advance_jaws(&mut self, t_start: f64, t_end: f64) {
         for tool in &mut self.tools {
             let setpoint = tool.setpoint_at(t_end).jaw;
+            let (shape, contact) = (tool.shape, tool.contact);
             let Some(jaws) = &mut tool.jaws else {
                 continue;
             };
@@ -585,6 +643,7 @@ impl World {
             jaws.servo
                 .update(command, jaws.tissue_torque, t_end - t_start);
             jaws.span = (t_start, start, t_end, jaws.servo.angle);
+            jaws.grip = jaws.grip_ratio(shape, contact);
         }
     }
 
@@ -715,13 +774,9 @@ impl World {
                 let from = tool.pose_at(t0);
                 let to = tool.pose_at(t0 + dt);
                 let velocity = ToolVelocity::between(&from, &to, dt);
-                self.kinematics.push(ToolKinematics::new(
-                    tool.shape,
-                    tool.contact,
-                    &from,
-                    &velocity,
-                    dx,
-                ));
+                let mut k = ToolKinematics::new(tool.shape, tool.contact, &from, &velocity, dx);
+                k.grip = tool.jaws.as_ref().map_or(-1.0, |j| j.grip);
+                self.kinematics.push(k);
             }
         }
         PlannedFrame {
@@ -811,6 +866,8 @@ impl World {
         for (tool, imp) in self.tools.iter_mut().zip(impulses) {
             if let Some(jaws) = &mut tool.jaws {
                 jaws.tissue_torque = imp.jaw_opening / elapsed;
+                jaws.sums = imp.grip;
+                jaws.sums_elapsed = elapsed;
             }
         }
         Ok(report)

@@ -290,6 +290,66 @@ fn gpu_grasp_positions_and_wrench_agree_with_cpu_fixed_point() {
     grasp_agrees(P2gAtomics::Fixed, 5e-5);
 }
 
+/// The grip (jaws pressed closed with dVRK's effort, see tools/grip.rs) holding a block
+/// through a lift: positions, the wrench, the jaw opening the servo reaches from the
+/// tissue's torque, and the grip's sums, frame by frame.
+fn grip_agrees(p2g: P2gAtomics, position_tolerance: f32) {
+    if !gpu_ready(p2g) {
+        return;
+    }
+    // dVRK's jaw closes 70° in about 0.7 s at its effort limit.
+    let mut scene = dvrk_tissue_sim::config::builders::grasp_scene(0.1, 0.8, 1.1, 0.005);
+    for key in &mut scene.tools[0].keyframes[2..] {
+        key.jaw_deg = -20.0;
+    }
+    let mut cpu = on(&scene, BackendChoice::Cpu, p2g);
+    let mut gpu = on(&scene, BackendChoice::Gpu, p2g);
+    let (mut worst_force, mut peak, mut worst_jaw, mut held_frames) = (0.0f64, 0.0f64, 0.0f64, 0);
+    while cpu.time() < 1.1 {
+        let rc = cpu.step_frame().unwrap();
+        let rg = gpu.step_frame().unwrap();
+        assert_eq!(rc.substeps, rg.substeps);
+        peak = peak.max(rc.wrenches[0].force.norm());
+        worst_force = worst_force.max((rc.wrenches[0].force - rg.wrenches[0].force).norm());
+        let (jc, jg) = (cpu.tools()[0].jaw().unwrap(), gpu.tools()[0].jaw().unwrap());
+        worst_jaw = worst_jaw.max((jc.angle - jg.angle).abs());
+        let (gc, gg) = (cpu.tools()[0].grip_sums(), gpu.tools()[0].grip_sums());
+        if gc.mass > 0.0 {
+            held_frames += 1;
+            assert!(
+                (gc.mass - gg.mass).abs() <= 0.02 * gc.mass,
+                "held mass {gc:?} {gg:?}"
+            );
+            assert!(
+                (gc.required - gg.required).norm() <= 0.02 * gc.required.norm() + 1e-9,
+                "required {gc:?} {gg:?}"
+            );
+        }
+    }
+    let diff = max_position_difference(&cpu, &gpu);
+    println!(
+        "{p2g:?}: grip position difference {diff:e} m; force difference {worst_force:e} N of \
+         peak {peak:e} N; jaw {worst_jaw:e} rad; {held_frames} frames held"
+    );
+    assert!(held_frames > 10, "the grip held for {held_frames} frames");
+    assert!(diff < position_tolerance, "positions differ by {diff} m");
+    assert!(
+        worst_force < 0.02 * peak,
+        "force differs by {worst_force} N"
+    );
+    assert!(worst_jaw < 1e-3, "jaw openings differ by {worst_jaw} rad");
+}
+
+#[test]
+fn gpu_grip_agrees_with_cpu_f32_atomics() {
+    grip_agrees(P2gAtomics::Float, 2e-5);
+}
+
+#[test]
+fn gpu_grip_agrees_with_cpu_fixed_point() {
+    grip_agrees(P2gAtomics::Fixed, 5e-5);
+}
+
 fn hertz_agrees(p2g: P2gAtomics) {
     if !gpu_ready(p2g) {
         return;

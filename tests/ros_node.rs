@@ -132,6 +132,23 @@ fn rclpy_jaw_servo_and_effort_commands_follow_dvrk() {
 }
 
 #[test]
+fn rclpy_grasp_lifts_the_default_liver_and_opening_releases_it() {
+    rclpy_test("test_grasp.py", "config/default.toml", 61);
+}
+
+#[test]
+fn teleop_demo_grasps_lifts_and_releases_the_liver() {
+    // The demo exits non-zero when nothing was lifted; it prints what it lifted.
+    if let Some(out) = rclpy_test(
+        "../../launch-scripts/teleop_demo.py",
+        "config/teleop.toml",
+        62,
+    ) {
+        assert!(out.contains("lifted: the grasped tissue rose"), "{out}");
+    }
+}
+
+#[test]
 fn rclpy_bad_input_is_rejected_and_node_keeps_publishing() {
     rclpy_test("test_bad_input.py", SMALL, 15);
 }

@@ -80,16 +80,28 @@ pub struct SolverSetup {
 pub const MAX_TOOLS: usize = 8;
 
 /// Linear and angular impulse (N·s, N·m·s) a tool received during one substep, world frame,
-/// angular part about the tool frame origin.
+/// angular part about the tool frame origin; for a gripper also the jaws' share and what
+/// its grip measured (see [`crate::tools::grip`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ToolImpulse {
     pub linear: nalgebra::Vector3<f64>,
     pub angular: nalgebra::Vector3<f64>,
     /// Grid nodes this tool touched.
     pub contact_nodes: u32,
-    /// Angular impulse on a gripper's jaw opening from contact with its jaws (N·m·s;
-    /// positive pushes them apart).
+    /// Angular impulse on the jaw opening from contact with the jaws (N·m·s; positive
+    /// pushes them apart).
     pub jaw_opening: f64,
+    pub grip: GripSums,
+}
+
+/// Sums over the grid nodes a gripper's grip held (see [`crate::tools::grip`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct GripSums {
+    /// Momentum change across the jaw faces that holding them in full takes (N·s).
+    pub required: nalgebra::Vector3<f64>,
+    /// Pinched mass (kg) and its first moment about the hinge (kg·m).
+    pub mass: f64,
+    pub mass_lever: f64,
 }
 
 impl ToolImpulse {
@@ -98,6 +110,9 @@ impl ToolImpulse {
         self.angular += other.angular;
         self.contact_nodes += other.contact_nodes;
         self.jaw_opening += other.jaw_opening;
+        self.grip.required += other.grip.required;
+        self.grip.mass += other.grip.mass;
+        self.grip.mass_lever += other.grip.mass_lever;
     }
 }
 

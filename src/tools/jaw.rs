@@ -141,6 +141,14 @@ impl JawServo {
         let closing_motion = (-self.rate).max(0.0) * self.gains.d_gain;
         (-self.effort - closing_motion).max(0.0)
     }
+
+    /// Whether the controller presses the jaws onto something that has stopped them: its
+    /// closing effort is at least a tenth of the limit (a command to close, not the small
+    /// effort that holds an open jaw against the tissue it rests on) and at least half of
+    /// it goes into the squeeze. The grip holds while it does (see [`crate::tools::grip`]).
+    pub fn pressing(&self) -> bool {
+        self.effort <= -0.1 * self.gains.effort_max && self.squeeze() >= -0.5 * self.effort
+    }
 }
 
 #[cfg(test)]

@@ -2,6 +2,7 @@
 //! contact model.
 
 pub mod contact;
+pub mod grip;
 pub mod jaw;
 pub mod pose;
 pub mod sdf;
@@ -36,6 +37,13 @@ pub struct ToolKinematics {
     /// cell still constrains a full stencil of nodes around it (seed 002 §IV-B); with less,
     /// tissue flows through the wire when it moves sideways.
     pub contact_threshold: f32,
+    /// A gripper's grip ratio this substep (see [`grip`]): negative while its controller
+    /// does not press the jaws closed (nothing is held); otherwise the grip region is held
+    /// along the jaw normal, and across the faces at this ratio: 1 while friction holds it,
+    /// less when it slips.
+    pub grip: f32,
+    /// How far a gripper's grip region reaches beyond its jaws (one grid cell; see [`grip`]).
+    pub grip_reach: f32,
     pub aabb_min: Vec3,
     pub aabb_max: Vec3,
 }
@@ -74,6 +82,11 @@ impl ToolKinematics {
             jaw: pose.jaw as f32,
             jaw_rate: velocity.jaw_rate as f32,
             contact_threshold,
+            grip: -1.0,
+            grip_reach: match shape {
+                Shape::Gripper { .. } => dx,
+                _ => 0.0,
+            },
             aabb_min: translation - reach,
             aabb_max: translation + reach,
         }

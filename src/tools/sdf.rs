@@ -73,7 +73,7 @@ pub fn jaw_angle(part: u8, opening: f32) -> f32 {
 }
 
 #[inline(always)]
-fn rotate_x(p: Vec3, angle: f32) -> Vec3 {
+pub fn rotate_x(p: Vec3, angle: f32) -> Vec3 {
     let (s, c) = angle.sin_cos();
     Vec3::new(p.x, c * p.y - s * p.z, s * p.y + c * p.z)
 }

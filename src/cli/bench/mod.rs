@@ -55,9 +55,10 @@ pub enum BenchCommand {
         frames: u32,
     },
     /// What a scene does not need costs nothing: resting tissue asleep against stepped, the
-    /// same tissue in a 4× larger domain, tools parked out of reach against none.
+    /// same tissue in a 4× larger domain, tools parked out of reach against none; and what
+    /// the grip costs while it holds the default scene's liver up.
     Skip {
-        /// Timed frames per case.
+        /// Timed frames per case (at most 15 for the grip cases: the hold lasts 0.3 s).
         #[arg(long, default_value_t = 10)]
         frames: u32,
         /// Solver backend (`cpu`, `gpu` or `auto`).

@@ -257,7 +257,10 @@ impl CpuSolver {
                         let ijk = layout.node_coords(b as usize, local);
                         let x = layout.node_position(ijk);
                         let mut v = Vec3::new(node[0], node[1], node[2]) / m + gravity * dt;
-                        v = apply_tools(tools, x, v, m, &mut impulses);
+                        v = match hold_node(tools, x, v, m, &mut impulses) {
+                            Some(held) => held,
+                            None => apply_tools(tools, x, v, m, &mut impulses),
+                        };
                         v = apply_boundary(&layout, &boundary, ijk, x, v);
                         *node = [v.x, v.y, v.z, m];
                     }
@@ -378,6 +381,37 @@ impl CpuSolver {
                 |a, b| (a.0.max(b.0), a.1 + b.1, GuardEvent::first(a.2, b.2)),
             )
     }
+}
+
+/// The grip of the first gripper that holds the node (see [`crate::tools::grip`]),
+/// recording the impulse the tool receives, the share along the jaw normal that pushes the
+/// jaws apart, and the grip's sums. Grid contact does not apply to a held node.
+#[inline(always)]
+fn hold_node(
+    tools: &[ToolKinematics],
+    x: Vec3,
+    v: Vec3,
+    m: f32,
+    impulses: &mut [ToolImpulse; MAX_TOOLS],
+) -> Option<Vec3> {
+    let (t, tool, held) = tools
+        .iter()
+        .enumerate()
+        .find_map(|(t, tool)| tool.hold(x, v).map(|held| (t, tool, held)))?;
+    let dp = ((v - held.v) * m).cast::<f64>();
+    let arm = (x - tool.translation).cast::<f64>();
+    let normal = tool.jaw_normal().cast::<f64>();
+    let hinge = tool.rotation.column(0).into_owned().cast::<f64>();
+    let share = crate::tools::sdf::jaw_angle(held.jaw, 1.0) as f64;
+    let imp = &mut impulses[t];
+    imp.linear += dp;
+    imp.angular += arm.cross(&dp);
+    imp.contact_nodes += 1;
+    imp.jaw_opening += share * arm.cross(&(normal * normal.dot(&dp))).dot(&hinge);
+    imp.grip.required += (held.required * m).cast::<f64>();
+    imp.grip.mass += m as f64;
+    imp.grip.mass_lever += (m * held.lever) as f64;
+    Some(held.v)
 }
 
 /// Contact with the nearest tool the node is inside of (seed 000's collision-objects table:

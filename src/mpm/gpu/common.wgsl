@@ -387,3 +387,27 @@ fn apply_boundary(ijk: vec3<u32>, x: vec3<f32>, v_in: vec3<f32>) -> vec3<f32> {
     }
     return v;
 }
+
+// Gripper `t`'s grip region at `x` (ToolKinematics::grip_region in tools/grip.rs): x the
+// distance from the hinge and y the jaw on whose side it is (1 or 2); x < 0 outside it.
+// The region reaches one grid cell beyond the jaws (the CPU's `grip_reach`).
+fn grip_region(t: Tool, x: vec3<f32>) -> vec2<f32> {
+    let outside = vec2<f32>(-1.0, 0.0);
+    if (t.kind.x != 3u || !in_aabb(t, x)) {
+        return outside;
+    }
+    let reach = sim.origin_dx.w;
+    let p = transpose(t.rot) * (x - t.trans.xyz);
+    let len = t.shape.x + reach;
+    let thickness = t.shape.z + reach;
+    if (abs(p.x) > 0.5 * t.shape.y + reach) {
+        return outside;
+    }
+    let in1 = rotate_x(p, -jaw_angle(1u, t.lin.w));
+    let in2 = rotate_x(p, -jaw_angle(2u, t.lin.w));
+    let along = in1.z >= 0.0 && in1.z <= len && in2.z >= 0.0 && in2.z <= len;
+    if (in1.y <= thickness && in2.y >= -thickness && along) {
+        return vec2<f32>(sqrt(p.y * p.y + p.z * p.z), select(2.0, 1.0, p.y >= 0.0));
+    }
+    return outside;
+}

@@ -8,17 +8,18 @@ use crate::mpm::MAX_TOOLS;
 
 // One workgroup a block, one invocation a node.
 const _: () = assert!(WG as usize == NODES_PER_BLOCK);
-// A block's workgroup reduces its contact sums with one invocation per (tool, word), and
-// `reduce_impulses` is one workgroup of that size.
-const _: () = assert!(MAX_TOOLS * IMPULSE_WORDS == NODES_PER_BLOCK);
+// `reduce_impulses` is one workgroup of one invocation per (tool, word): within the
+// 256 invocations a workgroup may have on every adapter.
+const _: () = assert!(MAX_TOOLS * IMPULSE_WORDS <= 256);
 
 /// The stage's WGSL (after the prelude, `common.wgsl` and the P2G variant).
 pub const SOURCE: &str = include_str!("grid_update.wgsl");
 
 /// Words of one tool's impulse sums (linear xyz, angular xyz, contact nodes, angular impulse
-/// on a gripper's jaw opening), in the grid update's per-block partials and in the frame
-/// statistics.
-pub const IMPULSE_WORDS: usize = 8;
+/// on a gripper's jaw opening, the grip's sums: required momentum xyz, held mass, its first
+/// moment about the hinge; three unused), in the grid update's per-block partials and in
+/// the frame statistics.
+pub const IMPULSE_WORDS: usize = 16;
 
 pub struct GridUpdateStage {
     grid_update: wgpu::ComputePipeline,

@@ -28,15 +28,50 @@ fn grid_update(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_
     var dp = vec3<f32>(0.0);
     var dl = vec3<f32>(0.0);
     var jaw_opening = 0.0;
+    var grip = vec3<f32>(0.0);
+    var grip_mass = 0.0;
+    var grip_lever = 0.0;
     if (m > 0.0) {
         let ijk = node_coords(b, lid);
         let x = sim.origin_dx.xyz + vec3<f32>(ijk) * sim.origin_dx.w;
         let p = vec3<f32>(acc_load_p(at_node), acc_load_p(at_node + 1u), acc_load_p(at_node + 2u));
         var v = p / m + st.gravity.xyz * st.dt;
+        // The grip of the first gripper that holds the node (cpu `hold_node`).
+        var held = false;
+        for (var t = 0u; t < sim.n_tools && !held; t++) {
+            let tool = tools[st.substep * sim.n_tools + t];
+            if (tool.shape.w < 0.0) {
+                continue;
+            }
+            let region = grip_region(tool, x);
+            if (region.x < 0.0) {
+                continue;
+            }
+            let arm = x - tool.trans.xyz;
+            let dv = tool.lin.xyz + cross(tool.ang.xyz, arm) - v;
+            let normal = tool.rot[1];
+            let along_normal = normal * dot(normal, dv);
+            let required = dv - along_normal;
+            let v_held = v + along_normal + required * tool.shape.w;
+            dp = (v - v_held) * m;
+            dl = cross(arm, dp);
+            jaw_opening = jaw_angle(u32(region.y), 1.0)
+                * dot(cross(arm, normal * dot(normal, dp)), tool.rot[0]);
+            grip = required * m;
+            grip_mass = m;
+            grip_lever = m * region.x;
+            v = v_held;
+            hit_tool = t;
+            held = true;
+            atomicAdd(&wg_contacts, 1u);
+        }
         // Nearest tool the node is inside of.
         var best_depth = 0.0;
         var best_hit: Hit;
         for (var t = 0u; t < sim.n_tools; t++) {
+            if (held) {
+                break;
+            }
             let tool = tools[st.substep * sim.n_tools + t];
             if (!in_aabb(tool, x)) {
                 continue;
@@ -48,7 +83,7 @@ fn grid_update(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_
                 best_hit = hit;
             }
         }
-        if (hit_tool != NO_TOOL) {
+        if (hit_tool != NO_TOOL && !held) {
             let tool = tools[st.substep * sim.n_tools + hit_tool];
             let v_tool = surface_velocity(tool, x, best_hit.part);
             let v_new = resolve(tool.kind.y == 1u, tool.aabb_min.w, tool.aabb_max.w, v, v_tool,
@@ -77,6 +112,14 @@ fn grid_update(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_
     wg_val[at + 5u] = dl.z;
     wg_val[at + 6u] = select(0.0, 1.0, hit_tool != NO_TOOL);
     wg_val[at + 7u] = jaw_opening;
+    wg_val[at + 8u] = grip.x;
+    wg_val[at + 9u] = grip.y;
+    wg_val[at + 10u] = grip.z;
+    wg_val[at + 11u] = grip_mass;
+    wg_val[at + 12u] = grip_lever;
+    wg_val[at + 13u] = 0.0;
+    wg_val[at + 14u] = 0.0;
+    wg_val[at + 15u] = 0.0;
     workgroupBarrier();
     if (lid == 0u) {
         wg_any = atomicLoad(&wg_contacts);
@@ -87,16 +130,19 @@ fn grid_update(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_
     if (workgroupUniformLoad(&wg_any) == 0u) {
         return;
     }
-    // Thread (tool t, component k) sums its component over the block's nodes.
-    let t = lid / IMPULSE_WORDS;
-    let k = lid % IMPULSE_WORDS;
-    var sum = 0.0;
-    for (var n = 0u; n < NODES_PER_BLOCK; n++) {
-        if (wg_tool[n] == t) {
-            sum += wg_val[n * IMPULSE_WORDS + k];
+    // Invocation lid sums (tool t, word k) over the block's nodes, for every
+    // (t, k) = lid + j·NODES_PER_BLOCK.
+    for (var tk = lid; tk < MAX_TOOLS * IMPULSE_WORDS; tk += NODES_PER_BLOCK) {
+        let t = tk / IMPULSE_WORDS;
+        let k = tk % IMPULSE_WORDS;
+        var sum = 0.0;
+        for (var n = 0u; n < NODES_PER_BLOCK; n++) {
+            if (wg_tool[n] == t) {
+                sum += wg_val[n * IMPULSE_WORDS + k];
+            }
         }
+        partials[wg_slot * MAX_TOOLS * IMPULSE_WORDS + tk] = sum;
     }
-    partials[wg_slot * MAX_TOOLS * IMPULSE_WORDS + lid] = sum;
 }
 
 // One workgroup: adds this substep's per-block contact sums to the frame's tool impulses.

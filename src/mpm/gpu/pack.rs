@@ -121,6 +121,7 @@ shared_struct! {
         pub aabb_min: [f32; 4],
         /// w: drag.
         pub aabb_max: [f32; 4],
+        /// The shape's dimensions; a gripper's w: its grip ratio.
         pub shape: [f32; 4],
         /// x: shape (0 sphere, 1 capsule, 2 box, 3 gripper, 4 needle); y: 1 sticky.
         pub kind: [u32; 4],
@@ -172,7 +173,7 @@ impl From<&ToolKinematics> for GpuTool {
                 jaw_length,
                 jaw_width,
                 jaw_thickness,
-            } => ([jaw_length, jaw_width, jaw_thickness, 0.0], 3),
+            } => ([jaw_length, jaw_width, jaw_thickness, t.grip], 3),
             Shape::Needle {
                 radius,
                 arc_angle,

@@ -27,7 +27,7 @@ pub mod word {
     pub const GUARD_SPEED: usize = 7;
     /// 3 words.
     pub const GUARD_POS: usize = 8;
-    /// MAX_TOOLS × IMPULSE_WORDS: linear xyz, angular xyz, contact nodes, jaw opening.
+    /// MAX_TOOLS × IMPULSE_WORDS (see `IMPULSE_WORDS`).
     pub const IMPULSE: usize = 16;
 
     /// Names (without the `S_` the shaders prefix) and indices, for the shader prelude.
@@ -46,7 +46,7 @@ pub mod word {
 }
 
 pub const STATS_WORDS: usize = word::IMPULSE + MAX_TOOLS * IMPULSE_WORDS;
-pub const STATS_BYTES: u64 = 512;
+pub const STATS_BYTES: u64 = 1024;
 /// Bytes per particle of the end-of-frame extract: a position and three F columns, vec4 each.
 pub const EXTRACT_BYTES: usize = 64;
 
@@ -238,6 +238,9 @@ fn parse_stats(w: &[u32]) -> FrameStats {
         imp.angular = nalgebra::Vector3::new(f(3), f(4), f(5));
         imp.contact_nodes = f(6).round() as u32;
         imp.jaw_opening = f(7);
+        imp.grip.required = nalgebra::Vector3::new(f(8), f(9), f(10));
+        imp.grip.mass = f(11);
+        imp.grip.mass_lever = f(12);
     }
     if w[word::GUARD] != 0 {
         out.substeps_done = w[word::GUARD] - 1;

@@ -1,0 +1,96 @@
+"""Grasp and lift on the default scene as a dVRK user scripts it: open the jaws, insert the
+tips into the liver, close (a negative jaw command: the jaws meet and squeeze), lift 10 mm,
+hold, open. The grasped region must rise with the jaws, the gripper wrench must carry the
+pull while holding, and opening must let the tissue go. Waits follow simulated time (the
+stamps of PSM1/measured_js), so the script works however slowly the simulation runs."""
+
+import math
+import struct
+
+from geometry_msgs.msg import WrenchStamped
+from sensor_msgs.msg import JointState, PointCloud2
+
+from common import Recorder, check
+
+rec = Recorder("grasp_probe")
+rec.subscribe(JointState, "/PSM1/measured_js")
+rec.subscribe(JointState, "/PSM1/jaw/measured_js")
+rec.subscribe(PointCloud2, "/tissue/points")
+rec.subscribe(WrenchStamped, "/tools/gripper/wrench")
+move = rec.publisher(JointState, "/PSM1/move_jp")
+jaw_move = rec.publisher(JointState, "/PSM1/jaw/move_jp")
+rec.wait_for(lambda: rec.latest("/tissue/points") is not None
+             and rec.latest("/PSM1/measured_js") is not None
+             and rec.latest("/PSM1/jaw/measured_js") is not None, 60.0, "the arm and the cloud")
+rec.wait_subscribers(move)
+rec.wait_subscribers(jaw_move)
+
+
+def sim_time():
+    stamp = rec.latest("/PSM1/measured_js").header.stamp
+    return stamp.sec + stamp.nanosec * 1e-9
+
+
+def wait_sim(seconds, what):
+    end = sim_time() + seconds
+    rec.wait_for(lambda: sim_time() >= end, 600.0, what)
+
+
+def points(cloud):
+    data = bytes(cloud.data)
+    return [struct.unpack_from("<3f", data, i * cloud.point_step) for i in range(cloud.width)]
+
+
+def jaw():
+    m = rec.latest("/PSM1/jaw/measured_js")
+    return m.position[0], m.effort[0]
+
+
+start = points(rec.latest("/tissue/points"))
+# The instrument hangs straight down over the liver's centre: the grasped region is the
+# tissue within 4 mm of its axis, in the top 5 mm.
+near = [i for i, p in enumerate(start) if math.hypot(p[0], p[1]) <= 0.004]
+top = max(start[i][2] for i in near)
+region = [i for i in near if start[i][2] >= top - 0.005]
+check(len(region) > 10, f"{len(region)} points under the jaws")
+
+
+def region_z():
+    cloud = points(rec.latest("/tissue/points"))
+    return sum(cloud[i][2] for i in region) / len(region)
+
+
+z0 = region_z()
+q = list(rec.latest("/PSM1/measured_js").position)
+home_insertion = q[2]
+
+jaw_move.publish(JointState(name=["jaw"], position=[math.radians(50)]))
+rec.wait_for(lambda: abs(jaw()[0] - math.radians(50)) < 0.01, 600.0, "the jaws to open 50°")
+# Home leaves the tips 6 mm above the liver: 11 mm more insertion puts them 5 mm in.
+move.publish(JointState(position=q[:2] + [home_insertion + 0.011] + q[3:]))
+rec.wait_for(lambda: abs(rec.latest("/PSM1/measured_js").position[2] - home_insertion - 0.011)
+             < 1e-4, 600.0, "the insertion")
+jaw_move.publish(JointState(name=["jaw"], position=[math.radians(-20)]))
+rec.wait_for(lambda: jaw()[0] < 0.01 and jaw()[1] < -0.1, 600.0, "the jaws to close and squeeze")
+print(f"RESULT closed jaw={jaw()[0]:.4f} rad effort={jaw()[1]:.3f} N·m")
+move.publish(JointState(position=q[:2] + [home_insertion + 0.001] + q[3:]))
+rec.wait_for(lambda: abs(rec.latest("/PSM1/measured_js").position[2] - home_insertion - 0.001)
+             < 1e-4, 600.0, "the 10 mm lift")
+wait_sim(0.3, "the hold")
+held_rise = region_z() - z0
+wrenches = [m for _, m in rec.messages["/tools/gripper/wrench"][-10:]]
+# Tool z points down along the instrument: the tissue pulls the lifted jaws down, along +z.
+pull = sum(w.wrench.force.z for w in wrenches) / len(wrenches)
+print(f"RESULT held rise {held_rise * 1e3:.2f} mm, pull {pull:.3f} N along the tool's z")
+check(held_rise >= 0.005, f"the grasped region rose {held_rise * 1e3:.2f} mm (>= 5 mm)")
+check(pull > 0.05, f"the gripper wrench carries the pull ({pull:.3f} N)")
+
+jaw_move.publish(JointState(name=["jaw"], position=[math.radians(50)]))
+wait_sim(1.0, "the release")
+released_rise = region_z() - z0
+wrenches = [m for _, m in rec.messages["/tools/gripper/wrench"][-5:]]
+after = max(abs(w.wrench.force.z) for w in wrenches)
+print(f"RESULT released rise {released_rise * 1e3:.2f} mm, force {after:.4f} N")
+check(released_rise < 0.3 * held_rise, f"opening let the tissue go ({released_rise * 1e3:.2f} mm)")
+check(after < 0.01, f"the gripper feels nothing once open ({after:.4f} N)")
+rec.close()
