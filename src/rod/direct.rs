@@ -56,12 +56,11 @@ pub fn solve(
     s.inv_length.resize(n, 0.0);
     s.rotation.resize(n, V3::zeros());
     // Linearise every constraint at the current state.
-    for j in 0..n {
+    for (j, &lam) in lambda.iter().enumerate().take(n) {
         let ss = stretch_shear(rod, j, compliance.stretch_shear[j]);
         s.d3[j] = ss.d3;
         s.inv_length[j] = ss.inv_length;
         let alpha = ss.compliance * inv_h2;
-        let lam = lambda[j];
         let mut rhs = V6::zeros();
         rhs.fixed_rows_mut::<3>(0)
             .copy_from(&(-ss.value - alpha * lam.fixed_rows::<3>(0)));
@@ -149,9 +148,9 @@ pub fn solve(
     }
     // Δx = W·Jᵀ·Δλ, from all Δλ at once.
     s.rotation.fill(V3::zeros());
-    for j in 0..n {
+    for (j, lam) in lambda.iter_mut().enumerate().take(n) {
         let dl = s.rhs[j];
-        lambda[j] += dl;
+        *lam += dl;
         let (dls, dlb) = (dl.fixed_rows::<3>(0).into_owned(), dl.fixed_rows::<3>(3));
         let dp = dls * s.inv_length[j];
         let dp = Vec3::new(dp.x as f32, dp.y as f32, dp.z as f32);
