@@ -149,18 +149,23 @@ impl Jaws {
 
     /// Coulomb on the grip as a whole: the share of the tangential hold the squeeze can
     /// pay for, from the force holding took over the last frame; negative (no hold) while
-    /// the controller does not press the jaws onto what they closed on.
-    fn grip_ratio(&self, shape: Shape, contact: ContactModel) -> f32 {
-        if !self.servo.pressing() {
+    /// the controller does not press the jaws onto what they closed on, or while their tips
+    /// are more than a cell apart.
+    fn grip_ratio(&self, shape: Shape, contact: ContactModel, dx: f64) -> f32 {
+        let Shape::Gripper { jaw_length, .. } = shape else {
+            return -1.0;
+        };
+        // Only a gap the grid cannot resolve needs the grip: with the tips more than a cell
+        // apart, contact and its friction act on the tissue between the faces (and stop
+        // the jaws on it).
+        let tip_gap = 2.0 * jaw_length as f64 * (0.5 * self.servo.angle).sin();
+        if !self.servo.pressing() || tip_gap > dx {
             return -1.0;
         }
         let squeeze = self.servo.squeeze();
         let friction = match contact {
             ContactModel::Sticky => return 1.0,
             ContactModel::Coulomb { friction, .. } => friction as f64,
-        };
-        let Shape::Gripper { jaw_length, .. } = shape else {
-            return 0.0;
         };
         let lever = if self.sums.mass > 0.0 {
             self.sums.mass_lever / self.sums.mass
@@ -629,6 +634,7 @@ impl World {
     /// Moves every gripper's jaws over the frame [t_start, t_end] against the tissue's
     /// torque of the last frame, and sets the grip ratio the frame steps with.
     fn advance_jaws(&mut self, t_start: f64, t_end: f64) {
+        let dx = self.params.dx;
         for tool in &mut self.tools {
             let setpoint = tool.setpoint_at(t_end).jaw;
             let (shape, contact) = (tool.shape, tool.contact);
@@ -643,7 +649,7 @@ impl World {
             jaws.servo
                 .update(command, jaws.tissue_torque, t_end - t_start);
             jaws.span = (t_start, start, t_end, jaws.servo.angle);
-            jaws.grip = jaws.grip_ratio(shape, contact);
+            jaws.grip = jaws.grip_ratio(shape, contact, dx);
         }
     }
 

@@ -4,9 +4,10 @@
 //! The model is sticky jaw contact on grid nodes, switched on by the squeeze:
 //!
 //! - while the controller presses the jaws closed and they have stopped closing (on the
-//!   tissue or on each other: [`crate::tools::jaw::JawServo::pressing`]), every grid node in
-//!   the *grip region* moves with the jaws: along the jaw normal always, across the faces at
-//!   the grip ratio;
+//!   tissue or on each other: [`crate::tools::jaw::JawServo::pressing`]) with their tips at
+//!   most a grid cell apart, every grid node in the *grip region* moves with the jaws: along
+//!   the jaw normal always, across the faces at the grip ratio (jaws that stop wider apart,
+//!   on stiff tissue, hold it by contact and its friction, which resolves such a gap);
 //! - the grip region is the jaws' footprint from one outer face to the other (the gap and the
 //!   jaws themselves, where closing jaws leave the tissue they caught), widened by one grid
 //!   cell on every side;
