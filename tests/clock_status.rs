@@ -8,50 +8,20 @@
 //! tests/ros_node.rs; `.ci/run` makes one); elsewhere prints `SKIPPED: <reason>` and passes,
 //! unless `CI` is set.
 
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::process::Command;
 
 mod common;
-use common::{network_prerequisites, python, root};
+use common::node::{run_rclpy, NodeProcess};
+use common::{network_prerequisites, root};
 
 #[test]
 fn clock_follows_the_simulation_and_the_status_reports_its_real_time_factor() {
     if !network_prerequisites(true) {
         return;
     }
-    let log = std::env::temp_dir().join(format!("dvrk-clock-{}.log", std::process::id()));
-    let mut node = Command::new(env!("CARGO_BIN_EXE_dvrk-tissue-sim"))
-        .current_dir(root())
-        .args(["run", "--scene", "config/default.toml", "--backend", "cpu"])
-        .env("ROS_DOMAIN_ID", "47")
-        .env("NO_COLOR", "1")
-        .stdout(Stdio::null())
-        .stderr(std::fs::File::create(&log).unwrap())
-        .spawn()
-        .expect("cannot start the node");
-    let out = Command::new(python())
-        .arg(root().join("tests/ros/test_clock_status.py"))
-        .current_dir(root().join("tests/ros"))
-        .env("ROS_DOMAIN_ID", "47")
-        .env("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
-        .env("PYTHONUNBUFFERED", "1")
-        .output()
-        .expect("cannot run python");
-    let _ = Command::new("kill")
-        .args(["-INT", &node.id().to_string()])
-        .status();
-    let deadline = Instant::now() + Duration::from_secs(15);
-    let status = loop {
-        if let Ok(Some(s)) = node.try_wait() {
-            break Some(s);
-        }
-        if Instant::now() > deadline {
-            let _ = node.kill();
-            break None;
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    };
-    let text = std::fs::read_to_string(&log).unwrap_or_default();
+    let node = NodeProcess::start_with(&["--scene", "config/default.toml", "--backend", "cpu"], 47);
+    let out = run_rclpy("test_clock_status.py", 47);
+    let (status, text) = node.stop();
     println!("{}", String::from_utf8_lossy(&out.stdout));
     assert!(
         out.status.success(),

@@ -11,11 +11,14 @@
 //! unless `CI` is set.
 
 use std::io::{BufRead, BufReader};
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 use std::time::{Duration, Instant};
 
 mod common;
-use common::{network_prerequisites, python, root};
+use common::network_prerequisites;
+use common::node::{rclpy_command, run_rclpy, NodeProcess};
+
+const SMALL: [&str; 4] = ["--scene", "tests/ros/scenes/small.toml", "--backend", "cpu"];
 
 /// Resident memory of process `pid` (kB), from /proc.
 fn rss_kb(pid: u32) -> Option<u64> {
@@ -34,29 +37,9 @@ fn a_servo_flood_keeps_the_frame_rate_bounded_memory_and_the_newest_command() {
     if !network_prerequisites(true) {
         return;
     }
-    let log = std::env::temp_dir().join(format!("dvrk-flood-{}.log", std::process::id()));
-    let mut node = Command::new(env!("CARGO_BIN_EXE_dvrk-tissue-sim"))
-        .current_dir(root())
-        .args([
-            "run",
-            "--scene",
-            "tests/ros/scenes/small.toml",
-            "--backend",
-            "cpu",
-        ])
-        .env("ROS_DOMAIN_ID", "48")
-        .env("NO_COLOR", "1")
-        .stdout(Stdio::null())
-        .stderr(std::fs::File::create(&log).unwrap())
-        .spawn()
-        .expect("cannot start the node");
-    let pid = node.id();
-    let mut driver = Command::new(python())
-        .arg(root().join("tests/ros/test_flood.py"))
-        .current_dir(root().join("tests/ros"))
-        .env("ROS_DOMAIN_ID", "48")
-        .env("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
-        .env("PYTHONUNBUFFERED", "1")
+    let node = NodeProcess::start_with(&SMALL, 48);
+    let pid = node.pid();
+    let mut driver = rclpy_command("test_flood.py", 48)
         .stdout(Stdio::piped())
         .spawn()
         .expect("cannot run python");
@@ -90,11 +73,7 @@ fn a_servo_flood_keeps_the_frame_rate_bounded_memory_and_the_newest_command() {
         assert!(Instant::now() < deadline, "no end after 120 s:\n{lines:#?}");
     }
     let status = driver.wait().unwrap();
-    let _ = Command::new("kill")
-        .args(["-INT", &pid.to_string()])
-        .status();
-    let _ = node.wait();
-    let text = std::fs::read_to_string(&log).unwrap_or_default();
+    let (_, text) = node.stop();
     let out = lines.join("\n");
     println!("{out}");
     assert!(
@@ -124,35 +103,9 @@ fn a_cloud_subscriber_that_stops_reading_does_not_slow_the_simulation() {
     if !network_prerequisites(true) {
         return;
     }
-    let log = std::env::temp_dir().join(format!("dvrk-stalled-{}.log", std::process::id()));
-    let mut node = Command::new(env!("CARGO_BIN_EXE_dvrk-tissue-sim"))
-        .current_dir(root())
-        .args([
-            "run",
-            "--scene",
-            "tests/ros/scenes/small.toml",
-            "--backend",
-            "cpu",
-        ])
-        .env("ROS_DOMAIN_ID", "49")
-        .env("NO_COLOR", "1")
-        .stdout(Stdio::null())
-        .stderr(std::fs::File::create(&log).unwrap())
-        .spawn()
-        .expect("cannot start the node");
-    let out = Command::new(python())
-        .arg(root().join("tests/ros/test_stalled_reader.py"))
-        .current_dir(root().join("tests/ros"))
-        .env("ROS_DOMAIN_ID", "49")
-        .env("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
-        .env("PYTHONUNBUFFERED", "1")
-        .output()
-        .expect("cannot run python");
-    let _ = Command::new("kill")
-        .args(["-INT", &node.id().to_string()])
-        .status();
-    let _ = node.wait();
-    let text = std::fs::read_to_string(&log).unwrap_or_default();
+    let node = NodeProcess::start_with(&SMALL, 49);
+    let out = run_rclpy("test_stalled_reader.py", 49);
+    let (_, text) = node.stop();
     let stdout = String::from_utf8_lossy(&out.stdout);
     println!("{stdout}");
     assert!(
@@ -170,35 +123,9 @@ fn a_vanished_mtm_leaves_the_psm_holding_and_teleop_resumes() {
     if !network_prerequisites(true) {
         return;
     }
-    let log = std::env::temp_dir().join(format!("dvrk-mtm-{}.log", std::process::id()));
-    let mut node = Command::new(env!("CARGO_BIN_EXE_dvrk-tissue-sim"))
-        .current_dir(root())
-        .args([
-            "run",
-            "--scene",
-            "tests/ros/scenes/small.toml",
-            "--backend",
-            "cpu",
-        ])
-        .env("ROS_DOMAIN_ID", "51")
-        .env("NO_COLOR", "1")
-        .stdout(Stdio::null())
-        .stderr(std::fs::File::create(&log).unwrap())
-        .spawn()
-        .expect("cannot start the node");
-    let out = Command::new(python())
-        .arg(root().join("tests/ros/test_vanished_mtm.py"))
-        .current_dir(root().join("tests/ros"))
-        .env("ROS_DOMAIN_ID", "51")
-        .env("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
-        .env("PYTHONUNBUFFERED", "1")
-        .output()
-        .expect("cannot run python");
-    let _ = Command::new("kill")
-        .args(["-INT", &node.id().to_string()])
-        .status();
-    let _ = node.wait();
-    let node_log = std::fs::read_to_string(&log).unwrap_or_default();
+    let node = NodeProcess::start_with(&SMALL, 51);
+    let out = run_rclpy("test_vanished_mtm.py", 51);
+    let (_, node_log) = node.stop();
     let stdout = String::from_utf8_lossy(&out.stdout);
     println!("{stdout}");
     assert!(

@@ -6,8 +6,6 @@
 //! whose only interface is loopback (`.ci/run` creates one). Elsewhere, or without the venv,
 //! they print why and pass — unless `CI` is set, where a missing prerequisite fails them.
 
-use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
@@ -21,53 +19,11 @@ use ros2_client::{
 };
 
 mod common;
-use common::{network_prerequisites as prerequisites, python, root};
+use common::network_prerequisites as prerequisites;
+use common::node::{run_rclpy, NodeProcess};
 
 /// One node at a time: two cores, and every test's timing matters.
 static SERIAL: Mutex<()> = Mutex::new(());
-
-struct NodeProcess {
-    child: Child,
-    log: PathBuf,
-}
-
-impl NodeProcess {
-    fn start(scene: &str, domain: u16) -> NodeProcess {
-        let log =
-            std::env::temp_dir().join(format!("dvrk-node-{domain}-{}.log", std::process::id()));
-        let child = Command::new(env!("CARGO_BIN_EXE_dvrk-tissue-sim"))
-            .current_dir(root())
-            .args(["run", "--scene", scene])
-            .env("ROS_DOMAIN_ID", domain.to_string())
-            .env("ROS_DISTRO", "kilted")
-            .stdout(Stdio::null())
-            .stderr(std::fs::File::create(&log).unwrap())
-            .spawn()
-            .expect("cannot start the node");
-        NodeProcess { child, log }
-    }
-
-    fn log(&self) -> String {
-        std::fs::read_to_string(&self.log).unwrap_or_default()
-    }
-}
-
-impl Drop for NodeProcess {
-    fn drop(&mut self) {
-        let _ = Command::new("kill")
-            .args(["-INT", &self.child.id().to_string()])
-            .status();
-        let deadline = Instant::now() + Duration::from_secs(5);
-        while Instant::now() < deadline {
-            if let Ok(Some(_)) = self.child.try_wait() {
-                return;
-            }
-            std::thread::sleep(Duration::from_millis(50));
-        }
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
 
 /// Runs `tests/ros/<script>` against a node on `scene`; returns its stdout.
 fn rclpy_test(script: &str, scene: &str, domain: u16) -> Option<String> {
@@ -76,18 +32,7 @@ fn rclpy_test(script: &str, scene: &str, domain: u16) -> Option<String> {
     }
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let node = NodeProcess::start(scene, domain);
-    let out = Command::new(python())
-        .current_dir(root().join("tests/ros"))
-        .arg(script)
-        .env("ROS_DOMAIN_ID", domain.to_string())
-        .env("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
-        .env(
-            "FASTDDS_DEFAULT_PROFILES_FILE",
-            root().join("config/fastdds_large_data.xml"),
-        )
-        .env("PYTHONUNBUFFERED", "1")
-        .output()
-        .expect("cannot run python");
+    let out = run_rclpy(script, domain);
     let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
     let stderr = String::from_utf8_lossy(&out.stderr);
     println!("{stdout}");

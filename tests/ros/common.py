@@ -6,6 +6,8 @@ import time
 
 import rclpy
 from rclpy.qos import QoSProfile, DurabilityPolicy, ReliabilityPolicy, HistoryPolicy
+from geometry_msgs.msg import PoseStamped
+from sensor_msgs.msg import JointState, Joy
 
 
 def fail(message):
@@ -74,6 +76,58 @@ class Recorder:
         self.node.destroy_node()
         rclpy.shutdown()
 
+
+
+class ScriptedMtm:
+    """An MTM played by a script, as dVRK's console sees one: `MTMR/measured_cp` at `position`
+    (MTMR_base, identity orientation), the gripper held open, and the clutch and operator
+    pedals. PSM1's `measured_cp` is recorded to see where the arm went."""
+
+    def __init__(self, rec, measured_cp_depth=10):
+        self.rec = rec
+        self.position = [0.0, -0.3, -0.1]
+        rec.subscribe(PoseStamped, "/PSM1/measured_cp", qos=measured_cp_depth)
+        self._mtm = rec.publisher(PoseStamped, "/MTMR/measured_cp")
+        self._gripper = rec.publisher(JointState, "/MTMR/gripper/measured_js")
+        self._clutch = rec.publisher(Joy, "/console/clutch")
+        self._present = rec.publisher(Joy, "/console/operator_present")
+        rec.wait_for(lambda: rec.latest("/PSM1/measured_cp") is not None, 10.0, "measured_cp")
+        for p in (self._mtm, self._gripper, self._clutch, self._present):
+            rec.wait_subscribers(p)
+
+    def send(self, repeat=1):
+        """Publishes the MTM pose and gripper `repeat` times, 10 ms apart."""
+        for _ in range(repeat):
+            m = PoseStamped()
+            m.header.frame_id = "MTMR_base"
+            m.pose.position.x, m.pose.position.y, m.pose.position.z = self.position
+            m.pose.orientation.w = 1.0
+            self._mtm.publish(m)
+            self._gripper.publish(JointState(name=["gripper"], position=[0.3]))
+            self.rec.spin_for(0.01)
+
+    def clutch(self, pressed):
+        self._clutch.publish(Joy(buttons=[1 if pressed else 0]))
+
+    def operator_present(self, pressed):
+        self._present.publish(Joy(buttons=[1 if pressed else 0]))
+
+    def move(self, dx, steps=50, pause=0.0, settle=30, rest=0.0):
+        """Moves the MTM `dx` metres along x in `steps` messages (`pause` s more between them),
+        then holds it there for `settle` messages and `rest` seconds."""
+        for _ in range(steps):
+            self.position[0] += dx / steps
+            self.send()
+            if pause:
+                self.rec.spin_for(pause)
+        self.send(settle)
+        if rest:
+            self.rec.spin_for(rest)
+
+    def psm(self):
+        """PSM1's latest measured position (m, in PSM1_base)."""
+        p = self.rec.latest("/PSM1/measured_cp").pose.position
+        return [p.x, p.y, p.z]
 
 # ---- PSM forward kinematics from dVRK's modified DH table (independent of our URDF) ----
 

@@ -4,55 +4,23 @@ is then (the operator moved it 80 mm meanwhile), following at 0.2x again."""
 
 import time
 
-from sensor_msgs.msg import JointState, Joy
-from geometry_msgs.msg import PoseStamped
-
-from common import Recorder, check
+from common import Recorder, ScriptedMtm, check
 
 rec = Recorder("vanishing_mtm")
-rec.subscribe(PoseStamped, "/PSM1/measured_cp", qos=100)
-mtm = rec.publisher(PoseStamped, "/MTMR/measured_cp")
-gripper = rec.publisher(JointState, "/MTMR/gripper/measured_js")
-clutch = rec.publisher(Joy, "/console/clutch")
-present = rec.publisher(Joy, "/console/operator_present")
-rec.wait_for(lambda: rec.latest("/PSM1/measured_cp") is not None, 10.0, "measured_cp")
-for p in (mtm, gripper, clutch, present):
-    rec.wait_subscribers(p)
-
-mtm_pos = [0.0, -0.3, -0.1]
-
-
-def send_mtm(repeat=1):
-    for _ in range(repeat):
-        m = PoseStamped()
-        m.header.frame_id = "MTMR_base"
-        m.pose.position.x, m.pose.position.y, m.pose.position.z = mtm_pos
-        m.pose.orientation.w = 1.0
-        mtm.publish(m)
-        gripper.publish(JointState(name=["gripper"], position=[0.3]))
-        rec.spin_for(0.01)
-
-
-def psm():
-    p = rec.latest("/PSM1/measured_cp").pose.position
-    return [p.x, p.y, p.z]
-
-
-def move_mtm(dx, steps=50):
-    for _ in range(steps):
-        mtm_pos[0] += dx / steps
-        send_mtm()
-    send_mtm(30)
+mtm = ScriptedMtm(rec, measured_cp_depth=100)
+mtm_pos = mtm.position
+psm = mtm.psm
+move_mtm = mtm.move
 
 
 def mm(v):
     return [round(x * 1000, 3) for x in v]
 
 
-send_mtm(20)
-clutch.publish(Joy(buttons=[0]))
-present.publish(Joy(buttons=[1]))
-send_mtm(30)
+mtm.send(20)
+mtm.clutch(False)
+mtm.operator_present(True)
+mtm.send(30)
 p0 = psm()
 move_mtm(0.05)
 p1 = psm()
@@ -75,7 +43,7 @@ check(drift < 1e-6, "the PSM holds where it was while the MTM is silent")
 # Back, 80 mm further on x: no jump, then following again.
 mtm_pos[0] += 0.08
 print("MTM_BACK", flush=True)
-send_mtm(40)
+mtm.send(40)
 p2 = psm()
 jump = [b - a for a, b in zip(p1, p2)]
 print(f"RESULT back 80 mm away: PSM moved {mm(jump)} mm")
