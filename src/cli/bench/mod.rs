@@ -212,7 +212,11 @@ fn run_sweep(quick: bool, out: &Path, backends: Option<Vec<BackendChoice>>) -> R
         progress.inc(1);
     });
     progress.finish_and_clear();
-    let table = sweep::markdown(&rows);
+    let table = format!(
+        "{}\nStiff tissue, explicit MLS-MPM (CFL 0.5) against implicit:\n\n{}",
+        sweep::markdown(&rows),
+        sweep::stiff_summary(&rows)
+    );
     print!("{table}");
     let write = |name: &str, text: &str| {
         let path = out.join(name);
