@@ -387,6 +387,16 @@ impl SweepPlan {
         .with_stiff_group()
     }
 
+    /// The stiff-tissue group alone, explicit MLS-MPM (CFL 0.5) and implicit.
+    pub fn stiff(backends: Vec<BackendChoice>) -> Self {
+        SweepPlan {
+            cases: Vec::new(),
+            settings: vec![SolverSetting::MlsMpm { cfl: 0.5 }, SolverSetting::Implicit],
+            backends,
+        }
+        .with_stiff_group()
+    }
+
     /// The (case, setting) pairs the sweep runs, on each backend.
     pub fn pairs(&self) -> Vec<(AnalyticCase, SolverSetting)> {
         let mut out = Vec::new();

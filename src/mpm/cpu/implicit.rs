@@ -248,7 +248,7 @@ impl CpuSolver {
             counts.cg += self.conjugate_gradients(&mut ws, &params, norm);
             counts.newton += 1;
             match self.line_search(&mut ws, dt, energy) {
-                Some(e) if e.is_finite() => energy = e,
+                Some(e) if e.is_finite() => {}
                 _ => break,
             }
             energy = self.evaluate(&mut ws, dt, counts.newton < params.newton_iterations);
