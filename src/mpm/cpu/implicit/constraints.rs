@@ -20,6 +20,9 @@ use crate::tools::{contact, ContactModel, ToolKinematics};
 pub struct NodeConstraint {
     pub free: Mat3,
     pub prescribed: Vec3,
+    /// With one prescribed direction: the surface normal, pointing from the tool, table
+    /// or wall into the tissue; zero otherwise.
+    pub normal: Vec3,
 }
 
 impl NodeConstraint {
@@ -27,6 +30,7 @@ impl NodeConstraint {
         NodeConstraint {
             free: Mat3::identity(),
             prescribed: Vec3::zeros(),
+            normal: Vec3::zeros(),
         }
     }
 
@@ -34,6 +38,7 @@ impl NodeConstraint {
         NodeConstraint {
             free: Mat3::zeros(),
             prescribed: v,
+            normal: Vec3::zeros(),
         }
     }
 
@@ -41,6 +46,7 @@ impl NodeConstraint {
         NodeConstraint {
             free: Mat3::identity() - n * n.transpose(),
             prescribed: n * n.dot(&v),
+            normal: n,
         }
     }
 }
@@ -106,7 +112,7 @@ pub fn node_constraint(
         let high = i >= layout.nodes[axis] as i32 - WALL_NODES && v[axis] > 0.0;
         if low || high {
             v[axis] = 0.0;
-            normals[count] = Vec3::ith(axis, 1.0);
+            normals[count] = Vec3::ith(axis, if low { 1.0 } else { -1.0 });
             count += 1;
         }
     }
