@@ -233,12 +233,11 @@ fn run_sweep(quick: bool, out: &Path, backends: Option<Vec<BackendChoice>>) -> R
         progress.inc(1);
     });
     progress.finish_and_clear();
-    let table = format!(
-        "{}\nStiff tissue, explicit MLS-MPM (CFL 0.5) against implicit:\n\n{}",
-        sweep::markdown(&rows),
+    let table = sweep::markdown(&rows);
+    print!(
+        "{table}\nStiff tissue, explicit MLS-MPM (CFL 0.5) against implicit:\n\n{}",
         sweep::stiff_summary(&rows)
     );
-    print!("{table}");
     let write = |name: &str, text: &str| {
         let path = out.join(name);
         std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))

@@ -307,8 +307,8 @@ pub struct SweepPlan {
 }
 
 impl SweepPlan {
-    /// The coarse resolutions with two MLS-MPM steps, one PB-MPM and the PIC reference: under
-    /// two minutes on two CPU cores.
+    /// The coarse resolutions with two MLS-MPM steps, one PB-MPM, the PIC reference and
+    /// implicit, and the stiff stretch explicit against implicit.
     pub fn quick(backends: Vec<BackendChoice>) -> Self {
         SweepPlan {
             cases: vec![
@@ -330,7 +330,17 @@ impl SweepPlan {
             ],
             backends,
         }
-        .with_stiff_group()
+        .with_stiff_stretch()
+    }
+
+    /// The stiff stretch at each of [`STIFF_MODULI`] (the quick sweep's stiff group: the
+    /// stiff Hertz runs take minutes with explicit MLS-MPM).
+    fn with_stiff_stretch(mut self) -> Self {
+        for e in STIFF_MODULI {
+            self.cases
+                .push(AnalyticCase::StiffStretch { cells_across: 4, e });
+        }
+        self
     }
 
     /// The stiff-tissue group: Hertz at R = 3 dx and the stretch at 4 cells across, at
