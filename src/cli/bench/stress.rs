@@ -250,24 +250,32 @@ fn implicit_cases(full: bool) -> Vec<StressCase> {
         materials = vec![(1e3, 0.3), (1e6, 0.499)];
         drags.push((1.0, 1e6));
     }
-    let implicit = |mut case: StressCase, name: String| {
+    // Measured stable: the 1 kPa, ν 0.3 indentation. The 1 MPa, ν 0.499 indentation and
+    // the capsule dragged through 1 MPa tissue gain energy (README, "Implicit method"), so
+    // the implicit cases are outside the envelope until they pass.
+    let implicit = |mut case: StressCase, name: String, in_envelope: bool| {
         case.scene.solver.method = Method::Implicit;
         case.group = "implicit";
         case.name = name;
-        case.in_envelope = true;
+        case.in_envelope = in_envelope;
         case.energy_checked = true;
         case
     };
     let mut out = Vec::new();
     for (e, nu) in materials {
         let name = format!("sphere, E {} ν {nu}", si(e, "Pa"));
-        out.push(implicit(indentation_case(e, nu, true), name));
+        let measured_stable = e <= 1e3 && nu <= 0.3;
+        out.push(implicit(
+            indentation_case(e, nu, true),
+            name,
+            measured_stable,
+        ));
     }
     for (v, e) in drags {
         let mut case = tool_speed_case(v, true);
         case.scene.tissues[0].material.youngs_modulus = e;
         let name = format!("capsule {} in E {}", si(v, "m/s"), si(e, "Pa"));
-        out.push(implicit(case, name));
+        out.push(implicit(case, name, false));
     }
     out
 }
@@ -732,7 +740,10 @@ mod tests {
         ] {
             assert!(reduced.iter().any(|c| c.group == group), "{group}");
         }
-        assert!(reduced.iter().all(|c| c.in_envelope));
+        assert!(reduced
+            .iter()
+            .filter(|c| c.group != "implicit")
+            .all(|c| c.in_envelope));
         assert!(cases(Matrix::Full).len() > reduced.len());
     }
 

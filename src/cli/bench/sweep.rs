@@ -684,8 +684,8 @@ mod tests {
             .iter()
             .filter(|(c, _)| c.is_stiff())
             .all(|(c, s)| c.scene_name().contains("stiff")
-                && matches!(s, SolverSetting::MlsMpm { cfl } if *cfl == 0.5)
-                || *s == SolverSetting::Implicit));
+                && (matches!(s, SolverSetting::MlsMpm { cfl } if *cfl == 0.5)
+                    || *s == SolverSetting::Implicit)));
     }
 
     #[test]

@@ -148,8 +148,8 @@ fn stencil_gradients(layout: &GridLayout, x: Vec3) -> ([usize; 27], [Vec3; 27]) 
 #[inline(always)]
 fn velocity_gradient(v: &[Vec3], idx: &[usize; 27], grad: &[Vec3; 27]) -> Mat3 {
     let mut g = Mat3::zeros();
-    for k in 0..27 {
-        g += v[idx[k]] * grad[k].transpose();
+    for (&i, d) in idx.iter().zip(grad) {
+        g += v[i] * d.transpose();
     }
     g
 }
@@ -344,9 +344,9 @@ impl CpuSolver {
                         let piola =
                             first_piola(mat.model, mat.lame, &f).unwrap_or_else(Mat3::zeros);
                         let q = piola * f_n.transpose() * (vol * dt);
-                        for k in 0..27 {
+                        for (&i, d) in idx.iter().zip(&grad) {
                             // SAFETY: particles of one colour scatter to disjoint nodes.
-                            unsafe { *eg.at(idx[k]) += q * grad[k] };
+                            unsafe { *eg.at(i) += q * d };
                         }
                         if hessian {
                             let kp = velocity_gradient_stiffness(
@@ -359,23 +359,19 @@ impl CpuSolver {
                             // SAFETY: each particle writes its own entry.
                             unsafe { *stiffness.at(p) = kp };
                             if precondition {
-                                for k in 0..27 {
-                                    let d = grad[k];
-                                    let mut blk = Mat3::zeros();
-                                    for a in 0..3 {
-                                        for bb in 0..3 {
-                                            let mut s = 0.0;
-                                            for c in 0..3 {
-                                                for cc in 0..3 {
-                                                    s +=
-                                                        kp[(a + 3 * c, bb + 3 * cc)] * d[c] * d[cc];
-                                                }
+                                for (&i, d) in idx.iter().zip(&grad) {
+                                    // Block (a, b) = Σ_c Σ_c' K[a + 3c, b + 3c'] d_c d_c'.
+                                    let blk = Mat3::from_fn(|a, b| {
+                                        let mut s = 0.0;
+                                        for (c, dc) in d.iter().enumerate() {
+                                            for (cc, dcc) in d.iter().enumerate() {
+                                                s += kp[(a + 3 * c, b + 3 * cc)] * dc * dcc;
                                             }
-                                            blk[(a, bb)] = s;
                                         }
-                                    }
+                                        s
+                                    });
                                     // SAFETY: as above.
-                                    unsafe { *block.at(idx[k]) += blk };
+                                    unsafe { *block.at(i) += blk };
                                 }
                             }
                         }
@@ -394,9 +390,10 @@ impl CpuSolver {
             let free = *out.free.at(i);
             *out.grad.at(i) = free * (dv * m + *out.elastic_grad.at(i));
             if hessian {
-                let d = match precondition {
-                    true => *out.block.at(i) + Mat3::identity() * m,
-                    false => Mat3::identity() * m,
+                let d = if precondition {
+                    *out.block.at(i) + Mat3::identity() * m
+                } else {
+                    Mat3::identity() * m
                 };
                 // Inverse on the free subspace: (S D S + I − S)⁻¹ restricted by S.
                 let restricted = free * d * free + (Mat3::identity() - free);
@@ -509,7 +506,7 @@ impl CpuSolver {
         while iterations < params.cg_iterations {
             self.hessian_product(ws);
             let pap = self.sum_nodes(|i| ws.direction[i].dot(&ws.product[i]) as f64);
-            if !(pap > 0.0) {
+            if pap.is_nan() || pap <= 0.0 {
                 break;
             }
             let alpha = (rz / pap) as f32;
@@ -555,9 +552,9 @@ impl CpuSolver {
             let (idx, grad) = stencil_gradients(&layout, parts.x[p]);
             let dg = velocity_gradient(x, &idx, &grad);
             let q = unflatten(&(stiffness[p] * flatten(&dg)));
-            for k in 0..27 {
+            for (&i, d) in idx.iter().zip(&grad) {
                 // SAFETY: particles of one colour scatter to disjoint nodes.
-                unsafe { *product.at(idx[k]) += q * grad[k] };
+                unsafe { *product.at(i) += q * d };
             }
         });
         let out = NodeWriter::new(ws);
