@@ -4,15 +4,15 @@
 //! of `solver.dt` (default 1/240 s).
 
 use crate::config::{Hold, Scene, PB_MPM_DEFAULT_DT};
-use crate::mpm::backend::{Backend, CpuBackend, FramePlan};
+use crate::mpm::backend::{Backend, BackendChoice, CpuBackend, FramePlan};
 use crate::mpm::cpu::CpuSolver;
 use crate::mpm::gpu::{self, GpuError, GpuSolver};
 use crate::mpm::grid::{Boundary, GridLayout, TableHold};
 use crate::mpm::guard::{GuardEvent, GuardPolicy};
-use crate::mpm::GripSums;
 use crate::mpm::{
     timestep, Lame, MaterialParams, Method, Particles, PbMpmParams, SolverSetup, Vec3,
 };
+use crate::mpm::{GripSums, SolveCounts};
 use crate::sleep::SleepSettings;
 use crate::sleep::{Aabb, SleepState};
 use crate::tools::{
@@ -59,6 +59,8 @@ pub struct FrameReport {
     pub tissue_reset: Option<GuardEvent>,
     /// The tissue was asleep and the frame was skipped (see [`crate::sleep`]).
     pub asleep: bool,
+    /// Newton and CG iterations of the implicit solver over the frame.
+    pub solve: SolveCounts,
 }
 
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -284,6 +286,8 @@ pub struct StepParams {
     pub dt_from_scene: bool,
     /// Substeps one frame may take at most.
     pub max_substeps: u32,
+    /// The implicit method: the substep is bound by advection under gravity only.
+    pub implicit: bool,
     pub guard_policy: GuardPolicy,
     pub sleep: SleepSettings,
 }
@@ -296,6 +300,8 @@ impl StepParams {
         let (bounding_wave_speed, requested_dt) = match s.method {
             Method::MlsMpm | Method::PicMpm => (wave_speed, s.dt),
             Method::PbMpm => (0.0, Some(s.dt.unwrap_or(PB_MPM_DEFAULT_DT))),
+            // Implicit Euler is stable at any step: only advection bounds it.
+            Method::Implicit => (0.0, s.dt),
         };
         StepParams {
             frame_dt: 1.0 / scene.frame_rate_hz,
@@ -306,6 +312,7 @@ impl StepParams {
             requested_dt,
             dt_from_scene: s.dt.is_some(),
             max_substeps: s.max_substeps_per_frame.max(1),
+            implicit: s.method == Method::Implicit,
             guard_policy: s.guard_policy,
             sleep: scene.sleep.clone(),
         }
@@ -361,6 +368,17 @@ impl PlannedFrame {
             tools: kinematics,
         }
     }
+}
+
+/// The backend to look for: `auto` runs the implicit method on the CPU (it has no GPU
+/// implementation yet; `gpu` is refused when the solver is built).
+fn implicit_backend(scene: &Scene) -> BackendChoice {
+    let asked = scene.solver.backend;
+    if scene.solver.method == Method::Implicit && asked == BackendChoice::Auto {
+        tracing::info!("backend: cpu (auto: the implicit method runs on the CPU only)");
+        return BackendChoice::Cpu;
+    }
+    asked
 }
 
 /// Why a world could not be built.
@@ -469,8 +487,9 @@ impl World {
                 iterations: scene.solver.iterations,
                 relaxation: scene.solver.relaxation as f32,
             },
+            implicit: scene.solver.implicit_params(),
         };
-        let backend = match gpu::adapter::select(scene.solver.backend)? {
+        let backend = match gpu::adapter::select(implicit_backend(scene))? {
             Some(ctx) => Backend::Gpu(Box::new(GpuSolver::new(ctx, setup)?)),
             None => Backend::Cpu(Box::new(CpuBackend::new(CpuSolver::new(setup)))),
         };
@@ -554,6 +573,9 @@ impl World {
     pub fn stable_dt(&self, tool_speed: f64) -> f64 {
         let speed = (self.last_max_speed as f64).max(tool_speed);
         let p = &self.params;
+        if p.implicit {
+            return timestep::advection_dt(p.cfl, p.dx, speed, p.gravity.norm() as f64);
+        }
         timestep::stable_dt(p.cfl, p.dx, p.bounding_wave_speed, speed)
     }
 
@@ -739,6 +761,7 @@ impl World {
             truncated: false,
             tissue_reset: None,
             asleep: true,
+            solve: SolveCounts::default(),
         })
     }
 
@@ -817,6 +840,7 @@ impl World {
             truncated,
             tissue_reset: None,
             asleep: false,
+            solve: stats.solve,
         };
         if let Some(event) = stats.guard {
             self.sleep.wake();

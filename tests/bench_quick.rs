@@ -23,7 +23,7 @@ fn quick_bench_meets_error_bounds_and_writes_its_files() {
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
     let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    assert_eq!(rows.len(), 12, "{csv}");
+    assert_eq!(rows.len(), 19, "{csv}");
     assert!(
         rows.iter().any(|r| r[column("solver")] == "PB-MPM"),
         "{csv}"
@@ -32,7 +32,17 @@ fn quick_bench_meets_error_bounds_and_writes_its_files() {
         rows.iter().any(|r| r[column("solver")] == "PIC-MPM"),
         "{csv}"
     );
-    for scene in ["hertz", "bar", "stretch"] {
+    assert!(
+        rows.iter().any(|r| r[column("solver")] == "implicit"),
+        "{csv}"
+    );
+    for scene in [
+        "hertz",
+        "bar",
+        "stretch",
+        "stretch-stiff-60kPa",
+        "stretch-stiff-1MPa",
+    ] {
         assert!(rows.iter().any(|r| r[column("scene")] == scene), "{csv}");
     }
     for r in &rows {

@@ -100,13 +100,54 @@ fn pb_mpm_settings_are_parsed_and_bad_ones_explained() {
     );
     let pic = config::from_str(&scene("method = \"pic_mpm\""), Path::new("pic.toml")).unwrap();
     assert_eq!(pic.solver.method, dvrk_tissue_sim::mpm::Method::PicMpm);
-    let bad = config::from_str(&scene("method = \"implicit\""), Path::new("m.toml"));
+    let bad = config::from_str(&scene("method = \"semi_implicit\""), Path::new("m.toml"));
     let message = bad.unwrap_err().to_string();
     assert!(
-        ["mls_mpm", "pb_mpm", "pic_mpm"]
+        ["mls_mpm", "pb_mpm", "pic_mpm", "implicit"]
             .iter()
             .all(|m| message.contains(m)),
         "{message}"
+    );
+}
+
+#[test]
+fn implicit_settings_are_parsed_and_bad_ones_explained() {
+    let pb = "[table]\nheight = 0.004\n";
+    let scene = |solver: &str| GOOD.replacen(pb, &format!("[solver]\n{solver}\n{pb}"), 1);
+    let ok = config::from_str(
+        &scene(
+            "method = \"implicit\"\nnewton_iterations = 4\ncg_tolerance = 0.05\npreconditioner = \"mass\"",
+        ),
+        Path::new("implicit.toml"),
+    )
+    .unwrap();
+    assert_eq!(ok.solver.method, dvrk_tissue_sim::mpm::Method::Implicit);
+    let params = ok.solver.implicit_params();
+    assert_eq!(params.newton_iterations, 4);
+    assert_eq!(params.cg_tolerance, 0.05);
+    assert_eq!(
+        params.preconditioner,
+        dvrk_tissue_sim::mpm::Preconditioner::Mass
+    );
+    assert_single(
+        &problems_of(&scene("method = \"implicit\"\nnewton_iterations = 0")),
+        "solver.newton_iterations",
+        "1 ≤ newton_iterations ≤ 100",
+    );
+    assert_single(
+        &problems_of(&scene("newton_tolerance = 1.0")),
+        "solver.newton_tolerance",
+        "0 < newton_tolerance < 1",
+    );
+    assert_single(
+        &problems_of(&scene("cg_iterations = 20000")),
+        "solver.cg_iterations",
+        "1 ≤ cg_iterations ≤ 10000",
+    );
+    assert_single(
+        &problems_of(&scene("cg_tolerance = 0.0")),
+        "solver.cg_tolerance",
+        "0 < cg_tolerance < 1",
     );
 }
 

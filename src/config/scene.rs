@@ -5,7 +5,7 @@
 use crate::mpm::backend::{BackendChoice, P2gAtomics};
 use crate::mpm::guard::GuardPolicy;
 use crate::mpm::material::MaterialModel;
-use crate::mpm::Method;
+use crate::mpm::{ImplicitParams, Method, Preconditioner};
 use crate::output::strain::StrainMeasure;
 use crate::output::SurfaceKind;
 use crate::tools::{ContactModel, Shape};
@@ -96,7 +96,9 @@ pub struct Solver {
     /// `mls_mpm` (explicit, substeps bound by the elastic wave CFL), `pb_mpm`
     /// (position-based: substeps of `dt`, default 1/240 s, bound only by advection, each
     /// solved by `iterations` constraint iterations) or `pic_mpm` (the standard-MPM
-    /// reference: MLS-MPM with PIC velocity transfer).
+    /// reference: MLS-MPM with PIC velocity transfer) or `implicit` (backward Euler by
+    /// Newton–CG: one substep per frame where advection allows, `cfl` bounding only the
+    /// material speed; CPU backend only).
     #[serde(default)]
     pub method: Method,
     /// PB-MPM constraint iterations per substep (1–100). More iterations: stiffer (the
@@ -106,6 +108,50 @@ pub struct Solver {
     /// PB-MPM over-relaxation of the elastic constraint (0 < relaxation < 2).
     #[serde(default = "default_relaxation")]
     pub relaxation: f64,
+    /// Implicit: most Newton iterations per substep (1–100).
+    #[serde(default = "default_newton_iterations")]
+    pub newton_iterations: u32,
+    /// Implicit: Newton stops when the residual falls below this fraction of its first
+    /// value (0 < value < 1).
+    #[serde(default = "default_newton_tolerance")]
+    pub newton_tolerance: f64,
+    /// Implicit: most conjugate-gradient iterations per Newton iteration (1–10000).
+    #[serde(default = "default_cg_iterations")]
+    pub cg_iterations: u32,
+    /// Implicit: CG stops when its residual falls below this fraction of the Newton
+    /// residual (0 < value < 1).
+    #[serde(default = "default_cg_tolerance")]
+    pub cg_tolerance: f64,
+    /// Implicit: CG preconditioner, `block_jacobi` (each node's 3×3 Hessian block) or
+    /// `mass` (the node mass).
+    #[serde(default)]
+    pub preconditioner: Preconditioner,
+}
+
+impl Solver {
+    /// The implicit solver's settings from the scene keys.
+    pub fn implicit_params(&self) -> ImplicitParams {
+        ImplicitParams {
+            newton_iterations: self.newton_iterations,
+            newton_tolerance: self.newton_tolerance as f32,
+            cg_iterations: self.cg_iterations,
+            cg_tolerance: self.cg_tolerance as f32,
+            preconditioner: self.preconditioner,
+        }
+    }
+}
+
+fn default_newton_iterations() -> u32 {
+    ImplicitParams::default().newton_iterations
+}
+fn default_newton_tolerance() -> f64 {
+    ImplicitParams::default().newton_tolerance as f64
+}
+fn default_cg_iterations() -> u32 {
+    ImplicitParams::default().cg_iterations
+}
+fn default_cg_tolerance() -> f64 {
+    ImplicitParams::default().cg_tolerance as f64
 }
 
 fn default_cfl() -> f64 {
@@ -141,6 +187,11 @@ impl Default for Solver {
             method: Method::default(),
             iterations: default_iterations(),
             relaxation: default_relaxation(),
+            newton_iterations: default_newton_iterations(),
+            newton_tolerance: default_newton_tolerance(),
+            cg_iterations: default_cg_iterations(),
+            cg_tolerance: default_cg_tolerance(),
+            preconditioner: Preconditioner::default(),
         }
     }
 }

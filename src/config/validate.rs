@@ -178,6 +178,30 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
         s.relaxation,
         "0 < relaxation < 2 (PB-MPM over-relaxation; 2 and above overshoots without converging)",
     );
+    c.require(
+        (1..=100).contains(&s.newton_iterations),
+        "solver.newton_iterations",
+        s.newton_iterations,
+        "1 ≤ newton_iterations ≤ 100 (implicit: Newton iterations per substep)",
+    );
+    c.require(
+        s.newton_tolerance > 0.0 && s.newton_tolerance < 1.0,
+        "solver.newton_tolerance",
+        s.newton_tolerance,
+        "0 < newton_tolerance < 1 (implicit: residual relative to its first value)",
+    );
+    c.require(
+        (1..=10_000).contains(&s.cg_iterations),
+        "solver.cg_iterations",
+        s.cg_iterations,
+        "1 ≤ cg_iterations ≤ 10000 (implicit: CG iterations per Newton iteration)",
+    );
+    c.require(
+        s.cg_tolerance > 0.0 && s.cg_tolerance < 1.0,
+        "solver.cg_tolerance",
+        s.cg_tolerance,
+        "0 < cg_tolerance < 1 (implicit: CG residual relative to the Newton residual)",
+    );
     c.within(
         "sleep.speed",
         scene.sleep.speed,

@@ -69,6 +69,8 @@ pub struct FrameStats {
     /// The guard event of the first substep that tripped; the state is unusable then and
     /// must be restored (`restore_frame_start` or `reset_to_rest`).
     pub guard: Option<GuardEvent>,
+    /// Newton and CG iterations of the implicit solver over the frame.
+    pub solve: super::SolveCounts,
 }
 
 /// A solver backend.
@@ -145,6 +147,7 @@ impl Backend {
                     }
                     out.max_speed = out.max_speed.max(stats.max_speed);
                     out.clamped_particles += stats.clamped_particles;
+                    out.solve.add(stats.solve);
                     out.substeps_done += 1;
                 }
                 out

@@ -38,6 +38,9 @@ pub enum Method {
     /// (P2G carries m·v without APIC's affine momentum m·C·(xᵢ − xₚ)), so it dissipates
     /// rotation and shear motion that APIC keeps.
     PicMpm,
+    /// Backward-Euler MLS-MPM solved as an energy minimisation (Gast et al. 2015): substeps
+    /// bound by advection only, stiffness from E and ν; see [`cpu::implicit`].
+    Implicit,
 }
 
 impl Method {
@@ -54,6 +57,59 @@ pub struct PbMpmParams {
     pub iterations: u32,
     /// Over-relaxation of the elastic constraint, 0 < relaxation < 2.
     pub relaxation: f32,
+}
+
+/// Implicit solver settings (scene keys `solver.newton_*`, `solver.cg_*`,
+/// `solver.preconditioner`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImplicitParams {
+    /// Most Newton iterations per substep.
+    pub newton_iterations: u32,
+    /// Newton stops when the free-node residual falls below this fraction of its first value.
+    pub newton_tolerance: f32,
+    /// Most conjugate-gradient iterations per Newton iteration.
+    pub cg_iterations: u32,
+    /// CG stops when its residual falls below this fraction of the Newton residual.
+    pub cg_tolerance: f32,
+    pub preconditioner: Preconditioner,
+}
+
+impl Default for ImplicitParams {
+    fn default() -> Self {
+        ImplicitParams {
+            newton_iterations: 8,
+            newton_tolerance: 1e-3,
+            cg_iterations: 200,
+            cg_tolerance: 1e-2,
+            preconditioner: Preconditioner::BlockJacobi,
+        }
+    }
+}
+
+/// Preconditioner of the implicit solver's conjugate gradients (scene key
+/// `solver.preconditioner`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Preconditioner {
+    /// The node mass: the Hessian's inertia term alone.
+    Mass,
+    /// Each node's 3×3 diagonal block of the Hessian, inertia and elasticity.
+    #[default]
+    BlockJacobi,
+}
+
+/// Iterations an implicit solve took (zero for the explicit methods).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SolveCounts {
+    pub newton: u32,
+    pub cg: u32,
+}
+
+impl SolveCounts {
+    pub fn add(&mut self, other: SolveCounts) {
+        self.newton += other.newton;
+        self.cg += other.cg;
+    }
 }
 
 /// What a solver is built from: the same for the CPU and the GPU backend.
@@ -73,6 +129,8 @@ pub struct SolverSetup {
     pub method: Method,
     /// Iteration settings, read when `method` is PB-MPM.
     pub pb_mpm: PbMpmParams,
+    /// Newton and CG settings, read when `method` is implicit.
+    pub implicit: ImplicitParams,
 }
 
 /// Most tools one scene may hold: per-tool impulses are reduced in fixed-size arrays so
@@ -127,4 +185,6 @@ pub struct SubstepStats {
     pub clamped_particles: u32,
     /// First problem the guard found, if any. When set, the particle state is unusable.
     pub guard: Option<GuardEvent>,
+    /// Newton and CG iterations of an implicit substep.
+    pub solve: SolveCounts,
 }

@@ -39,6 +39,26 @@ pub fn neo_hookean_uniaxial_stress(e: f64, nu: f64, stretch: f64) -> f64 {
     (mu * (s * s - 1.0) + lambda * (s * t * t).ln()) / s
 }
 
+/// Material and time scale of the Hertz and stretch scenes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Loading {
+    pub youngs_modulus: f64,
+    pub poisson_ratio: f64,
+    /// Loading time and output frame rate (s, Hz); `None`: a fixed number of elastic wave
+    /// transits and frames (the default scenes, whose run time shrinks with stiffness).
+    pub timing: Option<(f64, f64)>,
+}
+
+/// A stiff-tissue loading: `e` Pa, ν `nu`, loaded over 0.25 s at 120 frames a second (the
+/// pace of a hand, not of an elastic wave).
+pub fn stiff_loading(e: f64, nu: f64) -> Loading {
+    Loading {
+        youngs_modulus: e,
+        poisson_ratio: nu,
+        timing: Some((0.25, 120.0)),
+    }
+}
+
 // ---------------------------------------------------------------------------------------
 // Hertz indentation
 
@@ -76,23 +96,38 @@ impl HertzResult {
 /// Scene: a sphere of radius R pressed frictionlessly into a block 6R wide and 3R deep bonded
 /// to the table, no gravity, slowly (the indentation takes many elastic wave transits).
 pub fn hertz_scene(cells_per_radius: f64) -> (Scene, f64, f64) {
+    hertz_scene_with(
+        cells_per_radius,
+        Loading {
+            youngs_modulus: HERTZ_E,
+            poisson_ratio: HERTZ_NU,
+            timing: None,
+        },
+    )
+}
+
+/// [`hertz_scene`] with another material and time scale.
+pub fn hertz_scene_with(cells_per_radius: f64, loading: Loading) -> (Scene, f64, f64) {
+    let (e, nu) = (loading.youngs_modulus, loading.poisson_ratio);
     let r = HERTZ_RADIUS;
     let dx = r / cells_per_radius;
     let (w, h) = (6.0 * r, 3.0 * r);
     let table = 3.0 * dx;
     let top = table + h;
     let density = 1000.0;
-    let c = Lame::from_young_poisson(HERTZ_E, HERTZ_NU).p_wave_speed(density);
+    let c = Lame::from_young_poisson(e, nu).p_wave_speed(density);
     // Load over 12 transits of the block depth; damping near the block's lowest mode
     // removes the ringing so the force is the quasi-static one.
-    let duration = 12.0 * h / c;
+    let (duration, frame_rate) = loading
+        .timing
+        .unwrap_or((12.0 * h / c, 100.0 / (12.0 * h / c)));
     let d_max = 0.32 * r;
     let start = [0.0, 0.0, top + r + 0.5 * dx];
     let end = [0.0, 0.0, top + r - d_max];
     let margin = 4.0 * dx;
     let scene = scene(
         "hertz",
-        100.0 / duration,
+        frame_rate,
         domain(
             [-0.5 * w - margin, -0.5 * w - margin, 0.0],
             [
@@ -107,7 +142,7 @@ pub fn hertz_scene(cells_per_radius: f64) -> (Scene, f64, f64) {
         vec![tissue(
             [0.0, 0.0, table + 0.5 * h],
             [w, w, h],
-            material(HERTZ_E, HERTZ_NU, density, 0.5 * c / h),
+            material(e, nu, density, 0.5 * c / h),
         )],
         vec![tool(
             "indenter",
@@ -150,7 +185,10 @@ pub fn hertz_on(
 
 /// Runs a Hertz scene from [`hertz_scene`] (its solver settings possibly changed).
 pub fn hertz_run(cells_per_radius: f64, scene: &Scene, meter: &mut Meter) -> HertzResult {
-    let (_, top, duration) = hertz_scene(cells_per_radius);
+    let block = &scene.tissues[0];
+    let top = block.center[2] + 0.5 * block.size[2];
+    let duration = scene.tools[0].keyframes.last().map_or(0.0, |k| k.t);
+    let (e, nu) = (block.material.youngs_modulus, block.material.poisson_ratio);
     let mut world = World::new(scene);
     let mut samples = Vec::new();
     while world.time() < duration - 1e-9 {
@@ -162,7 +200,7 @@ pub fn hertz_run(cells_per_radius: f64, scene: &Scene, meter: &mut Meter) -> Her
             samples.push(HertzSample {
                 depth_over_radius: d_over_r,
                 force: report.wrenches[0].force.z,
-                analytic: hertz_force(HERTZ_E, HERTZ_NU, HERTZ_RADIUS, depth),
+                analytic: hertz_force(e, nu, HERTZ_RADIUS, depth),
             });
         }
     }
@@ -188,6 +226,10 @@ pub struct BarResult {
     pub length: f64,
     pub period: f64,
     pub analytic_period: f64,
+    /// Velocity amplitude kept per period (1: none lost), from the peaks of the free half's
+    /// mean axial velocity between the measured crossings; the bar has no material damping,
+    /// so the loss is the integrator's and the transfers' numerical damping.
+    pub amplitude_per_period: f64,
 }
 
 impl BarResult {
@@ -276,15 +318,26 @@ pub fn bar_run(cells_across: u32, scene: &Scene, meter: &mut Meter) -> BarResult
     };
     // Downward zero crossings of the velocity, interpolated linearly in time.
     let mut crossings = Vec::new();
+    // Largest velocity of each cycle ending at a crossing.
+    let mut peaks = Vec::new();
+    let mut peak: f64 = 0.0;
     let mut prev = (world.time(), probe_velocity(&mut world));
     while world.time() < 2.6 * analytic_period && crossings.len() < 3 {
         meter.step(&mut world).expect("bar scene is stable");
         let now = (world.time(), probe_velocity(&mut world));
+        peak = peak.max(now.1);
         if prev.1 > 0.0 && now.1 <= 0.0 {
             crossings.push(prev.0 + (now.0 - prev.0) * prev.1 / (prev.1 - now.1));
+            peaks.push(peak);
+            peak = 0.0;
         }
         prev = now;
     }
+    // The first cycle's peak includes the start, where the probe velocity is highest.
+    let amplitude_per_period = match peaks.len() {
+        n if n >= 3 => (peaks[n - 1] / peaks[1]).powf(1.0 / (n - 2) as f64),
+        _ => f64::NAN,
+    };
     let period = match crossings.len() {
         n if n >= 2 => (crossings[n - 1] - crossings[0]) / (n - 1) as f64,
         _ => f64::NAN,
@@ -294,6 +347,7 @@ pub fn bar_run(cells_across: u32, scene: &Scene, meter: &mut Meter) -> BarResult
         length,
         period,
         analytic_period,
+        amplitude_per_period,
     }
 }
 
@@ -320,6 +374,20 @@ impl StretchResult {
 /// Scene: a block 5× longer than thick between two sticky grips; the right grip moves slowly
 /// to `stretch` × the free length. Returns the scene, the free length and the duration.
 pub fn stretch_scene(cells_across: u32, stretch: f64) -> (Scene, f64, f64) {
+    stretch_scene_with(
+        cells_across,
+        stretch,
+        Loading {
+            youngs_modulus: STRETCH_E,
+            poisson_ratio: STRETCH_NU,
+            timing: None,
+        },
+    )
+}
+
+/// [`stretch_scene`] with another material and time scale.
+pub fn stretch_scene_with(cells_across: u32, stretch: f64, loading: Loading) -> (Scene, f64, f64) {
+    let (e, nu) = (loading.youngs_modulus, loading.poisson_ratio);
     let thickness = 0.004;
     let dx = thickness / cells_across as f64;
     let free = 5.0 * thickness;
@@ -338,8 +406,10 @@ pub fn stretch_scene(cells_across: u32, stretch: f64) -> (Scene, f64, f64) {
         -0.5 * size[2],
     ];
     let density = 1000.0;
-    let c = Lame::from_young_poisson(STRETCH_E, STRETCH_NU).p_wave_speed(density);
-    let duration = 40.0 * free / c;
+    let c = Lame::from_young_poisson(e, nu).p_wave_speed(density);
+    let (duration, frame_rate) = loading
+        .timing
+        .unwrap_or((40.0 * free / c, 200.0 / (40.0 * free / c)));
     let grip_shape = Shape::Box {
         half_extents: [(0.5 * grip + dx) as f32, thickness as f32, thickness as f32],
     };
@@ -347,13 +417,13 @@ pub fn stretch_scene(cells_across: u32, stretch: f64) -> (Scene, f64, f64) {
     let right = 0.5 * free + 0.5 * grip + dx;
     let scene = scene(
         "large-stretch",
-        200.0 / duration,
+        frame_rate,
         domain(origin, size, dx, [0.0; 3]),
         None,
         vec![tissue(
             [0.0, 0.0, 0.0],
             [total, thickness, thickness],
-            material(STRETCH_E, STRETCH_NU, density, 2.0 * c / free),
+            material(e, nu, density, 2.0 * c / free),
         )],
         vec![
             tool(
@@ -390,7 +460,9 @@ pub fn stretch_run(
     scene: &Scene,
     meter: &mut Meter,
 ) -> StretchResult {
-    let (_, _, duration) = stretch_scene(cells_across, stretch);
+    // The moving grip arrives at 0.8 × the run (see `stretch_scene_with`).
+    let duration = scene.tools[1].keyframes.last().map_or(0.0, |k| k.t) / 0.8;
+    let material = &scene.tissues[0].material;
     let thickness = 0.004;
     let mut world = World::new(scene);
     // Average the reaction over the settled tail of the run.
@@ -408,7 +480,11 @@ pub fn stretch_run(
         cells_across,
         stretch,
         force: sum / n.max(1) as f64,
-        analytic: neo_hookean_uniaxial_stress(STRETCH_E, STRETCH_NU, stretch) * area,
+        analytic: neo_hookean_uniaxial_stress(
+            material.youngs_modulus,
+            material.poisson_ratio,
+            stretch,
+        ) * area,
     }
 }
 

@@ -14,6 +14,9 @@ pub struct Meter {
     /// Simulated time advanced (s).
     pub simulated: f64,
     pub wall: Duration,
+    /// Newton and CG iterations of the implicit solver, summed over the frames.
+    pub newton: u64,
+    pub cg: u64,
 }
 
 impl Meter {
@@ -28,6 +31,8 @@ impl Meter {
         self.backend = world.backend().name();
         if let Ok(report) = &result {
             self.substeps += report.substeps as u64;
+            self.newton += report.solve.newton as u64;
+            self.cg += report.solve.cg as u64;
             self.simulated += world.time() - t0;
         }
         result

@@ -47,6 +47,9 @@ pub enum BenchCommand {
     },
     /// Error of the scenes with analytic answers at a few resolutions.
     Accuracy,
+    /// The stiff-tissue group alone: Hertz and stretch at E 60 kPa and 1 MPa, ν 0.49,
+    /// explicit MLS-MPM (CFL 0.5) against implicit, with the implicit speed-up.
+    Stiff,
     /// The suture thread swinging from one fixed end: ms/frame and elongation at 40–1000
     /// segments, one core.
     Thread {
@@ -166,6 +169,24 @@ pub fn run(args: BenchArgs) -> Result<()> {
             );
             Ok(())
         }
+        BenchCommand::Stiff => {
+            let plan = SweepPlan::stiff(vec![BackendChoice::Cpu]);
+            let rows = sweep::run(&plan, |row| {
+                eprintln!(
+                    "{} {}: {:+.2}% in {:.1} s",
+                    row.case.scene_name(),
+                    row.setting.solver_name(),
+                    100.0 * row.error,
+                    row.wall_s
+                )
+            });
+            print!(
+                "{}\n{}",
+                sweep::markdown(&rows),
+                sweep::stiff_summary(&rows)
+            );
+            Ok(())
+        }
         BenchCommand::Accuracy => {
             print!("{}", accuracy::table());
             Ok(())
@@ -213,7 +234,10 @@ fn run_sweep(quick: bool, out: &Path, backends: Option<Vec<BackendChoice>>) -> R
     });
     progress.finish_and_clear();
     let table = sweep::markdown(&rows);
-    print!("{table}");
+    print!(
+        "{table}\nStiff tissue, explicit MLS-MPM (CFL 0.5) against implicit:\n\n{}",
+        sweep::stiff_summary(&rows)
+    );
     let write = |name: &str, text: &str| {
         let path = out.join(name);
         std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))

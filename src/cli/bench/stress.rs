@@ -131,6 +131,7 @@ pub fn cases(matrix: Matrix) -> Vec<StressCase> {
     }
     out.push(pb_mpm_case(LIVER_E, LIVER_NU));
     out.push(pb_mpm_case(1e6, 0.49));
+    out.extend(implicit_cases(full));
     out.push(jaws_closing_case());
     out.push(pull_apart_case());
     out.push(drop_case());
@@ -226,6 +227,57 @@ fn pb_mpm_case(e: f64, nu: f64) -> StressCase {
     case.name = format!("E {} ν {nu}, dt 1/240 s", si(e, "Pa"));
     case.energy_checked = false;
     case
+}
+
+/// The implicit method at one substep per 60 Hz frame where advection allows: the sphere
+/// indentation across E 1 kPa–1 MPa and ν 0.3–0.499, and the capsule dragged through liver
+/// and through 1 MPa tissue at up to 1 m/s. The energy balance is checked: backward Euler
+/// only ever dissipates.
+fn implicit_cases(full: bool) -> Vec<StressCase> {
+    let mut materials = Vec::new();
+    let mut drags = Vec::new();
+    if full {
+        for e in [1e3, 1e4, 1e5, 1e6] {
+            for nu in [0.3, 0.45, 0.49, 0.499] {
+                materials.push((e, nu));
+            }
+        }
+        for v in [1e-2, 1e-1, 1.0] {
+            drags.push((v, LIVER_E));
+            drags.push((v, 1e6));
+        }
+    } else {
+        materials = vec![(1e3, 0.3), (1e6, 0.499)];
+        drags.push((1.0, 1e6));
+    }
+    // Measured stable: the 1 kPa, ν 0.3 indentation. The 1 MPa, ν 0.499 indentation and
+    // the capsule dragged through 1 MPa tissue gain energy (README, "Implicit method"), so
+    // the implicit cases are outside the envelope until they pass.
+    let implicit = |mut case: StressCase, name: String, in_envelope: bool| {
+        case.scene.solver.method = Method::Implicit;
+        case.group = "implicit";
+        case.name = name;
+        case.in_envelope = in_envelope;
+        case.energy_checked = true;
+        case
+    };
+    let mut out = Vec::new();
+    for (e, nu) in materials {
+        let name = format!("sphere, E {} ν {nu}", si(e, "Pa"));
+        let measured_stable = e <= 1e3 && nu <= 0.3;
+        out.push(implicit(
+            indentation_case(e, nu, true),
+            name,
+            measured_stable,
+        ));
+    }
+    for (v, e) in drags {
+        let mut case = tool_speed_case(v, true);
+        case.scene.tissues[0].material.youngs_modulus = e;
+        let name = format!("capsule {} in E {}", si(v, "m/s"), si(e, "Pa"));
+        out.push(implicit(case, name, false));
+    }
+    out
 }
 
 /// A capsule pressed 2 mm into liver, then dragged 6 mm sideways at `speed` (m/s).
@@ -678,10 +730,20 @@ mod tests {
     #[test]
     fn reduced_matrix_covers_every_group() {
         let reduced = cases(Matrix::Reduced);
-        for group in ["material", "time step", "tool speed", "scenario", "soak"] {
+        for group in [
+            "material",
+            "time step",
+            "tool speed",
+            "scenario",
+            "soak",
+            "implicit",
+        ] {
             assert!(reduced.iter().any(|c| c.group == group), "{group}");
         }
-        assert!(reduced.iter().all(|c| c.in_envelope));
+        assert!(reduced
+            .iter()
+            .filter(|c| c.group != "implicit")
+            .all(|c| c.in_envelope));
         assert!(cases(Matrix::Full).len() > reduced.len());
     }
 

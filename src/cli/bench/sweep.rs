@@ -9,7 +9,8 @@ use dvrk_tissue_sim::config::Scene;
 use dvrk_tissue_sim::mpm::backend::BackendChoice;
 use dvrk_tissue_sim::mpm::{timestep, Lame, Method};
 use dvrk_tissue_sim::validation::analytic::{
-    bar_run, bar_scene, hertz_run, hertz_scene, stretch_run, stretch_scene,
+    bar_run, bar_scene, hertz_run, hertz_scene, hertz_scene_with, stiff_loading, stretch_run,
+    stretch_scene, stretch_scene_with,
 };
 use dvrk_tissue_sim::validation::meter::Meter;
 use std::fmt::Write as _;
@@ -17,6 +18,11 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 
 /// Stretch ratio of the large-stretch scene.
 pub const STRETCH: f64 = 1.3;
+
+/// Poisson ratio of the stiff-tissue group: nearly incompressible muscle.
+pub const STIFF_NU: f64 = 0.49;
+/// Young's moduli of the stiff-tissue group (Pa): muscle and a stiff 1 MPa tissue.
+pub const STIFF_MODULI: [f64; 2] = [60e3, 1e6];
 
 /// One analytic scene at one resolution.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -27,39 +33,76 @@ pub enum AnalyticCase {
     Bar { cells_across: u32 },
     /// 1.3× Neo-Hookean stretch, resolution in cells across its thickness.
     Stretch { cells_across: u32 },
+    /// Hertz indentation of stiff, nearly incompressible tissue (Young's modulus `e`,
+    /// ν = [`STIFF_NU`]) over 0.25 s at 120 frames a second.
+    StiffHertz { cells_per_radius: f64, e: f64 },
+    /// The 1.3× stretch of the same stiff tissue over 0.25 s at 120 frames a second.
+    StiffStretch { cells_across: u32, e: f64 },
 }
 
 impl AnalyticCase {
     pub fn scene_name(&self) -> &'static str {
-        match self {
+        match *self {
             AnalyticCase::Hertz { .. } => "hertz",
             AnalyticCase::Bar { .. } => "bar",
             AnalyticCase::Stretch { .. } => "stretch",
+            AnalyticCase::StiffHertz { e, .. } if e >= 1e6 => "hertz-stiff-1MPa",
+            AnalyticCase::StiffHertz { .. } => "hertz-stiff-60kPa",
+            AnalyticCase::StiffStretch { e, .. } if e >= 1e6 => "stretch-stiff-1MPa",
+            AnalyticCase::StiffStretch { .. } => "stretch-stiff-60kPa",
         }
+    }
+
+    /// Whether this is a stiff-tissue case (run by explicit MLS-MPM at CFL 0.5 and by the
+    /// implicit method only).
+    pub fn is_stiff(&self) -> bool {
+        matches!(
+            self,
+            AnalyticCase::StiffHertz { .. } | AnalyticCase::StiffStretch { .. }
+        )
+    }
+
+    /// Whether the sweep runs this case with `setting`.
+    pub fn runs_with(&self, setting: &SolverSetting) -> bool {
+        !self.is_stiff()
+            || matches!(
+                setting,
+                SolverSetting::MlsMpm { cfl } if *cfl == 0.5
+            )
+            || *setting == SolverSetting::Implicit
     }
 
     /// What the error measures.
     pub fn error_name(&self) -> &'static str {
         match self {
-            AnalyticCase::Hertz { .. } => "RMS force error, d/R 0.05-0.3",
+            AnalyticCase::Hertz { .. } | AnalyticCase::StiffHertz { .. } => {
+                "RMS force error, d/R 0.05-0.3"
+            }
             AnalyticCase::Bar { .. } => "period error",
-            AnalyticCase::Stretch { .. } => "reaction force error",
+            AnalyticCase::Stretch { .. } | AnalyticCase::StiffStretch { .. } => {
+                "reaction force error"
+            }
         }
     }
 
     /// Cells across the scene's characteristic length.
     pub fn cells(&self) -> f64 {
         match *self {
-            AnalyticCase::Hertz { cells_per_radius } => cells_per_radius,
-            AnalyticCase::Bar { cells_across } | AnalyticCase::Stretch { cells_across } => {
-                cells_across as f64
-            }
+            AnalyticCase::Hertz { cells_per_radius }
+            | AnalyticCase::StiffHertz {
+                cells_per_radius, ..
+            } => cells_per_radius,
+            AnalyticCase::Bar { cells_across }
+            | AnalyticCase::Stretch { cells_across }
+            | AnalyticCase::StiffStretch { cells_across, .. } => cells_across as f64,
         }
     }
 
     pub fn resolution(&self) -> String {
         match self {
-            AnalyticCase::Hertz { .. } => format!("R = {} dx", self.cells()),
+            AnalyticCase::Hertz { .. } | AnalyticCase::StiffHertz { .. } => {
+                format!("R = {} dx", self.cells())
+            }
             _ => format!("h = {} dx", self.cells()),
         }
     }
@@ -69,6 +112,13 @@ impl AnalyticCase {
             AnalyticCase::Hertz { cells_per_radius } => hertz_scene(cells_per_radius).0,
             AnalyticCase::Bar { cells_across } => bar_scene(cells_across).0,
             AnalyticCase::Stretch { cells_across } => stretch_scene(cells_across, STRETCH).0,
+            AnalyticCase::StiffHertz {
+                cells_per_radius,
+                e,
+            } => hertz_scene_with(cells_per_radius, stiff_loading(e, STIFF_NU)).0,
+            AnalyticCase::StiffStretch { cells_across, e } => {
+                stretch_scene_with(cells_across, STRETCH, stiff_loading(e, STIFF_NU)).0
+            }
         }
     }
 
@@ -76,15 +126,26 @@ impl AnalyticCase {
     /// relative error (RMS, so non-negative, for Hertz).
     pub fn run(&self, scene: &Scene, meter: &mut Meter) -> f64 {
         match *self {
-            AnalyticCase::Hertz { cells_per_radius } => {
-                hertz_run(cells_per_radius, scene, meter).rms_relative_error()
-            }
+            AnalyticCase::Hertz { cells_per_radius }
+            | AnalyticCase::StiffHertz {
+                cells_per_radius, ..
+            } => hertz_run(cells_per_radius, scene, meter).rms_relative_error(),
             AnalyticCase::Bar { cells_across } => {
                 bar_run(cells_across, scene, meter).relative_error()
             }
-            AnalyticCase::Stretch { cells_across } => {
+            AnalyticCase::Stretch { cells_across }
+            | AnalyticCase::StiffStretch { cells_across, .. } => {
                 stretch_run(cells_across, STRETCH, scene, meter).relative_error()
             }
+        }
+    }
+
+    /// The error `bench` accepts on a stiff case, explicit or implicit (measured with
+    /// `bench stiff`: Hertz +25.1 to +29.5 %, stretch −3.4 to −3.8 %; bounds with margin).
+    fn stiff_error_bound(&self) -> f64 {
+        match self {
+            AnalyticCase::StiffHertz { .. } => 0.45,
+            _ => 0.10,
         }
     }
 
@@ -92,6 +153,13 @@ impl AnalyticCase {
     /// margin; a change that exceeds it is a regression).
     pub fn error_bound(&self, solver: &SolverSetting) -> f64 {
         let cells = self.cells();
+        if self.is_stiff() {
+            return self.stiff_error_bound();
+        }
+        if *solver == SolverSetting::Implicit {
+            // Implicit within 1.5× of MLS-MPM's bound on the same scene.
+            return 1.5 * self.error_bound(&SolverSetting::MlsMpm { cfl: 0.5 });
+        }
         match (self, solver) {
             // The PIC reference lands within MLS-MPM's bounds on these scenes (measured:
             // Hertz +17.3/+12.8/+6.7 %, bar +2.6/+1.7/+1.2 %, stretch −7.2/−5.0/−3.9 %).
@@ -145,8 +213,10 @@ impl AnalyticCase {
                     (AnalyticCase::Bar { .. }, false) => 0.75,
                     (AnalyticCase::Stretch { .. }, true) => 0.40,
                     (AnalyticCase::Stretch { .. }, false) => 3.0,
+                    (_, _) => unreachable!("stiff cases have their own bound"),
                 }
             }
+            _ => unreachable!("stiff cases and the implicit method have their own bound"),
         }
     }
 }
@@ -163,6 +233,8 @@ pub enum SolverSetting {
     /// PB-MPM with `iterations` per substep and substeps of `steps_per_mls` times MLS-MPM's
     /// CFL-0.5 bound (at most a frame: the scenes sample their answer every frame).
     PbMpm { iterations: u32, steps_per_mls: f64 },
+    /// Backward-Euler Newton–CG, substeps bound by advection at CFL 0.5.
+    Implicit,
 }
 
 impl SolverSetting {
@@ -171,6 +243,7 @@ impl SolverSetting {
             SolverSetting::MlsMpm { .. } => "MLS-MPM",
             SolverSetting::PicMpm { .. } => "PIC-MPM",
             SolverSetting::PbMpm { .. } => "PB-MPM",
+            SolverSetting::Implicit => "implicit",
         }
     }
 
@@ -181,6 +254,7 @@ impl SolverSetting {
                 iterations,
                 steps_per_mls,
             } => format!("{iterations} it; dt {steps_per_mls}x MLS"),
+            SolverSetting::Implicit => "advection CFL 0.5".to_owned(),
         }
     }
 
@@ -214,6 +288,11 @@ impl SolverSetting {
                 scene.solver.iterations = iterations;
                 scene.solver.dt = Some(steps_per_mls * mls);
             }
+            SolverSetting::Implicit => {
+                scene.solver.method = Method::Implicit;
+                scene.solver.cfl = 0.5;
+                scene.solver.dt = None;
+            }
         }
     }
 }
@@ -227,8 +306,8 @@ pub struct SweepPlan {
 }
 
 impl SweepPlan {
-    /// The coarse resolutions with two MLS-MPM steps, one PB-MPM and the PIC reference: under
-    /// two minutes on two CPU cores.
+    /// The coarse resolutions with two MLS-MPM steps, one PB-MPM, the PIC reference and
+    /// implicit, and the stiff stretch explicit against implicit.
     pub fn quick(backends: Vec<BackendChoice>) -> Self {
         SweepPlan {
             cases: vec![
@@ -246,9 +325,35 @@ impl SweepPlan {
                     steps_per_mls: 3.0,
                 },
                 SolverSetting::PicMpm { cfl: 0.5 },
+                SolverSetting::Implicit,
             ],
             backends,
         }
+        .with_stiff_stretch()
+    }
+
+    /// The stiff stretch at each of [`STIFF_MODULI`] (the quick sweep's stiff group: the
+    /// stiff Hertz runs take minutes with explicit MLS-MPM).
+    fn with_stiff_stretch(mut self) -> Self {
+        for e in STIFF_MODULI {
+            self.cases
+                .push(AnalyticCase::StiffStretch { cells_across: 4, e });
+        }
+        self
+    }
+
+    /// The stiff-tissue group: Hertz at R = 3 dx and the stretch at 4 cells across, at
+    /// each of [`STIFF_MODULI`].
+    fn with_stiff_group(mut self) -> Self {
+        for e in STIFF_MODULI {
+            self.cases.push(AnalyticCase::StiffHertz {
+                cells_per_radius: 3.0,
+                e,
+            });
+            self.cases
+                .push(AnalyticCase::StiffStretch { cells_across: 4, e });
+        }
+        self
     }
 
     /// Three resolutions per scene; MLS-MPM at three steps, PB-MPM at three settings, PIC.
@@ -284,13 +389,38 @@ impl SweepPlan {
                     steps_per_mls: 3.0,
                 },
                 SolverSetting::PicMpm { cfl: 0.5 },
+                SolverSetting::Implicit,
             ],
             backends,
         }
+        .with_stiff_group()
+    }
+
+    /// The stiff-tissue group alone, explicit MLS-MPM (CFL 0.5) and implicit.
+    pub fn stiff(backends: Vec<BackendChoice>) -> Self {
+        SweepPlan {
+            cases: Vec::new(),
+            settings: vec![SolverSetting::MlsMpm { cfl: 0.5 }, SolverSetting::Implicit],
+            backends,
+        }
+        .with_stiff_group()
+    }
+
+    /// The (case, setting) pairs the sweep runs, on each backend.
+    pub fn pairs(&self) -> Vec<(AnalyticCase, SolverSetting)> {
+        let mut out = Vec::new();
+        for &case in &self.cases {
+            for &setting in &self.settings {
+                if case.runs_with(&setting) {
+                    out.push((case, setting));
+                }
+            }
+        }
+        out
     }
 
     pub fn len(&self) -> usize {
-        self.cases.len() * self.settings.len() * self.backends.len()
+        self.pairs().len() * self.backends.len()
     }
 }
 
@@ -308,6 +438,9 @@ pub struct Row {
     pub substeps: u64,
     pub particle_substeps_per_s: f64,
     pub realtime_factor: f64,
+    /// Newton and CG iterations per frame (implicit; zero otherwise).
+    pub newton_per_frame: f64,
+    pub cg_per_frame: f64,
     /// Why the run failed, if it did.
     pub failure: Option<String>,
 }
@@ -349,6 +482,8 @@ pub fn run_one(case: AnalyticCase, setting: SolverSetting, backend: BackendChoic
         substeps: meter.substeps,
         particle_substeps_per_s: meter.rate(),
         realtime_factor: meter.realtime_factor(),
+        newton_per_frame: meter.newton as f64 / meter.frames.max(1) as f64,
+        cg_per_frame: meter.cg as f64 / meter.frames.max(1) as f64,
         failure,
     }
 }
@@ -356,13 +491,11 @@ pub fn run_one(case: AnalyticCase, setting: SolverSetting, backend: BackendChoic
 /// Runs the whole plan, calling `on_row` after each run (for progress).
 pub fn run(plan: &SweepPlan, mut on_row: impl FnMut(&Row)) -> Vec<Row> {
     let mut rows = Vec::with_capacity(plan.len());
-    for &case in &plan.cases {
-        for &setting in &plan.settings {
-            for &backend in &plan.backends {
-                let row = run_one(case, setting, backend);
-                on_row(&row);
-                rows.push(row);
-            }
+    for (case, setting) in plan.pairs() {
+        for &backend in &plan.backends {
+            let row = run_one(case, setting, backend);
+            on_row(&row);
+            rows.push(row);
         }
     }
     rows
@@ -370,12 +503,12 @@ pub fn run(plan: &SweepPlan, mut on_row: impl FnMut(&Row)) -> Vec<Row> {
 
 pub fn csv(rows: &[Row]) -> String {
     let mut out = String::from(
-        "scene,resolution_cells,solver,step,backend,particles,relative_error,error_bound,wall_s,substeps,particle_substeps_per_s,realtime_factor,failure\n",
+        "scene,resolution_cells,solver,step,backend,particles,relative_error,error_bound,wall_s,substeps,particle_substeps_per_s,realtime_factor,newton_per_frame,cg_per_frame,failure\n",
     );
     for r in rows {
         let _ = writeln!(
             out,
-            "{},{},{},{},{},{},{:.6},{},{:.4},{},{:.0},{:.5},{}",
+            "{},{},{},{},{},{},{:.6},{},{:.4},{},{:.0},{:.5},{:.2},{:.1},{}",
             r.case.scene_name(),
             r.case.cells(),
             r.setting.solver_name(),
@@ -388,6 +521,8 @@ pub fn csv(rows: &[Row]) -> String {
             r.substeps,
             r.particle_substeps_per_s,
             r.realtime_factor,
+            r.newton_per_frame,
+            r.cg_per_frame,
             r.failure.as_deref().unwrap_or("").replace([',', '\n'], ";"),
         );
     }
@@ -396,7 +531,7 @@ pub fn csv(rows: &[Row]) -> String {
 
 pub fn markdown(rows: &[Row]) -> String {
     let mut out = String::from(
-        "| scene | resolution | solver | step | backend | particles | error | bound | wall (s) | substeps | particle-substeps/s | real-time factor |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "| scene | resolution | solver | step | backend | particles | error | bound | wall (s) | substeps | particle-substeps/s | real-time factor | Newton/frame | CG/frame |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for r in rows {
         let error = match &r.failure {
@@ -405,7 +540,7 @@ pub fn markdown(rows: &[Row]) -> String {
         };
         let _ = writeln!(
             out,
-            "| {} | {} | {} | {} | {} | {} | {} | {:.0}% | {:.2} | {} | {:.2}M | {:.3} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {:.0}% | {:.2} | {} | {:.2}M | {:.3} | {:.1} | {:.1} |",
             r.case.scene_name(),
             r.case.resolution(),
             r.setting.solver_name(),
@@ -418,6 +553,43 @@ pub fn markdown(rows: &[Row]) -> String {
             r.substeps,
             r.particle_substeps_per_s / 1e6,
             r.realtime_factor,
+            r.newton_per_frame,
+            r.cg_per_frame,
+        );
+    }
+    out
+}
+
+/// The stiff-tissue group side by side: explicit MLS-MPM at CFL 0.5 against implicit on
+/// each stiff case and backend, with the implicit method's wall-time speed-up.
+pub fn stiff_summary(rows: &[Row]) -> String {
+    let mut out = String::from(
+        "| stiff scene | backend | explicit wall (s) | explicit error | implicit wall (s) | implicit error | speed-up | implicit error no worse |\n|---|---|---|---|---|---|---|---|\n",
+    );
+    for exp in rows
+        .iter()
+        .filter(|r| r.case.is_stiff() && matches!(r.setting, SolverSetting::MlsMpm { .. }))
+    {
+        let Some(imp) = rows.iter().find(|r| {
+            r.case == exp.case && r.backend == exp.backend && r.setting == SolverSetting::Implicit
+        }) else {
+            continue;
+        };
+        let _ = writeln!(
+            out,
+            "| {} | {} | {:.2} | {:+.2}% | {:.2} | {:+.2}% | {:.1}× | {} |",
+            exp.case.scene_name(),
+            exp.backend,
+            exp.wall_s,
+            100.0 * exp.error,
+            imp.wall_s,
+            100.0 * imp.error,
+            exp.wall_s / imp.wall_s.max(1e-9),
+            if imp.error.abs() <= exp.error.abs() {
+                "yes"
+            } else {
+                "no"
+            },
         );
     }
     out
@@ -501,8 +673,19 @@ mod tests {
     #[test]
     fn plans_cover_every_combination() {
         let plan = SweepPlan::full(vec![BackendChoice::Cpu, BackendChoice::Gpu]);
-        assert_eq!(plan.len(), 9 * 7 * 2);
-        assert_eq!(SweepPlan::quick(vec![BackendChoice::Cpu]).len(), 12);
+        // Nine analytic cases × eight settings, four stiff cases × two.
+        assert_eq!(plan.len(), (9 * 8 + 4 * 2) * 2);
+        assert_eq!(
+            SweepPlan::quick(vec![BackendChoice::Cpu]).len(),
+            3 * 5 + 4 * 2
+        );
+        assert!(plan
+            .pairs()
+            .iter()
+            .filter(|(c, _)| c.is_stiff())
+            .all(|(c, s)| c.scene_name().contains("stiff")
+                && (matches!(s, SolverSetting::MlsMpm { cfl } if *cfl == 0.5)
+                    || *s == SolverSetting::Implicit)));
     }
 
     #[test]
@@ -529,6 +712,8 @@ mod tests {
             substeps: 1,
             particle_substeps_per_s: 10.0,
             realtime_factor: 0.1,
+            newton_per_frame: 0.0,
+            cg_per_frame: 0.0,
             failure: Some("guard".into()),
         };
         assert!(!row.passes());

@@ -10,6 +10,7 @@
 //! allocates nothing. PB-MPM (`pbmpm`) reuses these stages with its constraint iterations.
 
 mod binning;
+pub mod implicit;
 pub mod pbmpm;
 
 use super::grid::{Boundary, GridLayout, Node, TableHold, NODES_PER_BLOCK, WALL_NODES};
@@ -17,8 +18,8 @@ use super::guard::{GuardEvent, GuardKind};
 use super::kernel::Stencil;
 use super::material::kirchhoff_stress;
 use super::{
-    Mat3, MaterialParams, Method, Particles, PbMpmParams, SolverSetup, SubstepStats, ToolImpulse,
-    Vec3, MAX_TOOLS,
+    ImplicitParams, Mat3, MaterialParams, Method, Particles, PbMpmParams, SolveCounts, SolverSetup,
+    SubstepStats, ToolImpulse, Vec3, MAX_TOOLS,
 };
 use crate::tools::{contact, ToolKinematics};
 use binning::Binning;
@@ -43,8 +44,12 @@ pub struct CpuSolver {
     pub method: Method,
     /// PB-MPM's iteration settings.
     pub pb_mpm: PbMpmParams,
+    /// The implicit solver's Newton and CG settings.
+    pub implicit: ImplicitParams,
     grid: Vec<Node>,
     bins: Binning,
+    /// The implicit solver's buffers, sized on its first substep.
+    implicit_work: implicit::Workspace,
 }
 
 /// A raw pointer shared across rayon tasks that write provably disjoint elements.
@@ -89,7 +94,9 @@ impl CpuSolver {
             max_speed: setup.max_speed,
             method: setup.method,
             pb_mpm: setup.pb_mpm,
+            implicit: setup.implicit,
             bins,
+            implicit_work: implicit::Workspace::default(),
         }
     }
 
@@ -108,6 +115,9 @@ impl CpuSolver {
         if self.method == Method::PbMpm {
             return self.pb_substep(input, self.pb_mpm);
         }
+        if self.method == Method::Implicit {
+            return self.implicit_substep(input);
+        }
         self.bin_particles();
         self.clear_touched_blocks();
         let stress_scale = -input.dt * 4.0 * self.layout.inv_dx * self.layout.inv_dx;
@@ -119,6 +129,7 @@ impl CpuSolver {
             max_speed,
             clamped_particles,
             guard,
+            solve: SolveCounts::default(),
         }
     }
 

@@ -89,6 +89,7 @@ impl CpuSolver {
             max_speed,
             clamped_particles,
             guard,
+            solve: Default::default(),
         }
     }
 

@@ -71,6 +71,11 @@ pub enum GpuError {
     Device(String),
     #[error("scene too large for the GPU backend: {0}")]
     TooLarge(String),
+    #[error(
+        "solver.method = \"implicit\" runs on the CPU backend only (no GPU implementation \
+         yet); set solver.backend = \"cpu\" or \"auto\""
+    )]
+    ImplicitUnsupported,
 }
 
 /// Workgroup size of the per-particle and per-block stages.
@@ -136,6 +141,9 @@ fn check_limits(device: &wgpu::Device, setup: &SolverSetup) -> Result<(), GpuErr
 
 impl GpuSolver {
     pub fn new(ctx: GpuContext, setup: SolverSetup) -> Result<Self, GpuError> {
+        if setup.method == Method::Implicit {
+            return Err(GpuError::ImplicitUnsupported);
+        }
         let float_p2g = match setup.p2g {
             P2gAtomics::Auto => ctx.float_atomics,
             P2gAtomics::Float if !ctx.float_atomics => {
@@ -290,6 +298,7 @@ impl GpuSolver {
                 match self.method {
                     Method::MlsMpm | Method::PicMpm => self.record_substep(&mut pass, s, &groups),
                     Method::PbMpm => self.record_pb_substep(&mut pass, s, entries, &groups),
+                    Method::Implicit => unreachable!("GpuSolver::new refuses implicit"),
                 }
             }
             self.res.bind_step(&mut pass, 0);
@@ -402,7 +411,7 @@ impl GpuSolver {
 /// Step entries per substep (one, or one per PB-MPM iteration) and PB-MPM's relaxation.
 fn step_entries(method: Method, pb_mpm: PbMpmParams) -> (u32, f32) {
     match method {
-        Method::MlsMpm | Method::PicMpm => (1, 0.0),
+        Method::MlsMpm | Method::PicMpm | Method::Implicit => (1, 0.0),
         Method::PbMpm => (pb_mpm.iterations.max(1), pb_mpm.relaxation),
     }
 }
