@@ -4,7 +4,7 @@
 //! of `solver.dt` (default 1/240 s).
 
 use crate::config::{Hold, Scene, PB_MPM_DEFAULT_DT};
-use crate::mpm::backend::{Backend, CpuBackend, FramePlan};
+use crate::mpm::backend::{Backend, BackendChoice, CpuBackend, FramePlan};
 use crate::mpm::cpu::CpuSolver;
 use crate::mpm::gpu::{self, GpuError, GpuSolver};
 use crate::mpm::grid::{Boundary, GridLayout, TableHold};
@@ -363,6 +363,15 @@ impl PlannedFrame {
     }
 }
 
+/// What a scene uses that only the CPU backend steps: slicer tools (cutting).
+fn cpu_only_feature(scene: &Scene) -> Option<&'static str> {
+    scene
+        .tools
+        .iter()
+        .any(|t| matches!(t.shape, Shape::Slicer { .. }))
+        .then_some("slicer tools (cutting)")
+}
+
 /// Why a world could not be built.
 #[derive(Debug, thiserror::Error)]
 pub enum WorldError {
@@ -470,9 +479,20 @@ impl World {
                 relaxation: scene.solver.relaxation as f32,
             },
         };
-        let backend = match gpu::adapter::select(scene.solver.backend)? {
-            Some(ctx) => Backend::Gpu(Box::new(GpuSolver::new(ctx, setup)?)),
-            None => Backend::Cpu(Box::new(CpuBackend::new(CpuSolver::new(setup)))),
+        let backend = match cpu_only_feature(scene) {
+            Some(feature) if scene.solver.backend == BackendChoice::Gpu => {
+                return Err(GpuError::Unsupported(feature).into())
+            }
+            Some(feature) => {
+                if scene.solver.backend == BackendChoice::Auto {
+                    tracing::info!("backend: cpu (auto: the GPU backend has no {feature} yet)");
+                }
+                Backend::Cpu(Box::new(CpuBackend::new(CpuSolver::new(setup))))
+            }
+            None => match gpu::adapter::select(scene.solver.backend)? {
+                Some(ctx) => Backend::Gpu(Box::new(GpuSolver::new(ctx, setup)?)),
+                None => Backend::Cpu(Box::new(CpuBackend::new(CpuSolver::new(setup)))),
+            },
         };
         Ok(World {
             scene: scene.clone(),
@@ -538,6 +558,13 @@ impl World {
     /// [`Backend::set_deformation_readback`]); outputs that colour by strain turn it on.
     pub fn set_deformation_readback(&mut self, on: bool) {
         self.backend.set_deformation_readback(on);
+    }
+
+    /// Separate tissue pieces: particles linked through neighbours within a cell, not
+    /// across a cut (see [`crate::mpm::pieces`]).
+    pub fn pieces(&self) -> usize {
+        let p = self.particles();
+        crate::mpm::pieces::count(&p.x, &p.crack, self.layout().dx)
     }
 
     pub fn layout(&self) -> &GridLayout {

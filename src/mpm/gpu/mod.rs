@@ -71,6 +71,8 @@ pub enum GpuError {
     Device(String),
     #[error("scene too large for the GPU backend: {0}")]
     TooLarge(String),
+    #[error("the GPU backend does not support {0} yet; use backend = \"cpu\" or \"auto\"")]
+    Unsupported(&'static str),
 }
 
 /// Workgroup size of the per-particle and per-block stages.
