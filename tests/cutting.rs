@@ -139,3 +139,25 @@ fn a_blunt_tool_on_the_same_path_leaves_one_piece() {
         assert_eq!(world.pieces(), 1, "t = {:.3} s", world.time());
     }
 }
+
+#[test]
+fn the_gpu_backend_refuses_a_slicer_and_auto_runs_it_on_the_cpu() {
+    let mut scene = shipped("cutting.toml");
+    scene.solver.backend = BackendChoice::Gpu;
+    let err = World::try_new(&scene).err().expect("gpu refuses a slicer");
+    assert!(err.to_string().contains("slicer"), "{err}");
+    scene.solver.backend = BackendChoice::Auto;
+    let world = World::try_new(&scene).unwrap();
+    assert_eq!(world.backend().name(), "cpu");
+}
+
+#[test]
+fn a_scene_that_cuts_gets_the_isosurface_instead_of_the_fixed_mesh() {
+    use dvrk_tissue_sim::output::SurfaceKind;
+    use dvrk_tissue_sim::sim::setup::surface_kind;
+    let mut scene = shipped("cutting.toml");
+    scene.outputs.surface = SurfaceKind::Mesh;
+    assert_eq!(surface_kind(&scene), SurfaceKind::Isosurface);
+    scene.tools[0].shape = Shape::Sphere { radius: 0.004 };
+    assert_eq!(surface_kind(&scene), SurfaceKind::Mesh);
+}

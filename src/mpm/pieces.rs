@@ -85,15 +85,17 @@ mod tests {
         let mut x = row(5, 0.0, 0.001);
         x.extend(row(5, 0.007, 0.001));
         assert_eq!(count(&x, &[], dx), 2);
-        // One row of six particles half a cell apart.
-        let x = row(6, 0.0, 0.001);
+        // One row of six particles 0.6 cells apart (second neighbours beyond a cell).
+        let x = row(6, 0.0, 0.0012);
         let mut crack = vec![Vec3::zeros(); 6];
         assert_eq!(count(&x, &crack, dx), 1);
-        // Either particle's crack is enough to unlink a pair: particle 2 alone is cut.
-        crack[2] = Vec3::new(-0.0005, 0.0, 0.0);
+        // Either particle's crack is enough to unlink a pair: particle 2 alone is cut, by
+        // a plane halfway to particle 3.
+        crack[2] = Vec3::new(-0.0006, 0.0, 0.0);
         assert_eq!(count(&x, &crack, dx), 2);
+        assert_eq!(label(&x, &crack, dx), vec![0, 0, 0, 1, 1, 1]);
         // A crack plane beyond the neighbour leaves the pair linked.
-        crack[2] = Vec3::new(-0.0015, 0.0, 0.0);
+        crack[2] = Vec3::new(-0.0018, 0.0, 0.0);
         assert_eq!(count(&x, &crack, dx), 1);
     }
 }
