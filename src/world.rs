@@ -370,15 +370,17 @@ impl PlannedFrame {
     }
 }
 
-/// The backend to look for: `auto` runs the implicit method on the CPU (it has no GPU
-/// implementation yet; `gpu` is refused when the solver is built).
-fn implicit_backend(scene: &Scene) -> BackendChoice {
-    let asked = scene.solver.backend;
-    if scene.solver.method == Method::Implicit && asked == BackendChoice::Auto {
-        tracing::info!("backend: cpu (auto: the implicit method runs on the CPU only)");
-        return BackendChoice::Cpu;
+/// What a scene uses that only the CPU backend steps: the implicit method, slicer tools
+/// (cutting).
+fn cpu_only_feature(scene: &Scene) -> Option<&'static str> {
+    if scene.solver.method == Method::Implicit {
+        return Some(crate::mpm::gpu::IMPLICIT_METHOD);
     }
-    asked
+    scene
+        .tools
+        .iter()
+        .any(|t| matches!(t.shape, Shape::Slicer { .. }))
+        .then_some("slicer tools (cutting)")
 }
 
 /// Why a world could not be built.
@@ -489,9 +491,20 @@ impl World {
             },
             implicit: scene.solver.implicit_params(),
         };
-        let backend = match gpu::adapter::select(implicit_backend(scene))? {
-            Some(ctx) => Backend::Gpu(Box::new(GpuSolver::new(ctx, setup)?)),
-            None => Backend::Cpu(Box::new(CpuBackend::new(CpuSolver::new(setup)))),
+        let backend = match cpu_only_feature(scene) {
+            Some(feature) if scene.solver.backend == BackendChoice::Gpu => {
+                return Err(GpuError::Unsupported(feature).into())
+            }
+            Some(feature) => {
+                if scene.solver.backend == BackendChoice::Auto {
+                    tracing::info!("backend: cpu (auto: the GPU backend has no {feature} yet)");
+                }
+                Backend::Cpu(Box::new(CpuBackend::new(CpuSolver::new(setup))))
+            }
+            None => match gpu::adapter::select(scene.solver.backend)? {
+                Some(ctx) => Backend::Gpu(Box::new(GpuSolver::new(ctx, setup)?)),
+                None => Backend::Cpu(Box::new(CpuBackend::new(CpuSolver::new(setup)))),
+            },
         };
         Ok(World {
             scene: scene.clone(),
@@ -557,6 +570,13 @@ impl World {
     /// [`Backend::set_deformation_readback`]); outputs that colour by strain turn it on.
     pub fn set_deformation_readback(&mut self, on: bool) {
         self.backend.set_deformation_readback(on);
+    }
+
+    /// Separate tissue pieces: particles linked through neighbours within a cell, not
+    /// across a cut (see [`crate::mpm::pieces`]).
+    pub fn pieces(&self) -> usize {
+        let p = self.particles();
+        crate::mpm::pieces::count(&p.x, &p.crack, self.layout().dx)
     }
 
     pub fn layout(&self) -> &GridLayout {

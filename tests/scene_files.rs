@@ -494,3 +494,33 @@ fn a_scene_with_the_dvrk_model_layout_builds_and_reports_the_dh_tool_frame() {
     assert!((tool.translation.vector - dh.translation.vector).norm() < 1e-9);
     assert!(tool.rotation.angle_to(&dh.rotation) < 1e-9);
 }
+
+#[test]
+fn slicer_blades_the_grid_cannot_resolve_are_rejected() {
+    let blade = |l: &str, h: &str, t: &str| {
+        problems_with(
+            r#"shape = { type = "sphere", radius = 0.005 }"#,
+            &format!(
+                r#"shape = {{ type = "slicer", length = {l}, height = {h}, thickness = {t} }}"#
+            ),
+        )
+    };
+    let good = GOOD.replacen(
+        r#"shape = { type = "sphere", radius = 0.005 }"#,
+        r#"shape = { type = "slicer", length = 0.03, height = 0.02, thickness = 0.0004 }"#,
+        1,
+    );
+    config::from_str(&good, Path::new("slicer.toml")).unwrap();
+    // Shorter or lower than two cells (dx = 2 mm): the blade covers no stencil.
+    let p = blade("0.003", "0.02", "0.0004");
+    assert_single(&p, "tool[0] (probe).shape.length", "at least 2·dx");
+    assert!(p[0].value.contains("0.003"), "{p:?}");
+    let p = blade("0.03", "0.0", "0.0");
+    assert_eq!(p.len(), 2, "{p:#?}");
+    assert_eq!(p[0].key, "tool[0] (probe).shape.height");
+    // A thickness ≤ 0 or wider than half the blade.
+    let p = blade("0.03", "0.02", "-0.0001");
+    assert_single(&p, "tool[0] (probe).shape.thickness", "0 < thickness");
+    let p = blade("0.03", "0.02", "0.015");
+    assert_single(&p, "tool[0] (probe).shape.thickness", "height/2 = 0.01 m");
+}

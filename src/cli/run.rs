@@ -238,6 +238,7 @@ fn run_headless(
         "summary: tissue centre of mass ({:.4}, {:.4}, {:.4}) m, highest particle z {top:.4} m",
         com.x, com.y, com.z
     );
+    println!("summary: pieces {}", world.pieces());
     // The recorder's writer ends once the loop, which holds its sending end, is gone.
     drop(sim);
     if let Some(recorder) = recorder {
@@ -257,7 +258,7 @@ fn attach_recorder(
     let outputs = &scene.outputs;
     setup.surface = Some(
         TissueSurface::new(
-            outputs.surface,
+            dvrk_tissue_sim::sim::setup::surface_kind(scene),
             setup.world.particles(),
             scene.domain.dx as f32,
             outputs.points_scalar,

@@ -351,6 +351,33 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
                     "0 < arc_angle < 2π rad",
                 );
             }
+            Shape::Slicer {
+                length: l,
+                height,
+                thickness,
+            } => {
+                // The blade separates a particle from the nodes across it only where it
+                // covers a stencil: at least two cells long and high. Its thickness is the
+                // spine's (the edge side has no thickness to resolve), finite and > 0.
+                for (k, v) in [("shape.length", l), ("shape.height", height)] {
+                    c.within(
+                        key(k),
+                        v as f64,
+                        2.0 * d.dx,
+                        MAX_LENGTH,
+                        "m (at least 2·dx: the blade must cover a particle's stencil)",
+                    );
+                }
+                c.require(
+                    thickness.is_finite() && thickness > 0.0 && thickness <= 0.5 * height,
+                    key("shape.thickness"),
+                    thickness,
+                    format!(
+                        "0 < thickness ≤ height/2 = {} m (the spine's)",
+                        0.5 * height
+                    ),
+                );
+            }
         }
         // Grid contact acts on nodes inside a solid; one thinner than two cells leaves too
         // few of a particle's 27 stencil nodes constrained, and tissue flows through it.

@@ -4,12 +4,14 @@
 
 pub mod backend;
 pub mod cpu;
+pub mod crack;
 pub mod gpu;
 pub mod grid;
 pub mod guard;
 pub mod kernel;
 pub mod material;
 pub mod particles;
+pub mod pieces;
 pub mod timestep;
 
 pub type Vec3 = nalgebra::Vector3<f32>;

@@ -25,6 +25,8 @@ pub struct Particles {
     pub volume0: Vec<f32>,
     /// Index into the solver's material table.
     pub material: Vec<u16>,
+    /// Per-particle crack plane (see [`super::crack`]); empty until a slicer first cuts.
+    pub crack: Vec<Vec3>,
 }
 
 impl Particles {
@@ -67,13 +69,14 @@ impl Particles {
         }
     }
 
-    /// Copies the dynamic state (x, v, C, F) of `other`, which has the same particles,
+    /// Copies the dynamic state (x, v, C, F, cracks) of `other`, which has the same particles,
     /// reusing this one's buffers.
     pub fn copy_state_from(&mut self, other: &Particles) {
         self.x.clone_from(&other.x);
         self.v.clone_from(&other.v);
         self.c.clone_from(&other.c);
         self.f.clone_from(&other.f);
+        self.crack.clone_from(&other.crack);
     }
 
     /// Total linear momentum (kg·m/s), f64.

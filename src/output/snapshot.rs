@@ -144,6 +144,15 @@ impl DrawnTool {
             } => {
                 crate::tools::sdf::needle(local, radius, arc_angle, wire_radius.max(6e-4)).distance
             }
+            // The slicer's whole blade (contact is its spine's alone), at least 0.6 mm thick.
+            Shape::Slicer {
+                length,
+                height,
+                thickness,
+            } => {
+                let half = Vec3::new(0.5 * length, 0.5 * thickness.max(6e-4), 0.5 * height);
+                crate::tools::sdf::cuboid(local + Vec3::new(0.0, 0.0, 0.5 * height), half).distance
+            }
             shape => shape.query(local, self.jaw).distance,
         }
     }

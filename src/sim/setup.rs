@@ -11,7 +11,7 @@ use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use crate::config::{Outputs, Scene};
 use crate::output::mesh::MeshError;
 use crate::output::snapshot::SnapshotSchedule;
-use crate::output::{CloudOptions, TissueSurface};
+use crate::output::{CloudOptions, SurfaceKind, TissueSurface};
 use crate::robot::psm::{UrdfRoles, DVRK_JAW_SPEED, DVRK_PSM_SPEEDS};
 use crate::robot::urdf::{self, CLASSIC_PSM_URDF};
 use crate::robot::{Psm, PsmError, Teleop, TeleopConfig, TeleopError};
@@ -171,6 +171,26 @@ pub fn check_arm_urdfs(scene: &Scene) -> Vec<ArmUrdfProblem> {
         .collect()
 }
 
+/// The surface a scene's outputs get: the constant-topology mesh cannot follow a cut, so a
+/// scene with a slicer that asks for it gets the isosurface instead, with the reason logged.
+pub fn surface_kind(scene: &Scene) -> SurfaceKind {
+    let cuts = scene
+        .tools
+        .iter()
+        .find(|t| matches!(t.shape, crate::tools::Shape::Slicer { .. }));
+    match (scene.outputs.surface, cuts) {
+        (SurfaceKind::Mesh, Some(tool)) => {
+            tracing::info!(
+                "outputs.surface: isosurface instead of mesh: tool {} cuts the tissue, and the \
+                 mesh's topology is fixed at rest",
+                tool.name
+            );
+            SurfaceKind::Isosurface
+        }
+        (kind, _) => kind,
+    }
+}
+
 fn cloud_options(outputs: &Outputs) -> CloudOptions {
     CloudOptions {
         measure: outputs.points_scalar,
@@ -226,7 +246,7 @@ pub fn build_setup(scene: &Scene) -> Result<SimSetup, SetupError> {
     };
     let outputs = &scene.outputs;
     let surface = TissueSurface::new(
-        outputs.surface,
+        surface_kind(scene),
         world.particles(),
         scene.domain.dx as f32,
         outputs.points_scalar,

@@ -6,6 +6,7 @@ pub mod grip;
 pub mod jaw;
 pub mod pose;
 pub mod sdf;
+pub mod slicer;
 pub mod trajectory;
 
 pub use contact::ContactModel;
@@ -68,6 +69,8 @@ impl ToolKinematics {
     ) -> Self {
         let contact_threshold = match shape {
             Shape::Needle { wire_radius, .. } => (1.5 * dx - wire_radius).max(0.0),
+            // The spine is a cylinder of the blade's thickness, fattened as a wire is.
+            Shape::Slicer { thickness, .. } => (1.5 * dx - 0.5 * thickness).max(0.0),
             _ => 0.0,
         };
         let translation: Vec3 = pose.position.cast();

@@ -36,6 +36,15 @@ pub enum Shape {
         arc_angle: f32,
         wire_radius: f32,
     },
+    /// A blade (seed 002's quad slicer) in the local xz plane: `length` along x centred on
+    /// the origin, `height` down along −z, `thickness` along y; the blunt spine is the local
+    /// x axis, the cutting edge the line z = −height. Only the spine has contact (see
+    /// [`crate::tools::slicer`]).
+    Slicer {
+        length: f32,
+        height: f32,
+        thickness: f32,
+    },
 }
 
 /// Result of one SDF query.
@@ -188,6 +197,9 @@ impl Shape {
                 arc_angle,
                 wire_radius,
             } => needle(p, radius, arc_angle, wire_radius),
+            Shape::Slicer {
+                length, thickness, ..
+            } => super::slicer::spine(p, length, thickness),
         }
     }
 
@@ -211,11 +223,16 @@ impl Shape {
                 wire_radius,
                 ..
             } => radius + wire_radius,
+            Shape::Slicer {
+                length,
+                height,
+                thickness,
+            } => Vec3::new(0.5 * length, 0.5 * thickness, height).norm() + thickness,
         }
     }
 
-    /// Thinnest dimension of a solid shape (m); `None` for curve shapes, which contact
-    /// fattens instead.
+    /// Thinnest dimension of a solid shape (m); `None` for curve shapes and the slicer's
+    /// spine, which contact fattens instead.
     pub fn solid_thickness(&self) -> Option<f32> {
         match *self {
             Shape::Sphere { radius } | Shape::Capsule { radius, .. } => Some(2.0 * radius),
@@ -227,7 +244,7 @@ impl Shape {
                 jaw_width,
                 ..
             } => Some(jaw_thickness.min(jaw_width)),
-            Shape::Needle { .. } => None,
+            Shape::Needle { .. } | Shape::Slicer { .. } => None,
         }
     }
 }

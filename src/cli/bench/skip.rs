@@ -4,7 +4,9 @@
 //! - the same tissue in a domain 4× larger along each axis (64× the volume and grid nodes);
 //! - tools parked out of reach (a gripper, a needle, a second probe) against no tools;
 //! - on the default scene, the liver held up 10 mm by the grip against the same jaws closed
-//!   on it without pressing (contact only, nothing held).
+//!   on it without pressing (contact only, nothing held);
+//! - a scalpel parked out of reach against no tools, and the cutting scene mid-cut against
+//!   a blunt tool on the blade's path (the cost of cutting when on).
 
 use dvrk_tissue_sim::config::builders::seed000_scene;
 use dvrk_tissue_sim::config::Scene;
@@ -65,6 +67,51 @@ fn parked_tools(mut s: Scene) -> Scene {
         ContactModel::default(),
         park(0.02),
     ));
+    s
+}
+
+/// A scalpel parked out of reach: the cut's marking scans the particles, nothing is cut.
+fn parked_slicer(mut s: Scene) -> Scene {
+    use dvrk_tissue_sim::tools::{ContactModel, Shape};
+    s.tools.clear();
+    s.tools.push(dvrk_tissue_sim::config::builders::tool(
+        "scalpel",
+        Shape::Slicer {
+            length: 0.03,
+            height: 0.02,
+            thickness: 0.0004,
+        },
+        ContactModel::default(),
+        vec![dvrk_tissue_sim::config::builders::key(
+            0.0,
+            [0.0, 0.03, 0.07],
+            [0.0; 3],
+            0.0,
+        )],
+    ));
+    s
+}
+
+/// The shipped cutting scene at dx = 1 mm (8× its particles), its scalpel cutting, or on
+/// `blunt` a capsule on the same path where the blade's spine is (the same contact, no cut).
+fn cutting_scene(blunt: bool) -> Scene {
+    use dvrk_tissue_sim::tools::Shape;
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/config/cutting.toml");
+    let mut s = dvrk_tissue_sim::config::load(std::path::Path::new(path))
+        .expect("the shipped cutting scene loads");
+    s.domain.dx = 0.001;
+    if blunt {
+        let tool = &mut s.tools[0];
+        if let Shape::Slicer { length, .. } = tool.shape {
+            tool.shape = Shape::Capsule {
+                radius: 0.0015,
+                half_length: 0.5 * length,
+            };
+        }
+        for k in &mut tool.keyframes {
+            k.rpy_deg = [0.0, 90.0, 0.0];
+        }
+    }
     s
 }
 
@@ -170,6 +217,24 @@ pub fn run(backend: BackendChoice, frames: u32) -> anyhow::Result<Vec<SkipRow>> 
         false,
         None,
     )?;
+    measure(
+        "slicer parked",
+        parked_slicer(resting_scene()),
+        Some((BARE, 1.05)),
+        false,
+        None,
+    )?;
+    // Mid-cut (the edge halfway down the block at 0.35 s): the blade against a blunt tool
+    // on its path; the same substeps, only the cut's marking and tests differ.
+    const BLUNT: &str = "cutting scene (dx 1 mm), blunt tool on the blade's path";
+    measure(BLUNT, cutting_scene(true), None, false, Some(0.35))?;
+    measure(
+        "cutting scene (dx 1 mm), blade cutting",
+        cutting_scene(false),
+        Some((BLUNT, 1.1)),
+        false,
+        Some(0.35),
+    )?;
     // The default scene's keyframes have lifted the liver 10 mm by 1.5 s and hold it to 1.8 s.
     const CONTACT: &str = "default scene, jaws closed on the liver, contact only";
     measure(CONTACT, default_grasp(false), None, false, Some(1.5))?;
@@ -235,7 +300,11 @@ mod tests {
 
     #[test]
     fn bench_scenes_are_valid_and_keep_tools_out_of_reach() {
-        for scene in [resting_scene(), parked_tools(resting_scene())] {
+        for scene in [
+            resting_scene(),
+            parked_tools(resting_scene()),
+            parked_slicer(resting_scene()),
+        ] {
             let problems = dvrk_tissue_sim::config::validate(&scene);
             assert!(problems.is_empty(), "{problems:?}");
             let world = World::new(&scene);

@@ -13,6 +13,7 @@ mod binning;
 pub mod implicit;
 pub mod pbmpm;
 
+use super::crack;
 use super::grid::{Boundary, GridLayout, Node, TableHold, NODES_PER_BLOCK, WALL_NODES};
 use super::guard::{GuardEvent, GuardKind};
 use super::kernel::Stencil;
@@ -59,6 +60,14 @@ struct SharedMut<T>(*mut T);
 // (block colouring in P2G, distinct blocks in clearing and the grid update).
 unsafe impl<T: Send> Send for SharedMut<T> {}
 unsafe impl<T: Send> Sync for SharedMut<T> {}
+
+impl<T> SharedMut<T> {
+    /// The pointer; a method, so that a closure using it captures the whole (Sync) wrapper.
+    #[inline(always)]
+    fn ptr(self) -> *mut T {
+        self.0
+    }
+}
 
 /// Storage offsets of the three stencil nodes along each axis; a node's index is
 /// `ox[a] + oy[b] + oz[c]` because the blocked layout is separable.
@@ -112,6 +121,7 @@ impl CpuSolver {
 
     pub fn substep(&mut self, input: &SubstepInput) -> SubstepStats {
         assert!(input.tools.len() <= MAX_TOOLS, "at most {MAX_TOOLS} tools");
+        self.mark_cuts(input.tools);
         if self.method == Method::PbMpm {
             return self.pb_substep(input, self.pb_mpm);
         }
@@ -131,6 +141,29 @@ impl CpuSolver {
             guard,
             solve: SolveCounts::default(),
         }
+    }
+
+    /// Cracks where a slicer's edge passes (see [`crack`]). The crack state is allocated
+    /// when the edge first reaches a particle; without a slicer this costs one scan of the
+    /// tools.
+    fn mark_cuts(&mut self, tools: &[ToolKinematics]) {
+        if !crack::any_slicer(tools) {
+            return;
+        }
+        let parts = &mut self.particles;
+        if parts.crack.len() != parts.len() {
+            if !crack::any_passing(tools, &parts.x, self.layout.dx) {
+                return;
+            }
+            parts.crack = vec![Vec3::zeros(); parts.len()];
+        }
+        crack::mark(tools, &parts.x, &mut parts.crack, self.layout.dx);
+    }
+
+    /// Whether particles carry cracks: P2G and G2P then test each node against them; a
+    /// scene that never cut takes the plain transfers.
+    fn cutting(&self) -> bool {
+        !self.particles.crack.is_empty()
     }
 
     fn bin_particles(&mut self) {
@@ -175,6 +208,15 @@ impl CpuSolver {
     /// Kirchhoff stress's force is fused in, without it (PB-MPM) only momentum moves; with
     /// `affine` the momentum carries APIC's affine part m·C·(xᵢ − xₚ) (PIC without).
     fn particle_to_grid(&mut self, stress_scale: Option<f32>, affine: bool) {
+        if self.cutting() {
+            self.transfer_to_grid::<true>(stress_scale, affine)
+        } else {
+            self.transfer_to_grid::<false>(stress_scale, affine)
+        }
+    }
+
+    /// P2G; with `CUT` a particle skips the nodes across its crack.
+    fn transfer_to_grid<const CUT: bool>(&mut self, stress_scale: Option<f32>, affine: bool) {
         let layout = self.layout;
         let parts = &self.particles;
         let materials = &self.materials[..];
@@ -209,6 +251,8 @@ impl CpuSolver {
                         q.column(2).into_owned(),
                     );
                     let offs = axis_offsets(&layout, s.base);
+                    let crack = if CUT { parts.crack[p] } else { Vec3::zeros() };
+                    let cracked = CUT && crack != Vec3::zeros();
                     let mut qa = momentum;
                     for a in 0..3 {
                         let mut qab = qa;
@@ -216,6 +260,10 @@ impl CpuSolver {
                             let wab = s.w[a].x * s.w[b].y;
                             let mut qabc = qab;
                             for c in 0..3 {
+                                if cracked && across(crack, &s, [a, b, c], layout.dx) {
+                                    qabc += q2;
+                                    continue;
+                                }
                                 let w = wab * s.w[c].z;
                                 let contrib = qabc * w;
                                 let idx = offs[0][a] + offs[1][b] + offs[2][c];
@@ -293,12 +341,27 @@ impl CpuSolver {
     /// is updated and damping applies (the end of a substep); without it (PB-MPM's inner
     /// iterations) only v and C are stored.
     fn grid_to_particle(&mut self, dt: f32, integrate: bool) -> (f32, u32, Option<GuardEvent>) {
+        if self.cutting() {
+            self.transfer_to_particles::<true>(dt, integrate)
+        } else {
+            self.transfer_to_particles::<false>(dt, integrate)
+        }
+    }
+
+    /// G2P; with `CUT` a particle reads its own velocity at the nodes across its crack (and
+    /// its crack turns with it).
+    fn transfer_to_particles<const CUT: bool>(
+        &mut self,
+        dt: f32,
+        integrate: bool,
+    ) -> (f32, u32, Option<GuardEvent>) {
         let layout = self.layout;
         let grid = &self.grid[..];
         let materials = &self.materials[..];
         let max_speed_limit = self.max_speed;
         let (lo, hi) = layout.particle_bounds();
         let parts = &mut self.particles;
+        let cracks = SharedMut(parts.crack.as_mut_ptr());
         const CHUNK: usize = 256;
         parts
             .x
@@ -312,6 +375,14 @@ impl CpuSolver {
                 || (0.0f32, 0u32, None::<GuardEvent>),
                 |(mut max_speed, mut clamped, mut guard), (chunk, ((((xs, vs), cs), fs), mats))| {
                     for i in 0..xs.len() {
+                        // SAFETY: with CUT the crack vector has one entry per particle, and
+                        // each particle index belongs to one chunk.
+                        let crack = if CUT {
+                            unsafe { &mut *cracks.ptr().add(chunk * CHUNK + i) }
+                        } else {
+                            &mut Vec3::zeros()
+                        };
+                        let cracked = CUT && *crack != Vec3::zeros();
                         let x0 = xs[i];
                         let g = (x0 - layout.origin) * layout.inv_dx;
                         let s = Stencil::new(g);
@@ -328,8 +399,13 @@ impl CpuSolver {
                                 let mut sum_b = Vec3::zeros();
                                 for c in 0..3 {
                                     let node = grid[offs[0][a] + offs[1][bb] + offs[2][c]];
-                                    let wv =
-                                        Vec3::new(node[0], node[1], node[2]) * (wab * s.w[c].z);
+                                    let node_v =
+                                        if cracked && across(*crack, &s, [a, bb, c], layout.dx) {
+                                            vs[i]
+                                        } else {
+                                            Vec3::new(node[0], node[1], node[2])
+                                        };
+                                    let wv = node_v * (wab * s.w[c].z);
                                     sum_b += wv;
                                     b2 += wv * c as f32;
                                 }
@@ -382,6 +458,9 @@ impl CpuSolver {
                         if integrate {
                             xs[i] = layout.origin + g_new * layout.dx;
                             fs[i] = f_new;
+                            if cracked {
+                                *crack = crack::advect(*crack, &c_new, dt);
+                            }
                         }
                     }
                     (max_speed, clamped, guard)
@@ -392,6 +471,14 @@ impl CpuSolver {
                 |a, b| (a.0.max(b.0), a.1 + b.1, GuardEvent::first(a.2, b.2)),
             )
     }
+}
+
+/// Whether stencil node `abc` lies across the particle's crack (offsets in grid units from
+/// the stencil base, `s.fx` the particle's position from it).
+#[inline(always)]
+fn across(crack: Vec3, s: &Stencil, abc: [usize; 3], dx: f32) -> bool {
+    let r = (Vec3::new(abc[0] as f32, abc[1] as f32, abc[2] as f32) - s.fx) * dx;
+    crack::separates(crack, r)
 }
 
 /// The grip of the first gripper that holds the node (see [`crate::tools::grip`]),

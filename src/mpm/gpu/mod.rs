@@ -58,6 +58,9 @@ use readback::Readback;
 use resources::{Resources, ARGS_GROUP};
 use sparse::SparseStage;
 
+/// How [`GpuError::Unsupported`] names the implicit method, which the GPU does not step yet.
+pub const IMPLICIT_METHOD: &str = "solver.method = \"implicit\"";
+
 /// Why the GPU backend could not be used.
 #[derive(Debug, thiserror::Error)]
 pub enum GpuError {
@@ -71,11 +74,8 @@ pub enum GpuError {
     Device(String),
     #[error("scene too large for the GPU backend: {0}")]
     TooLarge(String),
-    #[error(
-        "solver.method = \"implicit\" runs on the CPU backend only (no GPU implementation \
-         yet); set solver.backend = \"cpu\" or \"auto\""
-    )]
-    ImplicitUnsupported,
+    #[error("the GPU backend does not support {0} yet; use backend = \"cpu\" or \"auto\"")]
+    Unsupported(&'static str),
 }
 
 /// Workgroup size of the per-particle and per-block stages.
@@ -142,7 +142,7 @@ fn check_limits(device: &wgpu::Device, setup: &SolverSetup) -> Result<(), GpuErr
 impl GpuSolver {
     pub fn new(ctx: GpuContext, setup: SolverSetup) -> Result<Self, GpuError> {
         if setup.method == Method::Implicit {
-            return Err(GpuError::ImplicitUnsupported);
+            return Err(GpuError::Unsupported(IMPLICIT_METHOD));
         }
         let float_p2g = match setup.p2g {
             P2gAtomics::Auto => ctx.float_atomics,

@@ -179,6 +179,13 @@ impl From<&ToolKinematics> for GpuTool {
                 arc_angle,
                 wire_radius,
             } => ([radius, arc_angle, wire_radius, 0.0], 4),
+            // The GPU backend refuses scenes with a slicer (see `World::try_new`); its spine
+            // packs as the capsule-like kind the shaders do not know.
+            Shape::Slicer {
+                length,
+                height,
+                thickness,
+            } => ([length, height, thickness, 0.0], 5),
         };
         let (friction, drag, sticky) = match t.contact {
             ContactModel::Coulomb { friction, drag } => (friction, drag, 0),

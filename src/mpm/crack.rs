@@ -1,0 +1,163 @@
+//! Cuts that stay cut: each particle the blade has passed keeps the blade's plane as its
+//! crack, and from then on exchanges nothing with grid nodes on the far side of it.
+//!
+//! This is CPIC's compatibility test (Hu et al. 2018; seed 002 §IV-B) with the side bits
+//! held by the particle instead of a coloured distance field on the grid: a particle and a
+//! node are incompatible when the crack plane lies between them. In P2G the particle does
+//! not write an incompatible node (the crack face is traction free and carries no
+//! momentum), in G2P it reads its own velocity there (CPIC's ghost velocity), so momentum
+//! never crosses the cut, during the cut or after the blade has left.
+//!
+//! The crack is one vector per particle, `n·d`: `n` the unit normal of the plane pointing
+//! from the plane towards the particle, `d` > 0 the particle's distance from it (m). A node
+//! at offset `r = xᵢ − xₚ` is across the plane when `n·r < −d`, i.e. `crack·r < −|crack|²`;
+//! the zero vector is "not cut". The plane turns and stretches with the material (its normal
+//! is a covector: ṅ = −Cᵀn), so that a cut spread open or carried away stays a cut.
+
+use super::{Mat3, Vec3};
+use crate::tools::{slicer, Shape, ToolKinematics};
+use rayon::prelude::*;
+
+/// Least particle–plane distance kept, in cells: a particle exactly on the blade plane still
+/// gets a crack that tells its sides apart.
+const MIN_OFFSET_CELLS: f32 = 1e-3;
+
+/// Whether a node at offset `r` (m) from a particle lies across the particle's crack.
+#[inline(always)]
+pub fn separates(crack: Vec3, r: Vec3) -> bool {
+    crack.dot(&r) < -crack.norm_squared()
+}
+
+/// Whether any of the tools cuts (needs the per-particle crack state).
+pub fn any_slicer(tools: &[ToolKinematics]) -> bool {
+    tools
+        .iter()
+        .any(|t| matches!(t.shape, Shape::Slicer { .. }))
+}
+
+/// Gives each uncut particle that a slicer's edge passes this substep the blade's plane as
+/// its crack (see [`passing`]).
+pub fn mark(tools: &[ToolKinematics], x: &[Vec3], crack: &mut [Vec3], dx: f32) {
+    crack
+        .par_iter_mut()
+        .zip(x.par_iter())
+        .with_min_len(1024)
+        .for_each(|(crack, x)| {
+            if *crack == Vec3::zeros() {
+                if let Some(new) = passing(tools, *x, dx) {
+                    *crack = new;
+                }
+            }
+        });
+}
+
+/// Whether any particle at `x` is where a slicer's edge passes (so that the crack state is
+/// only allocated, and the transfers only test it, once something is cut).
+pub fn any_passing(tools: &[ToolKinematics], x: &[Vec3], dx: f32) -> bool {
+    x.par_iter()
+        .with_min_len(1024)
+        .any(|x| passing(tools, *x, dx).is_some())
+}
+
+/// The crack a slicer's edge gives the particle at `x` this substep (see
+/// [`slicer::edge_passing`]): the blade's plane, for a particle nearer it than a stencil's
+/// reach, in a strip above the edge.
+#[inline(always)]
+fn passing(tools: &[ToolKinematics], x: Vec3, dx: f32) -> Option<Vec3> {
+    let band = slicer::STENCIL_REACH_CELLS * dx;
+    tools.iter().find_map(|tool| {
+        let Shape::Slicer { length, height, .. } = tool.shape else {
+            return None;
+        };
+        let local = tool.rotation.tr_mul(&(x - tool.translation));
+        slicer::edge_passing(local, length, height, band).map(|side| {
+            let sign = if side < 0.0 { -1.0 } else { 1.0 };
+            let normal = tool.rotation.column(1).into_owned() * sign;
+            normal * side.abs().max(MIN_OFFSET_CELLS * dx)
+        })
+    })
+}
+
+/// The crack carried through one substep of the velocity gradient `c` (1/s): the normal
+/// turns as a covector, n ← (I − dt·Cᵀ)·n, renormalised; the distance to the plane is kept.
+#[inline(always)]
+pub fn advect(crack: Vec3, c: &Mat3, dt: f32) -> Vec3 {
+    let d = crack.norm();
+    if d == 0.0 {
+        return crack;
+    }
+    let turned = crack - c.tr_mul(&crack) * dt;
+    let len = turned.norm();
+    if len > 0.0 && len.is_finite() {
+        turned * (d / len)
+    } else {
+        crack
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tools::{ContactModel, ToolPose, ToolVelocity};
+    use nalgebra::{UnitQuaternion, Vector3};
+
+    fn blade(yaw_deg: f64) -> ToolKinematics {
+        let pose = ToolPose {
+            position: Vector3::new(0.0, 0.0, 0.02),
+            rotation: UnitQuaternion::from_euler_angles(0.0, 0.0, yaw_deg.to_radians()),
+            jaw: 0.0,
+        };
+        let shape = Shape::Slicer {
+            length: 0.03,
+            height: 0.02,
+            thickness: 0.0004,
+        };
+        ToolKinematics::new(
+            shape,
+            ContactModel::Sticky,
+            &pose,
+            &ToolVelocity::default(),
+            0.002,
+        )
+    }
+
+    #[test]
+    fn the_blade_plane_separates_nodes_on_its_far_side() {
+        let tools = [blade(90.0)];
+        // Yawed 90°: the blade's plane is world x = 0, its normal world ∓x.
+        let x = [
+            Vec3::new(-0.001, 0.0, 0.002),
+            Vec3::new(0.0025, 0.0, 0.002),
+            Vec3::new(0.01, 0.0, 0.002),
+            Vec3::new(0.0, 0.0, -0.002),
+        ];
+        let mut crack = [Vec3::zeros(); 4];
+        mark(&tools, &x, &mut crack, 0.002);
+        assert!(
+            (crack[0] - Vec3::new(-0.001, 0.0, 0.0)).norm() < 1e-6,
+            "{crack:?}"
+        );
+        assert!((crack[1] - Vec3::new(0.0025, 0.0, 0.0)).norm() < 1e-6);
+        // Beyond a stencil's reach of the plane, and below the edge: uncut.
+        assert_eq!(crack[2], Vec3::zeros());
+        assert_eq!(crack[3], Vec3::zeros());
+        // A node just across the plane is cut off, one on the particle's side is not.
+        assert!(separates(crack[0], Vec3::new(0.0015, 0.0, 0.0)));
+        assert!(!separates(crack[0], Vec3::new(0.0005, 0.002, 0.0)));
+        assert!(!separates(crack[0], Vec3::new(-0.002, 0.0, 0.0)));
+        assert!(!separates(Vec3::zeros(), Vec3::new(1.0, 0.0, 0.0)));
+    }
+
+    #[test]
+    fn a_crack_turns_with_the_material() {
+        // Rigid rotation about z at ω = 1 rad/s: C = [[0, −1, 0], [1, 0, 0], [0, 0, 0]].
+        let c = Mat3::new(0.0, -1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+        let mut crack = Vec3::new(0.001, 0.0, 0.0);
+        for _ in 0..1000 {
+            crack = advect(crack, &c, 1e-3);
+        }
+        // After 1 rad the normal points at (cos 1, sin 1, 0), the distance unchanged.
+        let expected = Vec3::new(1f32.cos(), 1f32.sin(), 0.0) * 0.001;
+        assert!((crack - expected).norm() < 2e-6, "{crack:?}");
+    }
+}

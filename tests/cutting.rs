@@ -1,0 +1,163 @@
+//! Cutting, headless, on the shipped scene's own keyframes (`config/cutting.toml`): the
+//! scalpel cuts the block through, spreads the cut with its spine and leaves. The block must
+//! end in two pieces, the y < 0 and y > 0 halves exactly, and stay two for a second after
+//! the blade has gone; the cut must be at most one cell wide. A blunt tool on the same path
+//! (a capsule where the blade's spine is) must leave the block one piece.
+
+use dvrk_tissue_sim::config::{self, Scene};
+use dvrk_tissue_sim::mpm::backend::BackendChoice;
+use dvrk_tissue_sim::mpm::pieces;
+use dvrk_tissue_sim::tools::Shape;
+use dvrk_tissue_sim::world::World;
+
+fn shipped(name: &str) -> Scene {
+    let path = format!("{}/config/{name}", env!("CARGO_MANIFEST_DIR"));
+    let mut scene = config::load(std::path::Path::new(&path)).unwrap();
+    scene.solver.backend = BackendChoice::Cpu;
+    scene
+}
+
+/// Keyframe times of the cutting scene: cut through, spread, blade out, end.
+struct CutTimes {
+    through: f64,
+    spread: f64,
+    out: f64,
+    end: f64,
+}
+
+fn cut_times(scene: &Scene) -> CutTimes {
+    let k = &scene.tools[0].keyframes;
+    assert_eq!(k.len(), 6, "the cutting scene's six keyframes");
+    CutTimes {
+        through: k[1].t,
+        spread: k[3].t,
+        out: k[4].t,
+        end: k[5].t,
+    }
+}
+
+fn run_until(world: &mut World, t: f64) {
+    while world.time() < t - 1e-9 {
+        world.step_frame().unwrap();
+    }
+}
+
+/// Mean y of the particles that started on each face of the cut plane (half a particle
+/// spacing from it), among those in the top `depth` of the block: (−y face, +y face).
+fn faces(world: &World, start_y: &[f32], start_z: &[f32], depth: f32) -> (f64, f64) {
+    let top = start_z.iter().cloned().fold(f32::MIN, f32::max);
+    let mut sums = [(0.0f64, 0usize); 2];
+    for (i, x) in world.particles().x.iter().enumerate() {
+        if start_y[i].abs() < 0.0006 && start_z[i] > top - depth {
+            let side = (start_y[i] > 0.0) as usize;
+            sums[side].0 += x.y as f64;
+            sums[side].1 += 1;
+        }
+    }
+    (sums[0].0 / sums[0].1 as f64, sums[1].0 / sums[1].1 as f64)
+}
+
+#[test]
+fn a_cut_block_ends_in_two_pieces_that_stay_two() {
+    let scene = shipped("cutting.toml");
+    let times = cut_times(&scene);
+    let dx = scene.domain.dx;
+    let mut world = World::new(&scene);
+    let start_y: Vec<f32> = world.particles().x.iter().map(|x| x.y).collect();
+    let start_z: Vec<f32> = world.particles().x.iter().map(|x| x.z).collect();
+    assert_eq!(world.pieces(), 1);
+
+    run_until(&mut world, times.through);
+    // Cut through: two pieces, each exactly one side of the blade plane (no particle torn
+    // off or left behind in the cut).
+    let p = world.particles();
+    let labels = pieces::label(&p.x, &p.crack, dx as f32);
+    assert_eq!(labels.iter().max(), Some(&1), "two pieces after the cut");
+    for (i, &l) in labels.iter().enumerate() {
+        assert_eq!(
+            l == labels[0],
+            (start_y[i] > 0.0) == (start_y[0] > 0.0),
+            "particle {i}"
+        );
+    }
+    // The cut is at most a cell wide: the faces stay within a cell of each other (they
+    // started one particle spacing, dx/2, apart).
+    let (minus, plus) = faces(&world, &start_y, &start_z, 1.0);
+    println!("faces after the cut: {minus:.5} / {plus:.5} m");
+    assert!(plus - minus <= dx, "cut {:.5} m wide", plus - minus);
+
+    run_until(&mut world, times.spread);
+    let (minus, plus) = faces(&world, &start_y, &start_z, 0.004);
+    println!("top faces spread: {minus:.5} / {plus:.5} m");
+    // The spine wedged the cut open and pushed the +y half's top away: the faces are more
+    // than a cell apart (uncut, they stay within one: see the blunt tool below).
+    assert!(plus - minus > dx, "spread open by {:.5} m", plus - minus);
+
+    run_until(&mut world, times.out);
+    while world.time() < times.end - 1e-9 {
+        for _ in 0..6 {
+            world.step_frame().unwrap();
+        }
+        assert_eq!(world.pieces(), 2, "t = {:.3} s", world.time());
+    }
+    let (minus, plus) = faces(&world, &start_y, &start_z, 0.004);
+    println!("top faces a second after the blade left: {minus:.5} / {plus:.5} m");
+}
+
+#[test]
+fn a_blunt_tool_on_the_same_path_leaves_one_piece() {
+    let mut scene = shipped("cutting.toml");
+    let times = cut_times(&scene);
+    let dx = scene.domain.dx;
+    let tool = &mut scene.tools[0];
+    let Shape::Slicer { length, .. } = tool.shape else {
+        panic!("the cutting scene's tool is a slicer");
+    };
+    // The capsule the spine's contact region is (1.5 cells round the spine line), along
+    // the blade's length (capsule axis z pitched onto x), where the spine is.
+    let radius = 1.5 * dx as f32;
+    tool.shape = Shape::Capsule {
+        radius,
+        half_length: 0.5 * length,
+    };
+    for k in &mut tool.keyframes {
+        k.rpy_deg = [0.0, 90.0, 0.0];
+    }
+    let mut world = World::new(&scene);
+    let start_y: Vec<f32> = world.particles().x.iter().map(|x| x.y).collect();
+    let start_z: Vec<f32> = world.particles().x.iter().map(|x| x.z).collect();
+    run_until(&mut world, times.spread);
+    let (minus, plus) = faces(&world, &start_y, &start_z, 0.004);
+    println!("blunt, top faces at the end of the push: {minus:.5} / {plus:.5} m");
+    assert_eq!(world.pieces(), 1);
+    // Uncut, the faces are one material: pushed together, they stay within a cell.
+    assert!(plus - minus <= dx, "faces {:.5} m apart", plus - minus);
+    while world.time() < times.end - 1e-9 {
+        for _ in 0..12 {
+            world.step_frame().unwrap();
+        }
+        assert_eq!(world.pieces(), 1, "t = {:.3} s", world.time());
+    }
+}
+
+#[test]
+fn the_gpu_backend_refuses_a_slicer_and_auto_runs_it_on_the_cpu() {
+    let mut scene = shipped("cutting.toml");
+    scene.solver.backend = BackendChoice::Gpu;
+    let err = World::try_new(&scene).err().expect("gpu refuses a slicer");
+    assert!(err.to_string().contains("slicer"), "{err}");
+    scene.solver.backend = BackendChoice::Auto;
+    let world = World::try_new(&scene).unwrap();
+    assert_eq!(world.backend().name(), "cpu");
+}
+
+#[test]
+fn a_scene_that_cuts_gets_the_isosurface_instead_of_the_fixed_mesh() {
+    use dvrk_tissue_sim::output::SurfaceKind;
+    use dvrk_tissue_sim::sim::setup::surface_kind;
+    let mut scene = shipped("cutting.toml");
+    scene.outputs.surface = SurfaceKind::Mesh;
+    assert_eq!(surface_kind(&scene), SurfaceKind::Isosurface);
+    scene.tools[0].shape = Shape::Sphere { radius: 0.004 };
+    assert_eq!(surface_kind(&scene), SurfaceKind::Mesh);
+}
