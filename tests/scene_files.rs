@@ -456,7 +456,9 @@ fn a_scene_with_the_dvrk_model_layout_builds_and_reports_the_dh_tool_frame() {
 
 /// The good scene with a default (3-0 nylon) thread on the table.
 fn with_thread(keys: &str) -> String {
-    format!("{GOOD}\n[[thread]]\nname = \"suture\"\nstart = [-0.03, 0.0, 0.006]\nlength = 0.06\n{keys}")
+    format!(
+        "{GOOD}\n[[thread]]\nname = \"suture\"\nstart = [-0.03, 0.0, 0.006]\nlength = 0.06\n{keys}"
+    )
 }
 
 fn thread_problems(keys: &str) -> Vec<config::Problem> {
@@ -467,7 +469,10 @@ fn thread_problems(keys: &str) -> Vec<config::Problem> {
 fn a_thread_with_defaults_is_valid_and_a_scene_may_have_threads_alone() {
     let scene = config::from_str(&with_thread(""), Path::new("t.toml")).unwrap();
     let t = &scene.threads[0];
-    assert_eq!((t.segments, t.radius, t.youngs_modulus), (60, 1.125e-4, 3.0e9));
+    assert_eq!(
+        (t.segments, t.radius, t.youngs_modulus),
+        (60, 1.125e-4, 3.0e9)
+    );
     let alone = GOOD.replace(
         "[[tissue]]\ncenter = [0.0, 0.0, 0.014]\nsize = [0.04, 0.04, 0.02]\n[tissue.material]\nyoungs_modulus = 5400.0\npoisson_ratio = 0.45\ndensity = 1060.0\n",
         "[[thread]]\nstart = [-0.03, 0.0, 0.006]\nlength = 0.06\n",
@@ -475,7 +480,10 @@ fn a_thread_with_defaults_is_valid_and_a_scene_may_have_threads_alone() {
     assert!(!alone.contains("[[tissue]]"));
     config::from_str(&alone, Path::new("alone.toml")).unwrap_or_else(|e| panic!("{e}"));
     // Neither tissue nor thread: nothing to simulate.
-    let empty = alone.replace("[[thread]]\nstart = [-0.03, 0.0, 0.006]\nlength = 0.06\n", "");
+    let empty = alone.replace(
+        "[[thread]]\nstart = [-0.03, 0.0, 0.006]\nlength = 0.06\n",
+        "",
+    );
     assert_single(&problems_of(&empty), "tissue", "[[thread]]");
 }
 
@@ -513,10 +521,17 @@ fn a_thread_outside_the_domain_is_refused() {
     assert!(p[0].allowed.contains("outside the domain"), "{p:#?}");
     // Starts inside, runs out of it: the end is named with its position.
     let p = thread_problems("direction = [0.0, 0.0, 1.0]");
-    assert_single(&p, "thread[0] (suture).length", "its end (-0.0300, 0.0000, 0.0660)");
+    assert_single(
+        &p,
+        "thread[0] (suture).length",
+        "its end (-0.0300, 0.0000, 0.0660)",
+    );
     // Shown to the user with the file name by `check`.
     let e = config::from_str(&with_thread("radius = 0.0"), Path::new("bad_thread.toml"))
         .unwrap_err()
         .to_string();
-    assert!(e.contains("bad_thread.toml") && e.contains("thread[0] (suture).radius = 0.0"), "{e}");
+    assert!(
+        e.contains("bad_thread.toml") && e.contains("thread[0] (suture).radius = 0.0"),
+        "{e}"
+    );
 }

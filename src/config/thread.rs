@@ -146,9 +146,8 @@ impl Thread {
     pub fn end(&self) -> Option<[f64; 3]> {
         let [x, y, z] = self.direction;
         let n = (x * x + y * y + z * z).sqrt();
-        (n.is_finite() && n > 0.0).then(|| {
-            [0, 1, 2].map(|a| self.start[a] + self.direction[a] / n * self.length)
-        })
+        (n.is_finite() && n > 0.0)
+            .then(|| [0, 1, 2].map(|a| self.start[a] + self.direction[a] / n * self.length))
     }
 }
 

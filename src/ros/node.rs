@@ -613,7 +613,10 @@ impl Io {
                     .collect(),
             };
             for t in &mut self.threads {
-                t.wanted = t.topics.clone().map(|topic| node.subscription_count(&topic) > 0);
+                t.wanted = t
+                    .topics
+                    .clone()
+                    .map(|topic| node.subscription_count(&topic) > 0);
             }
             sim.points_wanted
                 .store(self.demand.points, Ordering::Relaxed);

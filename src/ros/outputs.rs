@@ -5,7 +5,9 @@
 use nalgebra::{Isometry3, Translation3};
 
 use crate::config::{ArmMode, Scene};
-use crate::output::{SurfaceTriangles, ThreadState, TissueCloud, CLOUD_POINT_STEP, THREAD_POINT_STEP};
+use crate::output::{
+    SurfaceTriangles, ThreadState, TissueCloud, CLOUD_POINT_STEP, THREAD_POINT_STEP,
+};
 use crate::robot::Psm;
 use crate::ros::msgs::*;
 use crate::ros::names::resolve;

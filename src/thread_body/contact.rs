@@ -116,7 +116,11 @@ mod tests {
         bounds(0.5).friction(&mut rod, &before, g, h);
         assert_eq!(rod.velocities[0], Vec3::zeros());
         let dvn = 0.1 - g * h;
-        assert!((rod.velocities[1].x - (0.5 - 0.5 * dvn)).abs() < 1e-6, "{}", rod.velocities[1]);
+        assert!(
+            (rod.velocities[1].x - (0.5 - 0.5 * dvn)).abs() < 1e-6,
+            "{}",
+            rod.velocities[1]
+        );
     }
 
     #[test]

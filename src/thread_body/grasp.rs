@@ -2,8 +2,9 @@
 //! diameter is a tenth of a cell), so a gripper holds it kinematically: when its jaws are
 //! closed on the thread — the jaw controller presses them shut (see
 //! [`crate::tools::JawServo::pressing`]) with the tips no further apart than the thread is
-//! thick — every other thread point inside the closed jaws' volume is caught between the
-//! faces and from then on moves rigidly with the tool frame (an infinite-mass attachment). When the
+//! thick — every thread point inside the closed jaws' volume is caught between the faces
+//! and from then on moves rigidly with the tool frame (a kinematic attachment, see
+//! [`HELD_MASS_RATIO`]). When the
 //! jaws stop pressing or open wider than the thread, the points are let go with the
 //! velocity the jaws gave them.
 //!
@@ -79,13 +80,23 @@ impl GripperView {
     }
 }
 
-/// Whether a neighbour of point `i` is held already. The rod's direct solve needs every
-/// segment to keep one movable end (with both ends held, its stretch rows keep only their
-/// compliance and the factorisation fails), so the jaws hold every other point between
-/// them; the free points in between stay within a segment length of two held ones.
-fn next_to_held(rod: &Rod, i: usize) -> bool {
-    let held = |k: usize| rod.inv_mass.get(k).is_some_and(|&w| w == 0.0);
-    (i > 0 && held(i - 1)) || held(i + 1)
+/// How much heavier than its share of the thread a held point is made. The rod's direct
+/// solve fails to factorise with two or more points of zero inverse mass on one chain (two
+/// grasps, a grasp and a pinned end, both ends pinned), so a held point keeps a tiny inverse
+/// mass, a force cancelling its weight, and is put back on its target before and after each
+/// substep: what the solve moves it in between is ~1e-4 of what it moves a free point.
+pub const HELD_MASS_RATIO: f32 = 1e4;
+
+/// Makes point `i` of `rod` held: heavy, weightless (its weight cancelled), at rest.
+pub fn hold(rod: &mut Rod, i: usize, free_inv_mass: f32, gravity: Vec3) {
+    rod.inv_mass[i] = free_inv_mass / HELD_MASS_RATIO;
+    rod.external_forces[i] = -gravity / rod.inv_mass[i];
+}
+
+/// Lets point `i` go: its own mass again, no force.
+pub fn release(rod: &mut Rod, i: usize, free_inv_mass: f32) {
+    rod.inv_mass[i] = free_inv_mass;
+    rod.external_forces[i] = Vec3::zeros();
 }
 
 /// One gripper's hold on a thread: the points caught and where they sit in the tool frame.
@@ -112,9 +123,13 @@ impl Grasps {
         radius: f32,
         pinned: &[bool],
         free_inv_mass: &[f32],
+        gravity: Vec3,
     ) {
-        let still_closed =
-            |g: &Grasp| grippers.iter().any(|v| v.tool == g.tool && v.closed_on(radius));
+        let still_closed = |g: &Grasp| {
+            grippers
+                .iter()
+                .any(|v| v.tool == g.tool && v.closed_on(radius))
+        };
         let (kept, released): (Vec<_>, Vec<_>) = std::mem::take(&mut self.held)
             .into_iter()
             .partition(still_closed);
@@ -122,7 +137,7 @@ impl Grasps {
         for grasp in released {
             for (i, _) in grasp.points {
                 if !pinned[i] && !self.holds_point(i) {
-                    rod.inv_mass[i] = free_inv_mass[i];
+                    release(rod, i, free_inv_mass[i]);
                 }
             }
         }
@@ -139,9 +154,9 @@ impl Grasps {
                 let local = pose
                     .rotation
                     .inverse_transform_vector(&(rod.points[i].cast::<f64>() - pose.position));
-                if view.between_jaws(&local, radius) && !next_to_held(rod, i) {
+                if view.between_jaws(&local, radius) {
                     points.push((i, local));
-                    rod.inv_mass[i] = 0.0;
+                    hold(rod, i, free_inv_mass[i], gravity);
                 }
             }
             self.held.push(Grasp {
@@ -151,18 +166,31 @@ impl Grasps {
         }
     }
 
-    /// Moves every grasped point to where its jaws are at fraction `s` of the frame, its
-    /// velocity the motion over the substep of `h` seconds that ends there.
-    pub fn move_points(&self, rod: &mut Rod, grippers: &[GripperView], s: f64, h: f32) {
+    /// Puts every grasped point where its jaws are at fraction `s0` of the frame, moving
+    /// at the velocity that brings it to where they are at `s1` after the substep of `h`
+    /// seconds.
+    pub fn start_substep(&self, rod: &mut Rod, grippers: &[GripperView], s0: f64, s1: f64, h: f32) {
+        self.each_target(grippers, s0, |i, from| {
+            rod.points[i] = from;
+        });
+        self.each_target(grippers, s1, |i, to| {
+            rod.velocities[i] = (to - rod.points[i]) / h;
+        });
+    }
+
+    /// Puts every grasped point where its jaws are at fraction `s` of the frame.
+    pub fn end_substep(&self, rod: &mut Rod, grippers: &[GripperView], s: f64) {
+        self.each_target(grippers, s, |i, to| rod.points[i] = to);
+    }
+
+    fn each_target(&self, grippers: &[GripperView], s: f64, mut f: impl FnMut(usize, Vec3)) {
         for grasp in &self.held {
             let Some(view) = grippers.iter().find(|v| v.tool == grasp.tool) else {
                 continue;
             };
             let pose = view.pose_at(s);
             for (i, local) in &grasp.points {
-                let target: Vec3 = (pose.position + pose.rotation * local).cast();
-                rod.velocities[*i] = (target - rod.points[*i]) / h;
-                rod.points[*i] = target;
+                f(*i, (pose.position + pose.rotation * local).cast());
             }
         }
     }
@@ -179,6 +207,8 @@ impl Grasps {
     }
 
     fn holds_point(&self, i: usize) -> bool {
-        self.held.iter().any(|g| g.points.iter().any(|(k, _)| *k == i))
+        self.held
+            .iter()
+            .any(|g| g.points.iter().any(|(k, _)| *k == i))
     }
 }

@@ -145,7 +145,10 @@ fn determinant_of(crossings: &[Crossing]) -> u128 {
         matrix[row][arc_out] -= 1;
     }
     // Any first minor: drop the last row and column.
-    let minor: Vec<Vec<i128>> = matrix[..n - 1].iter().map(|r| r[..n - 1].to_vec()).collect();
+    let minor: Vec<Vec<i128>> = matrix[..n - 1]
+        .iter()
+        .map(|r| r[..n - 1].to_vec())
+        .collect();
     bareiss_determinant(minor).unsigned_abs()
 }
 
@@ -230,7 +233,10 @@ mod tests {
     #[test]
     fn a_trefoil_is_three_and_a_figure_eight_five() {
         for samples in [60, 200] {
-            assert_eq!(knot_determinant(&open_curve(trefoil, TAU / 6.0, samples)), 3);
+            assert_eq!(
+                knot_determinant(&open_curve(trefoil, TAU / 6.0, samples)),
+                3
+            );
             assert_eq!(knot_determinant(&open_curve(figure_eight, 0.0, samples)), 5);
         }
         // Its mirror image and a shaken copy are the same knot.

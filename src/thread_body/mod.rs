@@ -13,7 +13,7 @@ use crate::config::{Scene, Thread};
 use crate::mpm::Vec3;
 use crate::rod::{Rod, RodSolver};
 use contact::ThreadBounds;
-use grasp::{GripperView, Grasps};
+use grasp::{Grasps, GripperView};
 
 /// One thread and how it steps.
 pub struct ThreadBody {
@@ -22,6 +22,8 @@ pub struct ThreadBody {
     solver: RodSolver,
     /// Points the scene holds where they start.
     pinned: Vec<bool>,
+    /// The scene's held points and where they are held.
+    anchors: Vec<(usize, Vec3)>,
     /// Each point's inverse mass when free (restored when a grasp lets go).
     free_inv_mass: Vec<f32>,
     bounds: ThreadBounds,
@@ -43,15 +45,17 @@ impl ThreadBody {
             config.segments as usize,
         );
         let free_inv_mass = rod.inv_mass.clone();
+        let gravity = nalgebra::Vector3::from(scene.domain.gravity).cast::<f32>();
         let mut pinned = vec![false; rod.points.len()];
+        let mut anchors = Vec::new();
         let last = rod.points.len() - 1;
         for (i, held) in [(0, config.pinned.start()), (last, config.pinned.end())] {
             if held {
-                rod.pin_point(i);
+                grasp::hold(&mut rod, i, free_inv_mass[i], gravity);
                 pinned[i] = true;
+                anchors.push((i, rod.points[i]));
             }
         }
-        let gravity = nalgebra::Vector3::from(scene.domain.gravity).cast::<f32>();
         let solver = RodSolver::new(&rod, config.solver_settings(), gravity);
         ThreadBody {
             name: config.name.clone(),
@@ -60,6 +64,7 @@ impl ThreadBody {
             rod,
             solver,
             pinned,
+            anchors,
             free_inv_mass,
             grasps: Grasps::default(),
         }
@@ -71,19 +76,22 @@ impl ThreadBody {
     /// jaws and solves the rod against the table.
     pub fn step_frame(&mut self, dt: f64, grippers: &[GripperView]) {
         let radius = self.rod.material.radius;
+        let gravity = self.solver.gravity;
         self.grasps.update(
             &mut self.rod,
             grippers,
             radius,
             &self.pinned,
             &self.free_inv_mass,
+            gravity,
         );
         let substeps = self.solver.settings.substeps.max(1);
         let h = (dt / substeps as f64) as f32;
         for s in 0..substeps {
-            let to = (s + 1) as f64 / substeps as f64;
+            let (s0, s1) = (s as f64 / substeps as f64, (s + 1) as f64 / substeps as f64);
             self.grasps
-                .move_points(&mut self.rod, grippers, to, h);
+                .start_substep(&mut self.rod, grippers, s0, s1, h);
+            self.hold_anchors();
             self.velocities_before.clone_from(&self.rod.velocities);
             let bounds = &self.bounds;
             self.solver
@@ -91,6 +99,16 @@ impl ThreadBody {
             let gravity_z = self.solver.gravity.z;
             self.bounds
                 .friction(&mut self.rod, &self.velocities_before, gravity_z, h);
+            self.grasps.end_substep(&mut self.rod, grippers, s1);
+            self.hold_anchors();
+        }
+    }
+
+    /// The scene's held points where they are held, at rest.
+    fn hold_anchors(&mut self) {
+        for &(i, at) in &self.anchors {
+            self.rod.points[i] = at;
+            self.rod.velocities[i] = Vec3::zeros();
         }
     }
 
@@ -109,4 +127,3 @@ impl ThreadBody {
         self.grasps.holds_with(tool)
     }
 }
-
