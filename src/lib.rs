@@ -5,7 +5,7 @@
 //! scene's simulation), `robot` (PSM URDF, kinematics, teleoperation mapping), `output`
 //! (point cloud, surface, pictures), `sim` (frame loop, arm state machines, scene assembly;
 //! transport-agnostic), `ros` (the ROS 2 node: transport only), `sleep` (resting tissue
-//! skips frames), `validation` (scenes with analytic answers). The command line,
+//! skips frames), `thread_body` (suture threads in the world: grasps, table), `validation` (scenes with analytic answers). The command line,
 //! benchmarks and stress sweeps are the binary's (`src/cli/`).
 
 pub mod config;
@@ -16,6 +16,7 @@ pub mod rod;
 pub mod ros;
 pub mod sim;
 pub mod sleep;
+pub mod thread_body;
 pub mod tools;
 pub mod validation;
 pub mod world;

@@ -15,6 +15,8 @@ use crate::mpm::{
 use crate::mpm::{GripSums, SolveCounts};
 use crate::sleep::SleepSettings;
 use crate::sleep::{Aabb, SleepState};
+use crate::thread_body::grasp::GripperView;
+use crate::thread_body::ThreadBody;
 use crate::tools::{
     ContactModel, JawCommand, JawGains, JawServo, Shape, ToolKinematics, ToolPose, ToolVelocity,
     Trajectory,
@@ -334,6 +336,10 @@ pub struct World {
     sleep: SleepState,
     /// The frame begun and not finished yet.
     in_flight: Option<InFlight>,
+    /// Suture threads, scene order; stepped with every frame, the tissue asleep or not.
+    threads: Vec<ThreadBody>,
+    /// Start time of the frame in flight (a skipped frame advances `time` when it begins).
+    frame_start: f64,
 }
 
 /// A frame between `begin_frame` and `finish_frame`.
@@ -491,7 +497,9 @@ impl World {
             },
             implicit: scene.solver.implicit_params(),
         };
-        let backend = match cpu_only_feature(scene) {
+        // A scene of threads alone has no tissue to step: its (empty) grid stays on the CPU.
+        let gpu_context = match cpu_only_feature(scene) {
+            _ if setup.particles.is_empty() => None,
             Some(feature) if scene.solver.backend == BackendChoice::Gpu => {
                 return Err(GpuError::Unsupported(feature).into())
             }
@@ -499,12 +507,13 @@ impl World {
                 if scene.solver.backend == BackendChoice::Auto {
                     tracing::info!("backend: cpu (auto: the GPU backend has no {feature} yet)");
                 }
-                Backend::Cpu(Box::new(CpuBackend::new(CpuSolver::new(setup))))
+                None
             }
-            None => match gpu::adapter::select(scene.solver.backend)? {
-                Some(ctx) => Backend::Gpu(Box::new(GpuSolver::new(ctx, setup)?)),
-                None => Backend::Cpu(Box::new(CpuBackend::new(CpuSolver::new(setup)))),
-            },
+            None => gpu::adapter::select(scene.solver.backend)?,
+        };
+        let backend = match gpu_context {
+            Some(ctx) => Backend::Gpu(Box::new(GpuSolver::new(ctx, setup)?)),
+            None => Backend::Cpu(Box::new(CpuBackend::new(CpuSolver::new(setup)))),
         };
         Ok(World {
             scene: scene.clone(),
@@ -517,6 +526,12 @@ impl World {
             kinematics: Vec::new(),
             sleep: SleepState::default(),
             in_flight: None,
+            frame_start: 0.0,
+            threads: scene
+                .threads
+                .iter()
+                .map(|t| ThreadBody::new(scene, t))
+                .collect(),
         })
     }
 
@@ -538,6 +553,11 @@ impl World {
     /// The tools, scene order.
     pub fn tools(&self) -> &[WorldTool] {
         &self.tools
+    }
+
+    /// The suture threads, scene order.
+    pub fn threads(&self) -> &[ThreadBody] {
+        &self.threads
     }
 
     /// The solver backend stepping the tissue.
@@ -718,7 +738,14 @@ impl World {
         let frame_dt = self.frame_dt();
         let t_start = self.time;
         let t_end = t_start + frame_dt;
+        self.frame_start = t_start;
         self.advance_jaws(t_start, t_end);
+        if self.backend.particles().is_empty() {
+            // No tissue: nothing for the grid to do; the threads step in `finish_frame`.
+            self.time = t_end;
+            self.in_flight = Some(InFlight::Skipped(self.report_without_tissue(t_end, false)));
+            return;
+        }
         if let Some(report) = self.skip_sleeping_frame(t_start, t_end) {
             self.in_flight = Some(InFlight::Skipped(report));
             return;
@@ -737,7 +764,7 @@ impl World {
     /// # Panics
     /// When no frame is in flight.
     pub fn finish_frame(&mut self) -> Result<FrameReport, StepError> {
-        match self
+        let report = match self
             .in_flight
             .take()
             .expect("finish_frame called with no frame in flight")
@@ -747,6 +774,26 @@ impl World {
             // on the worker's own deque instead of the pool's global injector, whose queue
             // grows in heap blocks (an allocation every few dozen calls from outside the pool).
             InFlight::Stepped(planned) => rayon::scope(|_| self.finish_stepped(planned)),
+        };
+        if report.is_ok() {
+            self.step_threads(self.frame_start, self.time);
+        }
+        report
+    }
+
+    /// Advances every thread over [t_start, t_end] with the grippers as they move then.
+    fn step_threads(&mut self, t_start: f64, t_end: f64) {
+        if self.threads.is_empty() || t_end <= t_start {
+            return;
+        }
+        let grippers: Vec<GripperView> = self
+            .tools
+            .iter()
+            .enumerate()
+            .filter_map(|(i, t)| GripperView::of(i, t, t_start, t_end))
+            .collect();
+        for thread in &mut self.threads {
+            thread.step_frame(t_end - t_start, &grippers);
         }
     }
 
@@ -769,7 +816,12 @@ impl World {
             return None;
         }
         self.time = t_end;
-        Some(FrameReport {
+        Some(self.report_without_tissue(t_end, true))
+    }
+
+    /// The report of a frame ending at `t_end` in which the tissue did not step.
+    fn report_without_tissue(&self, t_end: f64, asleep: bool) -> FrameReport {
+        FrameReport {
             time: t_end,
             substeps: 0,
             dt_min: 0.0,
@@ -780,9 +832,9 @@ impl World {
             clamped_particles: 0,
             truncated: false,
             tissue_reset: None,
-            asleep: true,
+            asleep,
             solve: SolveCounts::default(),
-        })
+        }
     }
 
     /// Chooses the frame's substep length and count and fills `kinematics` with every

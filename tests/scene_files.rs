@@ -524,3 +524,87 @@ fn slicer_blades_the_grid_cannot_resolve_are_rejected() {
     let p = blade("0.03", "0.02", "0.015");
     assert_single(&p, "tool[0] (probe).shape.thickness", "height/2 = 0.01 m");
 }
+
+/// The good scene with a default (3-0 nylon) thread on the table.
+fn with_thread(keys: &str) -> String {
+    format!(
+        "{GOOD}\n[[thread]]\nname = \"suture\"\nstart = [-0.03, 0.0, 0.006]\nlength = 0.06\n{keys}"
+    )
+}
+
+fn thread_problems(keys: &str) -> Vec<config::Problem> {
+    problems_of(&with_thread(keys))
+}
+
+#[test]
+fn a_thread_with_defaults_is_valid_and_a_scene_may_have_threads_alone() {
+    let scene = config::from_str(&with_thread(""), Path::new("t.toml")).unwrap();
+    let t = &scene.threads[0];
+    assert_eq!((t.segments, t.youngs_modulus), (60, 3.0e9));
+    assert!((t.radius - 1.125e-4).abs() < 1e-10, "radius {}", t.radius);
+    let alone = GOOD.replace(
+        "[[tissue]]\ncenter = [0.0, 0.0, 0.014]\nsize = [0.04, 0.04, 0.02]\n[tissue.material]\nyoungs_modulus = 5400.0\npoisson_ratio = 0.45\ndensity = 1060.0\n",
+        "[[thread]]\nstart = [-0.03, 0.0, 0.006]\nlength = 0.06\n",
+    );
+    assert!(!alone.contains("[[tissue]]"));
+    config::from_str(&alone, Path::new("alone.toml")).unwrap_or_else(|e| panic!("{e}"));
+    // Neither tissue nor thread: nothing to simulate.
+    let empty = alone.replace(
+        "[[thread]]\nstart = [-0.03, 0.0, 0.006]\nlength = 0.06\n",
+        "",
+    );
+    assert_single(&problems_of(&empty), "tissue", "[[thread]]");
+}
+
+#[test]
+fn non_physical_threads_are_refused_with_key_value_and_range() {
+    let key = |k: &str| format!("thread[0] (suture).{k}");
+    for (keys, k, fragment) in [
+        ("radius = 0.0", "radius", "≤ value ≤"),
+        ("radius = -1e-4", "radius", "≤ value ≤"),
+        ("youngs_modulus = 0.0", "youngs_modulus", "Pa"),
+        ("youngs_modulus = -3e9", "youngs_modulus", "Pa"),
+        ("shear_modulus = 0.0", "shear_modulus", "Pa"),
+        ("density = 0.0", "density", "kg/m³"),
+        ("segments = 0", "segments", "1 ≤ segments"),
+        ("segments = 100000", "segments", "≤ 10000"),
+        // 1000 segments of 60 µm: shorter than the 0.225 mm thread is thick.
+        ("segments = 1000", "length", "segments × diameter"),
+        ("length = 0.0", "length", "0 < length"),
+        ("direction = [0.0, 0.0, 0.0]", "direction", "non-zero"),
+        ("substeps = 0", "substeps", "1 ≤ substeps"),
+        ("iterations = 50", "iterations", "≤ 20"),
+        ("friction = -0.1", "friction", "Coulomb"),
+    ] {
+        let p = if keys.starts_with("length") {
+            problems_of(&with_thread("").replace("length = 0.06", keys))
+        } else {
+            thread_problems(keys)
+        };
+        assert_single(&p, &key(k), fragment);
+        assert!(!p[0].value.is_empty(), "{keys}: no value in {p:?}");
+    }
+}
+
+#[test]
+fn a_thread_outside_the_domain_is_refused() {
+    // Starts outside.
+    let p = problems_of(&with_thread("").replace("[-0.03, 0.0, 0.006]", "[-0.3, 0.0, 0.006]"));
+    assert_eq!(p[0].key, "thread[0] (suture).start", "{p:#?}");
+    assert!(p[0].allowed.contains("outside the domain"), "{p:#?}");
+    // Starts inside, runs out of it: the end is named with its position.
+    let p = thread_problems("direction = [0.0, 0.0, 1.0]");
+    assert_single(
+        &p,
+        "thread[0] (suture).length",
+        "its end (-0.0300, 0.0000, 0.0660)",
+    );
+    // Shown to the user with the file name by `check`.
+    let e = config::from_str(&with_thread("radius = 0.0"), Path::new("bad_thread.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("bad_thread.toml") && e.contains("thread[0] (suture).radius = 0.0"),
+        "{e}"
+    );
+}

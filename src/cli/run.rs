@@ -131,9 +131,10 @@ fn run_headless(
     let world = World::try_new(&scene).context("choosing the solver backend")?;
     let frames = (seconds * scene.frame_rate_hz).round().max(1.0) as u32;
     println!(
-        "scene \"{}\": {} particles, grid {}×{}×{} nodes (dx {} m), {} tool(s), {} frames of {:.4} s, backend {}",
+        "scene \"{}\": {} particles, {} thread(s), grid {}×{}×{} nodes (dx {} m), {} tool(s), {} frames of {:.4} s, backend {}",
         scene.name,
         world.particles().len(),
+        world.threads().len(),
         world.layout().nodes[0],
         world.layout().nodes[1],
         world.layout().nodes[2],
@@ -158,6 +159,7 @@ fn run_headless(
     let mut total_substeps: u64 = 0;
     let mut peak_force = vec![0.0f64; sim.world().tools().len()];
     let mut peak_speed = 0.0f32;
+    let mut peak_elongation = vec![0.0f64; sim.world().threads().len()];
     let mut frame = 0u32;
     headless::run(&mut sim, |sim, stepped| -> Result<ControlFlow<()>> {
         let report = stepped.report.context("headless run")?;
@@ -172,6 +174,9 @@ fn run_headless(
         peak_speed = peak_speed.max(report.max_speed);
         for (p, w) in peak_force.iter_mut().zip(&report.wrenches) {
             *p = p.max(w.force.norm());
+        }
+        for (p, t) in peak_elongation.iter_mut().zip(world.threads()) {
+            *p = p.max(t.elongation().abs());
         }
         if report.truncated {
             tracing::warn!(
@@ -226,19 +231,39 @@ fn run_headless(
     for (t, f) in world.tools().iter().zip(&peak_force) {
         println!("summary: tool {} peak contact force {f:.4} N", t.name);
     }
-    println!("summary: peak particle speed {peak_speed:.4} m/s");
-    let com = world.particles().centre_of_mass();
-    let top = world
-        .particles()
-        .x
-        .iter()
-        .map(|x| x.z)
-        .fold(f32::MIN, f32::max);
-    println!(
-        "summary: tissue centre of mass ({:.4}, {:.4}, {:.4}) m, highest particle z {top:.4} m",
-        com.x, com.y, com.z
-    );
-    println!("summary: pieces {}", world.pieces());
+    if !world.particles().is_empty() {
+        println!("summary: peak particle speed {peak_speed:.4} m/s");
+        let com = world.particles().centre_of_mass();
+        let top = world
+            .particles()
+            .x
+            .iter()
+            .map(|x| x.z)
+            .fold(f32::MIN, f32::max);
+        println!(
+            "summary: tissue centre of mass ({:.4}, {:.4}, {:.4}) m, highest particle z {top:.4} m",
+            com.x, com.y, com.z
+        );
+        println!("summary: pieces {}", world.pieces());
+    }
+    for (t, peak) in world.threads().iter().zip(&peak_elongation) {
+        let points = &t.rod.points;
+        let (first, last) = (points[0], points[points.len() - 1]);
+        println!(
+            "summary: thread {} elongation {:+.4} % (largest {:.4} % during the run), ends \
+             ({:.4}, {:.4}, {:.4}) and ({:.4}, {:.4}, {:.4}) m, {} point(s) grasped",
+            t.name,
+            100.0 * t.elongation(),
+            100.0 * peak,
+            first.x,
+            first.y,
+            first.z,
+            last.x,
+            last.y,
+            last.z,
+            t.grasped_points()
+        );
+    }
     // The recorder's writer ends once the loop, which holds its sending end, is gone.
     drop(sim);
     if let Some(recorder) = recorder {

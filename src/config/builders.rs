@@ -78,6 +78,7 @@ pub fn scene(
         solver: Solver::default(),
         table,
         tissues,
+        threads: Vec::new(),
         tools,
         arms: Vec::new(),
         teleop: None,

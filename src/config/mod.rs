@@ -2,12 +2,14 @@
 
 pub mod builders;
 mod scene;
+pub mod thread;
 mod validate;
 
 pub use scene::{
     Arm, ArmMode, Domain, Hold, Keyframe, Material, Outputs, Scene, Solver, Table, TeleopSettings,
     Tissue, Tool, PB_MPM_DEFAULT_DT,
 };
+pub use thread::{PinnedEnds, Thread};
 pub use validate::{validate, Problem};
 
 use std::path::{Path, PathBuf};

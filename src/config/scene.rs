@@ -26,6 +26,9 @@ pub struct Scene {
     pub table: Option<Table>,
     #[serde(default, rename = "tissue")]
     pub tissues: Vec<Tissue>,
+    /// Suture threads (see [`super::thread`]).
+    #[serde(default, rename = "thread")]
+    pub threads: Vec<super::thread::Thread>,
     #[serde(default, rename = "tool")]
     pub tools: Vec<Tool>,
     /// PSM arms driving tools (ROS node runs; headless runs ignore them).
@@ -434,6 +437,10 @@ pub struct Outputs {
     /// Arm state topics (`measured_js`, ...): every frame up to this rate.
     #[serde(default = "default_arm_rate")]
     pub arm_rate_hz: f64,
+    /// `threads/<thread>/centreline` (visualization_msgs/Marker) and
+    /// `threads/<thread>/tension` (sensor_msgs/PointCloud2).
+    #[serde(default = "default_thread_rate")]
+    pub thread_rate_hz: f64,
 }
 
 fn default_points_rate() -> f64 {
@@ -457,6 +464,9 @@ fn default_tf_rate() -> f64 {
 fn default_arm_rate() -> f64 {
     100.0
 }
+fn default_thread_rate() -> f64 {
+    30.0
+}
 
 impl Default for Outputs {
     fn default() -> Self {
@@ -470,6 +480,7 @@ impl Default for Outputs {
             wrench_rate_hz: default_wrench_rate(),
             tf_rate_hz: default_tf_rate(),
             arm_rate_hz: default_arm_rate(),
+            thread_rate_hz: default_thread_rate(),
         }
     }
 }

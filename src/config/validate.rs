@@ -232,10 +232,10 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
     }
 
     c.require(
-        !scene.tissues.is_empty(),
+        !scene.tissues.is_empty() || !scene.threads.is_empty(),
         "tissue",
         "none",
-        "at least one [[tissue]] block",
+        "at least one [[tissue]] or [[thread]] block",
     );
     for (i, t) in scene.tissues.iter().enumerate() {
         let key = |k: &str| format!("tissue[{i}].{k}");
@@ -461,6 +461,8 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
         }
     }
 
+    c.problems
+        .extend(super::thread::validate(scene, &inside, &region));
     validate_arms(&mut c, scene);
     validate_outputs(&mut c, scene);
     c.problems
@@ -620,6 +622,7 @@ fn validate_outputs(c: &mut Checker, scene: &Scene) {
         ("outputs.wrench_rate_hz", o.wrench_rate_hz),
         ("outputs.tf_rate_hz", o.tf_rate_hz),
         ("outputs.arm_rate_hz", o.arm_rate_hz),
+        ("outputs.thread_rate_hz", o.thread_rate_hz),
     ] {
         c.require(
             v.is_finite() && (0.0..=1000.0).contains(&v),

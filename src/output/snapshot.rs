@@ -1,5 +1,5 @@
 //! Headless pictures of a scene: tissue particles shaded as small spheres and coloured by
-//! strain, tools ray-marched from their own signed distance functions, the table as a
+//! strain, suture threads as tubes, tools ray-marched from their own signed distance functions, the table as a
 //! checkerboard. A CPU renderer, so it works on any machine (no display, no GPU).
 
 use super::strain::{self, StrainMeasure};
@@ -195,6 +195,10 @@ pub fn render(world: &World, opts: &SnapshotOptions) -> Snapshot {
         lo = lo.inf(&(t.translation - Vec3::repeat(t.bound)));
         hi = hi.sup(&(t.translation + Vec3::repeat(t.bound)));
     }
+    for x in world.threads().iter().flat_map(|t| &t.rod.points) {
+        lo = lo.inf(x);
+        hi = hi.sup(x);
+    }
     let centre = (lo + hi) * 0.5;
     let radius = ((hi - lo) * 0.5).norm().max(1e-3);
     let fov = 30f32.to_radians();
@@ -292,6 +296,52 @@ pub fn render(world: &World, opts: &SnapshotOptions) -> Snapshot {
                     depth[i] = d;
                     let normal = right * dx - up * dy - forward * nz;
                     rgb[i] = base * (0.45 + 0.55 * normal.dot(&light).max(0.0));
+                }
+            }
+        }
+    }
+
+    // Threads: shaded discs along the centreline, a pixel or more wide (a 3-0 thread is
+    // far thinner than a pixel at this framing).
+    for thread in world.threads() {
+        let r_world = thread.rod.material.radius;
+        let colour = Vec3::new(0.35, 0.2, 0.75);
+        for seg in thread.rod.points.windows(2) {
+            let (Some(a), Some(b)) = (cam.project(seg[0]), cam.project(seg[1])) else {
+                continue;
+            };
+            let steps = ((a.0 - b.0).hypot(a.1 - b.1).ceil() as usize).max(1);
+            for k in 0..=steps {
+                let s = k as f32 / steps as f32;
+                let (sx, sy, z) = (
+                    a.0 + (b.0 - a.0) * s,
+                    a.1 + (b.1 - a.1) * s,
+                    a.2 + (b.2 - a.2) * s,
+                );
+                let r_px = (r_world * cam.focal / z).max(1.2);
+                let (x0, x1) = ((sx - r_px).floor(), (sx + r_px).ceil());
+                let (y0, y1) = ((sy - r_px).floor(), (sy + r_px).ceil());
+                if x1 < 0.0 || y1 < 0.0 || x0 >= w as f32 || y0 >= h as f32 {
+                    continue;
+                }
+                for py in y0.max(0.0) as usize..=(y1 as usize).min(h - 1) {
+                    for px in x0.max(0.0) as usize..=(x1 as usize).min(w - 1) {
+                        let (dx, dy) =
+                            ((px as f32 + 0.5 - sx) / r_px, (py as f32 + 0.5 - sy) / r_px);
+                        let q = dx * dx + dy * dy;
+                        if q > 1.0 {
+                            continue;
+                        }
+                        let nz = (1.0 - q).sqrt();
+                        let i = py * w + px;
+                        // Drawn in front of the table it lies on.
+                        let d = z - nz * r_world - 1e-4;
+                        if d < depth[i] {
+                            depth[i] = d;
+                            let normal = right * dx - up * dy - forward * nz;
+                            rgb[i] = colour * (0.5 + 0.5 * normal.dot(&light).max(0.0));
+                        }
+                    }
                 }
             }
         }

@@ -403,6 +403,7 @@ pub struct Marker {
 ros_message!(Marker, "visualization_msgs", "Marker");
 
 impl Marker {
+    pub const LINE_STRIP: i32 = 4;
     pub const TRIANGLE_LIST: i32 = 11;
     pub const ADD: i32 = 0;
 }

@@ -333,6 +333,20 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
     for tool in &scene.tools {
         wrenches.push(topics.publisher(&format!("tools/{}/wrench", tool.name), periodic_qos())?);
     }
+    let mut threads = Vec::new();
+    for thread in &scene.threads {
+        let centreline = outputs::thread_centreline_topic(&thread.name);
+        let tension = outputs::thread_tension_topic(&thread.name);
+        threads.push(ThreadIo {
+            centreline: topics.publisher(&centreline, periodic_qos())?,
+            tension: topics.publisher(&tension, periodic_qos())?,
+            topics: [
+                resolve(&settings.namespace, &centreline),
+                resolve(&settings.namespace, &tension),
+            ],
+            wanted: [false; 2],
+        });
+    }
     let tf: Publisher<TFMessage> = topics.publisher("/tf", periodic_qos())?;
     let status: Publisher<DiagnosticArray> = topics.publisher("sim/status", status_qos())?;
     drop(topics);
@@ -374,6 +388,7 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
         points,
         surface,
         wrenches,
+        threads,
         tf,
         log: RateLimitedLog::default(),
         rates: Rates {
@@ -382,6 +397,7 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
             surface: Rate::new(outputs.surface_rate_hz),
             wrench: Rate::new(outputs.wrench_rate_hz),
             tf: Rate::new(outputs.tf_rate_hz),
+            thread: Rate::new(outputs.thread_rate_hz),
             demand: Rate::new(10.0),
         },
     };
@@ -455,7 +471,17 @@ struct Rates {
     surface: Rate,
     wrench: Rate,
     tf: Rate,
+    thread: Rate,
     demand: Rate,
+}
+
+/// One thread's publishers: its centreline marker and tension cloud, their absolute topic
+/// names and whether each has a subscriber.
+struct ThreadIo {
+    centreline: Publisher<Marker>,
+    tension: Publisher<PointCloud2>,
+    topics: [String; 2],
+    wanted: [bool; 2],
 }
 
 /// Which outputs have subscribers (refreshed a few times a second).
@@ -484,6 +510,7 @@ struct Io {
     points: Publisher<PointCloud2>,
     surface: Publisher<Marker>,
     wrenches: Vec<Publisher<WrenchStamped>>,
+    threads: Vec<ThreadIo>,
     tf: Publisher<TFMessage>,
     log: RateLimitedLog,
     rates: Rates,
@@ -585,6 +612,12 @@ impl Io {
                     .map(|t| node.subscription_count(t) > 0)
                     .collect(),
             };
+            for t in &mut self.threads {
+                t.wanted = t
+                    .topics
+                    .clone()
+                    .map(|topic| node.subscription_count(&topic) > 0);
+            }
             sim.points_wanted
                 .store(self.demand.points, Ordering::Relaxed);
             sim.surface_wanted
@@ -617,6 +650,19 @@ impl Io {
         if self.rates.surface.due(now) && self.demand.surface {
             if let Some(t) = &frame.surface {
                 let _ = self.surface.publish(outputs::surface_message(t, stamp));
+            }
+        }
+        if self.rates.thread.due(now) {
+            for (io, thread) in self.threads.iter().zip(&frame.threads) {
+                if io.wanted[0] {
+                    let m = outputs::thread_centreline_message(thread, stamp);
+                    let _ = io.centreline.publish(m);
+                }
+                if io.wanted[1] {
+                    let _ = io
+                        .tension
+                        .publish(outputs::thread_tension_message(thread, stamp));
+                }
             }
         }
     }

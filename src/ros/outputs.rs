@@ -5,7 +5,9 @@
 use nalgebra::{Isometry3, Translation3};
 
 use crate::config::{ArmMode, Scene};
-use crate::output::{SurfaceTriangles, TissueCloud, CLOUD_POINT_STEP};
+use crate::output::{
+    SurfaceTriangles, ThreadState, TissueCloud, CLOUD_POINT_STEP, THREAD_POINT_STEP,
+};
 use crate::robot::Psm;
 use crate::ros::msgs::*;
 use crate::ros::names::resolve;
@@ -40,6 +42,7 @@ pub struct OutputRates {
     pub surface: f64,
     pub wrench: f64,
     pub tf: f64,
+    pub thread: f64,
 }
 
 /// Every output topic of a scene (absolute names) and what builds its messages.
@@ -48,6 +51,8 @@ pub struct OutputLayout {
     pub namespace: String,
     pub arms: Vec<ArmOutput>,
     pub tools: Vec<String>,
+    /// Suture thread names, scene order.
+    pub threads: Vec<String>,
     pub force_feedback: Option<ForceFeedback>,
     pub rates: OutputRates,
 }
@@ -81,6 +86,7 @@ impl OutputLayout {
             namespace: namespace.to_owned(),
             arms,
             tools: scene.tools.iter().map(|t| t.name.clone()).collect(),
+            threads: scene.threads.iter().map(|t| t.name.clone()).collect(),
             force_feedback,
             rates: OutputRates {
                 arm: o.arm_rate_hz,
@@ -88,6 +94,7 @@ impl OutputLayout {
                 surface: o.surface_rate_hz,
                 wrench: o.wrench_rate_hz,
                 tf: o.tf_rate_hz,
+                thread: o.thread_rate_hz,
             },
         }
     }
@@ -135,6 +142,16 @@ impl OutputLayout {
             out.push((
                 self.topic(&format!("tools/{tool}/wrench")),
                 WrenchStamped::type_name(),
+            ));
+        }
+        for thread in &self.threads {
+            out.push((
+                self.topic(&thread_centreline_topic(thread)),
+                Marker::type_name(),
+            ));
+            out.push((
+                self.topic(&thread_tension_topic(thread)),
+                PointCloud2::type_name(),
             ));
         }
         out.push(("/tf".to_owned(), TFMessage::type_name()));
@@ -268,6 +285,77 @@ pub fn surface_message(t: &SurfaceTriangles, stamp: Time) -> Marker {
     }
 }
 
+/// Topic of a thread's centreline marker, relative to the namespace.
+pub fn thread_centreline_topic(thread: &str) -> String {
+    format!("threads/{thread}/centreline")
+}
+
+/// Topic of a thread's tension cloud, relative to the namespace.
+pub fn thread_tension_topic(thread: &str) -> String {
+    format!("threads/{thread}/tension")
+}
+
+/// A thread's centreline as a LINE_STRIP in `world`, as wide as the thread (drawn at least
+/// 0.5 mm wide so that a viewer shows it).
+pub fn thread_centreline_message(thread: &ThreadState, stamp: Time) -> Marker {
+    Marker {
+        header: Header::new(stamp, "world"),
+        ns: format!("threads/{}", thread.name),
+        id: 0,
+        kind: Marker::LINE_STRIP,
+        action: Marker::ADD,
+        pose: Pose::default(),
+        scale: Vector3Msg {
+            x: (2.0 * thread.radius as f64).max(5e-4),
+            y: 0.0,
+            z: 0.0,
+        },
+        color: ColorRGBA {
+            r: 0.35,
+            g: 0.2,
+            b: 0.75,
+            a: 1.0,
+        },
+        points: thread
+            .points
+            .iter()
+            .map(|p| Point {
+                x: p[0] as f64,
+                y: p[1] as f64,
+                z: p[2] as f64,
+            })
+            .collect(),
+        ..Default::default()
+    }
+}
+
+/// A thread's points with the axial force there (N), fields x, y, z, tension, in `world`.
+pub fn thread_tension_message(thread: &ThreadState, stamp: Time) -> PointCloud2 {
+    let field = |name: &str, offset: u32| PointField {
+        name: name.into(),
+        offset,
+        datatype: PointField::FLOAT32,
+        count: 1,
+    };
+    let n = thread.points.len();
+    PointCloud2 {
+        header: Header::new(stamp, "world"),
+        height: 1,
+        width: n as u32,
+        fields: vec![
+            field("x", 0),
+            field("y", 4),
+            field("z", 8),
+            field("tension", 12),
+        ],
+        is_bigendian: false,
+        point_step: THREAD_POINT_STEP as u32,
+        row_step: (THREAD_POINT_STEP * n) as u32,
+        data: thread.cloud_bytes(),
+        is_dense: true,
+    }
+}
+
 /// `world` → each arm's base → its links; scripted tools in `world`.
 pub fn tf_message(arms: &[ArmOutput], frame: &Frame, stamp: Time) -> TFMessage {
     let mut transforms = Vec::new();
@@ -396,6 +484,7 @@ pub struct SimSchedule {
     surface: SimRate,
     wrench: SimRate,
     tf: SimRate,
+    thread: SimRate,
 }
 
 impl SimSchedule {
@@ -406,6 +495,7 @@ impl SimSchedule {
             surface: SimRate::new(rates.surface),
             wrench: SimRate::new(rates.wrench),
             tf: SimRate::new(rates.tf),
+            thread: SimRate::new(rates.thread),
         }
     }
 
@@ -417,6 +507,7 @@ impl SimSchedule {
             surface: self.surface.due(t),
             wrench: self.wrench.due(t),
             tf: self.tf.due(t),
+            thread: self.thread.due(t),
         }
     }
 }
@@ -433,6 +524,7 @@ mod tests {
             surface: 10.0,
             wrench: 0.0,
             tf: 60.0,
+            thread: 30.0,
         });
         let (mut arm, mut points, mut surface, mut wrench, mut tf) = (0, 0, 0, 0, 0);
         for k in 1..=60 {

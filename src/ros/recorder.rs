@@ -534,6 +534,24 @@ impl Bag {
                 self.write("tissue/surface", Qos::Periodic, end, &m)?;
             }
         }
+        if due.thread {
+            for thread in &frame.threads {
+                let m = outputs::thread_centreline_message(thread, stamp);
+                self.write(
+                    &outputs::thread_centreline_topic(&thread.name),
+                    Qos::Periodic,
+                    end,
+                    &m,
+                )?;
+                let m = outputs::thread_tension_message(thread, stamp);
+                self.write(
+                    &outputs::thread_tension_topic(&thread.name),
+                    Qos::Periodic,
+                    end,
+                    &m,
+                )?;
+            }
+        }
         self.close_chunk_if_due(frame.time)
     }
 }
@@ -657,6 +675,7 @@ mod tests {
             surface: 10.0,
             wrench: 60.0,
             tf: 50.0,
+            thread: 30.0,
         };
         let mut tap = RecordTap {
             tx,

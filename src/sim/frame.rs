@@ -4,7 +4,7 @@
 
 use std::sync::Arc;
 
-use crate::output::{SurfaceTriangles, TissueCloud};
+use crate::output::{SurfaceTriangles, ThreadState, TissueCloud};
 use crate::robot::TeleopState;
 use crate::sim::arm::ArmStatus;
 use crate::tools::ToolPose;
@@ -34,6 +34,8 @@ pub struct Frame {
     pub cloud: Option<Arc<TissueCloud>>,
     /// Present while the ROS side asks for the surface.
     pub surface: Option<Arc<SurfaceTriangles>>,
+    /// Every suture thread, scene order (a few dozen points each: always carried).
+    pub threads: Vec<Arc<ThreadState>>,
     pub teleop: Option<TeleopState>,
 }
 
@@ -45,10 +47,11 @@ pub struct Due {
     pub surface: bool,
     pub wrench: bool,
     pub tf: bool,
+    pub thread: bool,
 }
 
 impl Due {
     pub fn any(&self) -> bool {
-        self.arm || self.points || self.surface || self.wrench || self.tf
+        self.arm || self.points || self.surface || self.wrench || self.tf || self.thread
     }
 }

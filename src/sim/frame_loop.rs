@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 
 use nalgebra::Isometry3;
 
-use crate::output::TissueCloud;
+use crate::output::{ThreadState, TissueCloud};
 use crate::robot::teleop::MTM_SILENCE_S;
 use crate::robot::RcmPolicy;
 use crate::sim::arm::ArmEvent;
@@ -426,6 +426,11 @@ fn frame_of(setup: &SimSetup, report: Option<&FrameReport>) -> Frame {
         tools,
         cloud: None,
         surface: None,
+        threads: world
+            .threads()
+            .iter()
+            .map(|t| Arc::new(ThreadState::of(t)))
+            .collect(),
         teleop: setup.teleop.as_ref().map(|t| t.teleop.state()),
     }
 }

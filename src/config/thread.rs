@@ -1,0 +1,280 @@
+//! `[[thread]]`: a suture thread (a Cosserat rod, see [`crate::rod`]) laid out straight in
+//! the scene, its material, which ends are held, and how its solver steps; and the checks
+//! that refuse threads the rod cannot simulate.
+//!
+//! Every key but `start` has a default: a 15 cm USP 3-0 nylon thread along +x of 60
+//! segments (2.5 mm each), both ends free, the rod solver's default substeps and iterations.
+
+use super::validate::Problem;
+use super::Scene;
+use crate::rod::solver::RodSolverSettings;
+use crate::rod::ThreadMaterial;
+use serde::{Deserialize, Serialize};
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Thread {
+    #[serde(default = "default_name")]
+    pub name: String,
+    /// World position of the first point (m).
+    pub start: [f64; 3],
+    /// Direction from the first point to the last (any length but zero).
+    #[serde(default = "default_direction")]
+    pub direction: [f64; 3],
+    /// Rest length (m).
+    #[serde(default = "default_length")]
+    pub length: f64,
+    /// Number of segments (points = segments + 1).
+    #[serde(default = "default_segments")]
+    pub segments: u32,
+    /// Cross-section radius (m).
+    #[serde(default = "default_radius")]
+    pub radius: f64,
+    /// Young's modulus E (Pa).
+    #[serde(default = "default_youngs_modulus")]
+    pub youngs_modulus: f64,
+    /// Shear modulus G (Pa).
+    #[serde(default = "default_shear_modulus")]
+    pub shear_modulus: f64,
+    /// kg/m³.
+    #[serde(default = "default_density")]
+    pub density: f64,
+    /// Which ends are held where they start: `none`, `start`, `end` or `both`.
+    #[serde(default)]
+    pub pinned: PinnedEnds,
+    /// Coulomb friction coefficient against the table.
+    #[serde(default = "default_friction")]
+    pub friction: f64,
+    /// Solver substeps per frame.
+    #[serde(default = "default_substeps")]
+    pub substeps: u32,
+    /// Direct-solve iterations per substep.
+    #[serde(default = "default_iterations")]
+    pub iterations: u32,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PinnedEnds {
+    #[default]
+    None,
+    Start,
+    End,
+    Both,
+}
+
+impl PinnedEnds {
+    pub fn start(self) -> bool {
+        matches!(self, PinnedEnds::Start | PinnedEnds::Both)
+    }
+    pub fn end(self) -> bool {
+        matches!(self, PinnedEnds::End | PinnedEnds::Both)
+    }
+}
+
+fn default_name() -> String {
+    "thread".into()
+}
+fn default_direction() -> [f64; 3] {
+    [1.0, 0.0, 0.0]
+}
+fn default_length() -> f64 {
+    0.15
+}
+fn default_segments() -> u32 {
+    60
+}
+fn default_radius() -> f64 {
+    ThreadMaterial::nylon_3_0().radius as f64
+}
+fn default_youngs_modulus() -> f64 {
+    ThreadMaterial::nylon_3_0().young_modulus as f64
+}
+fn default_shear_modulus() -> f64 {
+    ThreadMaterial::nylon_3_0().shear_modulus as f64
+}
+fn default_density() -> f64 {
+    ThreadMaterial::nylon_3_0().density as f64
+}
+fn default_friction() -> f64 {
+    0.3
+}
+fn default_substeps() -> u32 {
+    RodSolverSettings::default().substeps
+}
+fn default_iterations() -> u32 {
+    RodSolverSettings::default().iterations
+}
+
+impl Thread {
+    /// A default (3-0 nylon) thread starting at `start`.
+    pub fn nylon_3_0(start: [f64; 3]) -> Thread {
+        Thread {
+            name: default_name(),
+            start,
+            direction: default_direction(),
+            length: default_length(),
+            segments: default_segments(),
+            radius: default_radius(),
+            youngs_modulus: default_youngs_modulus(),
+            shear_modulus: default_shear_modulus(),
+            density: default_density(),
+            pinned: PinnedEnds::None,
+            friction: default_friction(),
+            substeps: default_substeps(),
+            iterations: default_iterations(),
+        }
+    }
+
+    pub fn material(&self) -> ThreadMaterial {
+        ThreadMaterial {
+            radius: self.radius as f32,
+            young_modulus: self.youngs_modulus as f32,
+            shear_modulus: self.shear_modulus as f32,
+            density: self.density as f32,
+        }
+    }
+
+    pub fn solver_settings(&self) -> RodSolverSettings {
+        RodSolverSettings {
+            substeps: self.substeps,
+            iterations: self.iterations,
+        }
+    }
+
+    /// World position of the last point, or `None` when the direction has no length.
+    pub fn end(&self) -> Option<[f64; 3]> {
+        let [x, y, z] = self.direction;
+        let n = (x * x + y * y + z * z).sqrt();
+        (n.is_finite() && n > 0.0)
+            .then(|| [0, 1, 2].map(|a| self.start[a] + self.direction[a] / n * self.length))
+    }
+}
+
+/// Thinnest and thickest thread: USP 11-0 (10 µm diameter) to a 1 cm cord.
+const RADIUS_RANGE: (f64, f64) = (5e-6, 5e-3);
+/// Moduli from a soft elastomer (1 MPa) to steel wire and beyond (1 TPa).
+const MODULUS_RANGE: (f64, f64) = (1e6, 1e12);
+/// Densities from a foam to tungsten.
+const DENSITY_RANGE: (f64, f64) = (10.0, 20_000.0);
+/// Most segments per thread: the direct solve is linear in segments, 10 000 a few ms.
+const MAX_SEGMENTS: u32 = 10_000;
+/// The longest thread (m).
+const MAX_THREAD_LENGTH: f64 = 10.0;
+
+/// The problems of `scene`'s threads; `inside` tells whether a point lies in the domain less
+/// its wall cells, described by `region`.
+pub(super) fn validate(
+    scene: &Scene,
+    inside: &dyn Fn([f64; 3]) -> bool,
+    region: &str,
+) -> Vec<Problem> {
+    let mut problems = Vec::new();
+    let mut require = |ok: bool, key: String, value: String, allowed: String| {
+        if !ok {
+            problems.push(Problem {
+                key,
+                value,
+                allowed,
+            });
+        }
+    };
+    let within = |v: f64, (lo, hi): (f64, f64)| v.is_finite() && v >= lo && v <= hi;
+    for (i, t) in scene.threads.iter().enumerate() {
+        let key = |k: &str| format!("thread[{i}] ({}).{k}", t.name);
+        if scene.threads[..i].iter().any(|o| o.name == t.name) {
+            require(
+                false,
+                key("name"),
+                format!("{:?}", t.name),
+                "unique among threads".into(),
+            );
+        }
+        for (k, v, range, what) in [
+            ("radius", t.radius, RADIUS_RANGE, "m"),
+            ("youngs_modulus", t.youngs_modulus, MODULUS_RANGE, "Pa"),
+            ("shear_modulus", t.shear_modulus, MODULUS_RANGE, "Pa"),
+            ("density", t.density, DENSITY_RANGE, "kg/m³"),
+        ] {
+            require(
+                within(v, range),
+                key(k),
+                format!("{v:?}"),
+                format!("{} ≤ value ≤ {} {what}", range.0, range.1),
+            );
+        }
+        require(
+            (1..=MAX_SEGMENTS).contains(&t.segments),
+            key("segments"),
+            t.segments.to_string(),
+            format!("1 ≤ segments ≤ {MAX_SEGMENTS}"),
+        );
+        require(
+            t.length.is_finite() && t.length > 0.0 && t.length <= MAX_THREAD_LENGTH,
+            key("length"),
+            format!("{:?}", t.length),
+            format!("0 < length ≤ {MAX_THREAD_LENGTH} m"),
+        );
+        // A segment shorter than the thread is thick is no rod: its bending and shear
+        // stiffnesses (EI/l, κGA·l) meet and the discrete frames stop following the line.
+        if t.length > 0.0
+            && (1..=MAX_SEGMENTS).contains(&t.segments)
+            && within(t.radius, RADIUS_RANGE)
+        {
+            let segment = t.length / t.segments as f64;
+            require(
+                segment >= 2.0 * t.radius,
+                key("length"),
+                format!("{:?}", t.length),
+                format!(
+                    "at least segments × diameter = {} × {:.3e} = {:.3e} m (each segment at least as long as the thread is thick)",
+                    t.segments,
+                    2.0 * t.radius,
+                    t.segments as f64 * 2.0 * t.radius
+                ),
+            );
+        }
+        require(
+            t.start.iter().all(|v| v.is_finite()) && inside(t.start),
+            key("start"),
+            format!("{:?}", t.start),
+            format!("thread outside the domain: must be {region}"),
+        );
+        match t.end() {
+            None => require(
+                false,
+                key("direction"),
+                format!("{:?}", t.direction),
+                "a finite, non-zero vector".into(),
+            ),
+            Some(end) => require(
+                !t.length.is_finite() || inside(end),
+                key("length"),
+                format!("{:?}", t.length),
+                format!(
+                    "thread outside the domain: its end ({:.4}, {:.4}, {:.4}) m must be {region}",
+                    end[0], end[1], end[2]
+                ),
+            ),
+        }
+        require(
+            within(t.friction, (0.0, 10.0)),
+            key("friction"),
+            format!("{:?}", t.friction),
+            "0 ≤ value ≤ 10 (Coulomb coefficient)".into(),
+        );
+        require(
+            (1..=100).contains(&t.substeps),
+            key("substeps"),
+            t.substeps.to_string(),
+            "1 ≤ substeps ≤ 100 (per frame)".into(),
+        );
+        require(
+            (1..=20).contains(&t.iterations),
+            key("iterations"),
+            t.iterations.to_string(),
+            "1 ≤ iterations ≤ 20 (direct solves per substep)".into(),
+        );
+    }
+    problems
+}

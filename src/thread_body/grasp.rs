@@ -1,0 +1,214 @@
+//! Grippers holding a thread. A thread is far too thin for the tissue's grid grip (its
+//! diameter is a tenth of a cell), so a gripper holds it kinematically: when its jaws are
+//! closed on the thread — the jaw controller presses them shut (see
+//! [`crate::tools::JawServo::pressing`]) with the tips no further apart than the thread is
+//! thick — every thread point inside the closed jaws' volume is caught between the faces
+//! and from then on moves rigidly with the tool frame (a kinematic attachment, see
+//! [`HELD_MASS_RATIO`]). When the
+//! jaws stop pressing or open wider than the thread, the points are let go with the
+//! velocity the jaws gave them.
+//!
+//! The closed jaws' volume, in the tool frame (x across the jaw width, y across the faces,
+//! z from the hinge to the tips): |x| ≤ width/2 + r, −r ≤ z ≤ length + r, |y| ≤ thickness + r.
+//! A point that far from the faces' plane was swept between them as they closed.
+
+use crate::mpm::Vec3;
+use crate::rod::Rod;
+use crate::tools::{Shape, ToolPose};
+use crate::world::WorldTool;
+use nalgebra::Vector3;
+
+/// What a thread needs of one gripper over the frame being stepped.
+#[derive(Clone, Debug)]
+pub struct GripperView {
+    /// Scene index of the tool.
+    pub tool: usize,
+    pub jaw_length: f32,
+    pub jaw_width: f32,
+    pub jaw_thickness: f32,
+    /// Tool pose at the frame's start and end (it moves linearly between them).
+    pub from: ToolPose,
+    pub to: ToolPose,
+    /// Jaw opening reached at the frame's end (rad).
+    pub opening: f64,
+    /// The jaw controller presses the jaws shut on whatever stopped them.
+    pub pressing: bool,
+}
+
+impl GripperView {
+    /// The view of `tool` (scene index `index`) over [t0, t1], or `None` when it has no jaws.
+    pub fn of(index: usize, tool: &WorldTool, t0: f64, t1: f64) -> Option<GripperView> {
+        let Shape::Gripper {
+            jaw_length,
+            jaw_width,
+            jaw_thickness,
+        } = tool.shape
+        else {
+            return None;
+        };
+        let jaw = tool.jaw()?;
+        Some(GripperView {
+            tool: index,
+            jaw_length,
+            jaw_width,
+            jaw_thickness,
+            from: tool.pose_at(t0),
+            to: tool.pose_at(t1),
+            opening: jaw.angle,
+            pressing: jaw.pressing(),
+        })
+    }
+
+    /// Whether the jaws are closed on a thread of `radius`: pressed shut, tips no further
+    /// apart than its diameter.
+    pub fn closed_on(&self, radius: f32) -> bool {
+        let tip_gap = 2.0 * self.jaw_length as f64 * (0.5 * self.opening).sin();
+        self.pressing && tip_gap <= 2.0 * radius as f64
+    }
+
+    /// Whether `local` (tool frame) lies inside the closed jaws, for a thread of `radius`.
+    fn between_jaws(&self, local: &Vector3<f64>, radius: f32) -> bool {
+        let r = radius as f64;
+        local.x.abs() <= 0.5 * self.jaw_width as f64 + r
+            && local.z >= -r
+            && local.z <= self.jaw_length as f64 + r
+            && local.y.abs() <= self.jaw_thickness as f64 + r
+    }
+
+    fn pose_at(&self, s: f64) -> ToolPose {
+        self.from.lerp(&self.to, s)
+    }
+}
+
+/// How much heavier than its share of the thread a held point is made. The rod's direct
+/// solve fails to factorise with two or more points of zero inverse mass on one chain (two
+/// grasps, a grasp and a pinned end, both ends pinned), so a held point keeps a tiny inverse
+/// mass, a force cancelling its weight, and is put back on its target before and after each
+/// substep: what the solve moves it in between is ~1e-4 of what it moves a free point.
+pub const HELD_MASS_RATIO: f32 = 1e4;
+
+/// Makes point `i` of `rod` held: heavy, weightless (its weight cancelled), at rest.
+pub fn hold(rod: &mut Rod, i: usize, free_inv_mass: f32, gravity: Vec3) {
+    rod.inv_mass[i] = free_inv_mass / HELD_MASS_RATIO;
+    rod.external_forces[i] = -gravity / rod.inv_mass[i];
+}
+
+/// Lets point `i` go: its own mass again, no force.
+pub fn release(rod: &mut Rod, i: usize, free_inv_mass: f32) {
+    rod.inv_mass[i] = free_inv_mass;
+    rod.external_forces[i] = Vec3::zeros();
+}
+
+/// One gripper's hold on a thread: the points caught and where they sit in the tool frame.
+#[derive(Clone, Debug)]
+struct Grasp {
+    tool: usize,
+    points: Vec<(usize, Vector3<f64>)>,
+}
+
+/// The grasps on one thread.
+#[derive(Clone, Debug, Default)]
+pub struct Grasps {
+    held: Vec<Grasp>,
+}
+
+impl Grasps {
+    /// Ends the grasps whose jaws no longer hold and begins one for each gripper newly
+    /// closed on the thread (an empty one when nothing lay between its jaws, so that closed
+    /// jaws brushing the thread later do not pick it up). `pinned` points stay the scene's.
+    pub fn update(
+        &mut self,
+        rod: &mut Rod,
+        grippers: &[GripperView],
+        radius: f32,
+        pinned: &[bool],
+        free_inv_mass: &[f32],
+        gravity: Vec3,
+    ) {
+        let still_closed = |g: &Grasp| {
+            grippers
+                .iter()
+                .any(|v| v.tool == g.tool && v.closed_on(radius))
+        };
+        let (kept, released): (Vec<_>, Vec<_>) = std::mem::take(&mut self.held)
+            .into_iter()
+            .partition(still_closed);
+        self.held = kept;
+        for grasp in released {
+            for (i, _) in grasp.points {
+                if !pinned[i] && !self.holds_point(i) {
+                    release(rod, i, free_inv_mass[i]);
+                }
+            }
+        }
+        for view in grippers {
+            if !view.closed_on(radius) || self.held.iter().any(|g| g.tool == view.tool) {
+                continue;
+            }
+            let pose = &view.from;
+            let mut points = Vec::new();
+            for i in 0..rod.points.len() {
+                if pinned[i] || self.holds_point(i) {
+                    continue;
+                }
+                let local = pose
+                    .rotation
+                    .inverse_transform_vector(&(rod.points[i].cast::<f64>() - pose.position));
+                if view.between_jaws(&local, radius) {
+                    points.push((i, local));
+                    hold(rod, i, free_inv_mass[i], gravity);
+                }
+            }
+            self.held.push(Grasp {
+                tool: view.tool,
+                points,
+            });
+        }
+    }
+
+    /// Puts every grasped point where its jaws are at fraction `s0` of the frame, moving
+    /// at the velocity that brings it to where they are at `s1` after the substep of `h`
+    /// seconds.
+    pub fn start_substep(&self, rod: &mut Rod, grippers: &[GripperView], s0: f64, s1: f64, h: f32) {
+        self.each_target(grippers, s0, |i, from| {
+            rod.points[i] = from;
+        });
+        self.each_target(grippers, s1, |i, to| {
+            rod.velocities[i] = (to - rod.points[i]) / h;
+        });
+    }
+
+    /// Puts every grasped point where its jaws are at fraction `s` of the frame.
+    pub fn end_substep(&self, rod: &mut Rod, grippers: &[GripperView], s: f64) {
+        self.each_target(grippers, s, |i, to| rod.points[i] = to);
+    }
+
+    fn each_target(&self, grippers: &[GripperView], s: f64, mut f: impl FnMut(usize, Vec3)) {
+        for grasp in &self.held {
+            let Some(view) = grippers.iter().find(|v| v.tool == grasp.tool) else {
+                continue;
+            };
+            let pose = view.pose_at(s);
+            for (i, local) in &grasp.points {
+                f(*i, (pose.position + pose.rotation * local).cast());
+            }
+        }
+    }
+
+    pub fn held_points(&self) -> usize {
+        self.held.iter().map(|g| g.points.len()).sum()
+    }
+
+    /// Whether tool `tool` holds any point.
+    pub fn holds_with(&self, tool: usize) -> bool {
+        self.held
+            .iter()
+            .any(|g| g.tool == tool && !g.points.is_empty())
+    }
+
+    fn holds_point(&self, i: usize) -> bool {
+        self.held
+            .iter()
+            .any(|g| g.points.iter().any(|(k, _)| *k == i))
+    }
+}

@@ -1,0 +1,234 @@
+//! The suture thread in scenes: `config/thread.toml` headless (a gripper picks the thread up
+//! off the table, lifts it by the grasped point while the rest hangs, opens and it falls
+//! back), a thread-only scene with a pinned end, and the thread's topics in a recorded bag.
+
+use dvrk_tissue_sim::config;
+use dvrk_tissue_sim::world::World;
+use std::path::Path;
+
+fn shipped(name: &str) -> config::Scene {
+    config::load(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("config")
+            .join(name),
+    )
+    .unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Steps `world` until simulated time reaches `t`.
+fn run_until(world: &mut World, t: f64) {
+    while world.time() < t - 1e-9 {
+        world.step_frame().expect("frame");
+        assert!(world.threads().iter().all(|th| th.rod.is_finite()));
+    }
+}
+
+fn highest(world: &World) -> f32 {
+    world.threads()[0]
+        .rod
+        .points
+        .iter()
+        .map(|p| p.z)
+        .fold(f32::MIN, f32::max)
+}
+
+#[test]
+fn gripper_picks_the_thread_up_lifts_it_and_lets_it_fall() {
+    let scene = shipped("thread.toml");
+    let table = scene.table.as_ref().unwrap().height as f32;
+    let mut world = World::new(&scene);
+    assert_eq!(world.threads().len(), 1);
+    let r = world.threads()[0].rod.material.radius;
+
+    // Dropped from 6 mm, it lies on the table before the gripper arrives.
+    run_until(&mut world, 0.45);
+    let lying = highest(&world);
+    assert!(
+        lying < table + 4.0 * r,
+        "thread not on the table: highest point {lying} m"
+    );
+    assert_eq!(world.threads()[0].grasped_points(), 0);
+
+    // Closed on it and lifted 40 mm: the grasped points ride with the jaws.
+    run_until(&mut world, 1.95);
+    let thread = &world.threads()[0];
+    assert!(
+        thread.grasped_points() >= 2,
+        "grasped {} points",
+        thread.grasped_points()
+    );
+    assert!(thread.held_by(0));
+    let tool = world.tools()[0].pose_at(world.time());
+    // The jaw tips were 9.4 mm below the pivot on the thread when they closed.
+    let expected_z = (tool.position.z - 0.0094) as f32;
+    let middle = thread.rod.points[thread.rod.points.len() / 2];
+    assert!(
+        (middle.z - expected_z).abs() < 1e-3,
+        "grasped point at z {} m, jaws hold it at {expected_z} m",
+        middle.z
+    );
+    assert!(middle.z > table + 0.035, "lifted only to {} m", middle.z);
+    // The rest hangs from the grasp. Held in the jaws, each 75 mm half is a cantilever under
+    // its own weight: 3-0 nylon (EI ≈ 3.8e-7 N·m²) droops by about qL⁴/(8EI) ≈ 4.6 mm at its
+    // end (the jaws clamp 2.5 mm of it, so the free length is a little shorter).
+    let points = &thread.rod.points;
+    let m = thread.rod.material;
+    let q = m.linear_density() * 9.81;
+    let droop = q * 0.075f32.powi(4) / (8.0 * m.bending_stiffness());
+    for (end, quarter) in [
+        (points[0], points[points.len() / 4]),
+        (points[points.len() - 1], points[3 * points.len() / 4]),
+    ] {
+        let end_droop = middle.z - end.z;
+        assert!(
+            end_droop > 0.5 * droop && end_droop < 1.5 * droop,
+            "end droops {end_droop} m, cantilever {droop} m"
+        );
+        assert!(
+            end.z < quarter.z && quarter.z < middle.z,
+            "not hanging: end {end}, quarter {quarter}"
+        );
+    }
+    // Hanging by its middle, its length holds to well within 0.1 %.
+    assert!(
+        thread.elongation().abs() < 1e-3,
+        "elongation {}",
+        thread.elongation()
+    );
+
+    // Opened at 2.0–2.1 s: let go, it falls back onto the table.
+    run_until(&mut world, 2.7);
+    let thread = &world.threads()[0];
+    assert_eq!(thread.grasped_points(), 0);
+    assert!(!thread.held_by(0));
+    let fallen = highest(&world);
+    assert!(
+        fallen < table + 0.003,
+        "thread did not fall back: highest point {fallen} m"
+    );
+}
+
+#[test]
+fn a_thread_only_scene_with_a_pinned_end_hangs_from_it() {
+    let text = r#"
+[domain]
+origin = [-0.15, -0.1, -0.2]
+size = [0.3, 0.2, 0.3]
+dx = 0.01
+[[thread]]
+start = [-0.05, 0.0, 0.05]
+pinned = "start"
+"#;
+    let scene = config::from_str(text, Path::new("hang.toml")).unwrap_or_else(|e| panic!("{e}"));
+    assert!(scene.tissues.is_empty());
+    let mut world = World::new(&scene);
+    run_until(&mut world, 1.5);
+    let rod = &world.threads()[0].rod;
+    // The pinned start stays; the free end swung down below it.
+    assert_eq!(rod.points[0], nalgebra::Vector3::new(-0.05, 0.0, 0.05));
+    let end = rod.points[rod.points.len() - 1];
+    assert!(end.z < 0.05 - 0.08, "free end at z {} m", end.z);
+    assert!(
+        world.threads()[0].elongation().abs() < 1e-3,
+        "elongation {}",
+        world.threads()[0].elongation()
+    );
+}
+
+#[test]
+fn headless_record_of_thread_toml_holds_the_thread_topics_and_the_summary_reports_it() {
+    use dvrk_tissue_sim::ros::msgs::{from_cdr, Marker, PointCloud2};
+    let dir = std::env::temp_dir().join(format!("dvrk-thread-scene-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let bag = dir.join("thread.mcap");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_dvrk-tissue-sim"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(["run", "--scene", "config/thread.toml", "--headless"])
+        .args(["--seconds", "1.5", "--print-every", "60", "--record"])
+        .arg(&bag)
+        .output()
+        .expect("cannot run the binary");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let summary = stdout
+        .lines()
+        .find(|l| l.starts_with("summary: thread suture elongation"))
+        .unwrap_or_else(|| panic!("no thread summary in:\n{stdout}"));
+    // Held by the jaws at the end of the run.
+    assert!(
+        summary.contains("ends (") && !summary.contains(" 0 point(s) grasped"),
+        "{summary}"
+    );
+
+    let bytes = std::fs::read(&bag).unwrap();
+    let mut markers = Vec::new();
+    let mut clouds = Vec::new();
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        match m.channel.topic.as_str() {
+            "/threads/suture/centreline" => markers.push(from_cdr::<Marker>(&m.data).unwrap()),
+            "/threads/suture/tension" => clouds.push(from_cdr::<PointCloud2>(&m.data).unwrap()),
+            _ => {}
+        }
+    }
+    // 1.5 s at thread_rate_hz = 30.
+    assert_eq!((markers.len(), clouds.len()), (45, 45));
+    let last = markers.last().unwrap();
+    assert_eq!(
+        (last.kind, last.header.frame_id.as_str()),
+        (Marker::LINE_STRIP, "world")
+    );
+    assert_eq!(last.points.len(), 61);
+    let cloud = clouds.last().unwrap();
+    let names: Vec<&str> = cloud.fields.iter().map(|f| f.name.as_str()).collect();
+    assert_eq!(names, ["x", "y", "z", "tension"]);
+    assert_eq!(cloud.width, 61);
+    // The cloud's points are the marker's.
+    let x0 = f32::from_le_bytes(cloud.data[0..4].try_into().unwrap());
+    assert!((x0 as f64 - last.points[0].x).abs() < 1e-6);
+    // At 1.5 s the thread hangs from the jaws, 32 mm up: its tension is positive near the
+    // grasp, and of the order of the weight hanging there (the whole thread weighs
+    // 6.7e-5 N), far below a newton.
+    let tension: Vec<f32> = cloud
+        .data
+        .chunks(16)
+        .map(|p| f32::from_le_bytes(p[12..16].try_into().unwrap()))
+        .collect();
+    let peak = tension.iter().cloned().fold(f32::MIN, f32::max);
+    assert!(peak > 0.0 && peak < 1e-2, "peak tension {peak} N");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_thread_pinned_at_both_ends_sags_between_them_and_keeps_its_ends() {
+    let text = r#"
+[domain]
+origin = [-0.15, -0.1, -0.2]
+size = [0.3, 0.2, 0.3]
+dx = 0.01
+[[thread]]
+start = [-0.05, 0.0, 0.05]
+direction = [1.0, 0.0, -0.2]
+length = 0.1
+segments = 40
+pinned = "both"
+"#;
+    let scene = config::from_str(text, Path::new("both.toml")).unwrap_or_else(|e| panic!("{e}"));
+    let mut world = World::new(&scene);
+    let rod0 = world.threads()[0].rod.clone();
+    run_until(&mut world, 1.0);
+    let rod = &world.threads()[0].rod;
+    assert_eq!(rod.points[0], rod0.points[0]);
+    assert_eq!(rod.points[40], rod0.points[40]);
+    // A straight thread between fixed ends can only sag by stretching: it stays nearly
+    // straight, within F/(EA) of its length, its middle a little below the chord.
+    let chord_mid = (rod0.points[0] + rod0.points[40]) * 0.5;
+    let sag = chord_mid.z - rod.points[20].z;
+    assert!(sag > 0.0 && sag < 0.005, "sag {sag} m");
+    let elongation = world.threads()[0].elongation();
+    assert!(elongation.abs() < 1e-3, "elongation {elongation}");
+}
