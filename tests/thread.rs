@@ -489,7 +489,7 @@ fn drag_through(self_collision: bool) -> (f32, f32) {
     let upper_end = points.len() - 1;
     let mut rod = Rod::from_polyline(ThreadMaterial::nylon_3_0(), points);
     let mut solver = RodSolver::new(&rod, RodSolverSettings::default(), Vec3::zeros());
-    let drop = Vec3::new(0.0, 0.0, -1.0 * FRAME);
+    let drop = Vec3::new(0.0, 0.0, -FRAME);
     for _ in 0..3 {
         let attachments: Vec<RodAttachment> = (upper_start..=upper_end)
             .map(|p| RodAttachment {

@@ -175,11 +175,11 @@ pub(crate) fn project_contacts(
     let mut table_contacts = 0;
     if let Some((height, mu)) = table {
         let floor = height + r;
-        for i in 0..rod.points.len() {
+        for (i, &x0) in start.iter().enumerate().take(rod.points.len()) {
             let depth = floor - rod.points[i].z;
             if depth > 0.0 && rod.inv_mass[i] > 0.0 {
                 rod.points[i].z = floor;
-                let moved = rod.points[i] - start[i];
+                let moved = rod.points[i] - x0;
                 let slip = Vec3::new(moved.x, moved.y, 0.0);
                 rod.points[i] += friction_correction(slip, depth, mu);
                 table_contacts += 1;
@@ -190,15 +190,14 @@ pub(crate) fn project_contacts(
     for c in colliders {
         // Points first (a flat face touches a segment at its ends), then each segment's
         // interior where it dips deeper than both its ends (an edge, a wire, a jaw's corner).
-        for i in 0..rod.points.len() {
-            let (x0, x) = (start[i], rod.points[i]);
+        for (i, &x0) in start.iter().enumerate().take(rod.points.len()) {
+            let x = rod.points[i];
             if rod.inv_mass[i] <= 0.0 || !c.overlaps(x0.inf(&x), x0.sup(&x)) {
                 continue;
             }
             if let Some(hit) = c.swept_contact(x0, x, r) {
                 rod.points[i] += hit.normal * hit.depth;
-                let moved =
-                    rod.points[i] - start[i] - c.surface_displacement(rod.points[i], hit.part);
+                let moved = rod.points[i] - x0 - c.surface_displacement(rod.points[i], hit.part);
                 let slip = moved - hit.normal * moved.dot(&hit.normal);
                 rod.points[i] += friction_correction(slip, hit.depth, c.friction);
                 tool_contacts += 1;
