@@ -1,7 +1,8 @@
 //! `stress`: the stability matrix (stiffness, Poisson ratio, time step, tool speed, jaws
-//! closing, pulling apart, dropping, a long soak) as a table.
+//! closing, pulling apart, dropping, a long soak) as a table, and the suture thread's cases.
 
 use crate::bench::stress::{self, Matrix};
+use crate::bench::thread_stress;
 use crate::scene_args::scene_value;
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -41,8 +42,27 @@ pub fn run(args: StressArgs) -> Result<()> {
         .into_iter()
         .filter(|c| only.is_none_or(|o| c.group.contains(o) || c.name.contains(o)))
         .collect();
-    if cases.is_empty() {
+    // The thread's cases (a rod alone, not a scene): all or none, a second table.
+    let threads = only.is_none_or(|o| "thread".contains(o) || o.contains("thread"));
+    if cases.is_empty() && !threads {
         bail!("no stress case matches {:?}", only.unwrap_or_default());
+    }
+    let mut table = String::new();
+    let mut failures = Vec::new();
+    if threads {
+        let results = thread_stress::run();
+        table += &thread_stress::markdown(&results);
+        table += "\n";
+        failures.extend(
+            results
+                .iter()
+                .filter(|r| !r.stable())
+                .map(|r| format!("thread / {}", r.name)),
+        );
+        if cases.is_empty() {
+            print!("{table}");
+            return finish(&table, out.as_deref(), &failures, results.len());
+        }
     }
     let progress = indicatif::ProgressBar::new(cases.len() as u64).with_style(
         indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} [{elapsed}] {msg}")
@@ -63,20 +83,32 @@ pub fn run(args: StressArgs) -> Result<()> {
         progress.inc(1);
     });
     progress.finish_and_clear();
-    let table = stress::markdown(&results);
+    table += &stress::markdown(&results);
     print!("{table}");
-    if let Some(path) = &out {
-        std::fs::write(path, &table).with_context(|| format!("cannot write {}", path.display()))?;
+    let checked = results.iter().filter(|r| r.in_envelope).count()
+        + if threads { thread_stress::CASES } else { 0 };
+    failures.extend(stress::envelope_failures(&results));
+    finish(&table, out.as_deref(), &failures, checked)
+}
+
+/// Writes the table to `out` and fails when any case inside the safe envelope did.
+fn finish(
+    table: &str,
+    out: Option<&std::path::Path>,
+    failures: &[String],
+    checked: usize,
+) -> Result<()> {
+    if let Some(path) = out {
+        std::fs::write(path, table).with_context(|| format!("cannot write {}", path.display()))?;
     }
-    let failures = stress::envelope_failures(&results);
     if !failures.is_empty() {
-        for f in &failures {
+        for f in failures {
             eprintln!("unstable inside the safe envelope: {f}");
         }
         bail!(
             "{} of {} cases inside the safe envelope failed",
             failures.len(),
-            results.iter().filter(|r| r.in_envelope).count()
+            checked
         );
     }
     Ok(())

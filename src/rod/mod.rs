@@ -4,14 +4,18 @@
 //! `material` turns moduli and radius into the rod's stiffnesses, `state` holds the centreline
 //! points and one frame quaternion per segment, `constraints` linearises stretch-shear and
 //! bend-twist, `direct` solves them together along the chain each iteration, `solver` runs
-//! the substeps.
+//! the substeps, `environment` adds the table, tools and grasps a frame meets and
+//! `self_contact` keeps the thread from passing through itself.
 
 pub mod constraints;
 pub mod direct;
+pub mod environment;
 pub mod material;
+pub mod self_contact;
 pub mod solver;
 pub mod state;
 
+pub use environment::{RodAttachment, RodCollider, RodEnvironment, RodFrameReport};
 pub use material::ThreadMaterial;
 pub use solver::RodSolver;
 pub use state::Rod;

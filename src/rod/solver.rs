@@ -3,6 +3,8 @@
 
 use super::constraints::Compliance;
 use super::direct::{self, DirectScratch};
+use super::environment::{project_contacts, PlacedCollider, RodEnvironment, RodFrameReport};
+use super::self_contact::SelfContacts;
 use super::state::{Quat, Rod};
 use crate::mpm::Vec3;
 use nalgebra::Vector6;
@@ -29,6 +31,9 @@ impl Default for RodSolverSettings {
     }
 }
 
+/// Most contact projection passes per iteration.
+const CONTACT_PASSES: usize = 4;
+
 /// The solver for one rod: its compliances, multipliers and the previous substep's state.
 #[derive(Clone, Debug)]
 pub struct RodSolver {
@@ -40,6 +45,11 @@ pub struct RodSolver {
     prev_points: Vec<Vec3>,
     prev_frames: Vec<Quat>,
     scratch: DirectScratch,
+    /// Attached points' own inverse masses, restored after the frame.
+    held: Vec<(usize, f32)>,
+    /// This substep's colliders.
+    placed: Vec<PlacedCollider>,
+    self_contacts: SelfContacts,
 }
 
 impl RodSolver {
@@ -53,37 +63,107 @@ impl RodSolver {
             prev_points: rod.points.clone(),
             prev_frames: rod.frames.clone(),
             scratch: DirectScratch::default(),
+            held: Vec::new(),
+            placed: Vec::new(),
+            self_contacts: SelfContacts::default(),
         }
     }
 
-    /// Advance `rod` by one frame of `dt` seconds. The stretch-shear constraint is linear in
-    /// the points, so the direct solve needs no limit on how far a point moves per substep
-    /// (the distance constraint's linearisation did: it made cost grow with segments × speed).
-    pub fn step_frame(&mut self, rod: &mut Rod, dt: f32) {
+    /// Advance `rod` by one frame of `dt` seconds in free space. The stretch-shear
+    /// constraint is linear in the points, so the direct solve needs no limit on how far a
+    /// point moves per substep (the distance constraint's linearisation did: it made cost
+    /// grow with segments × speed).
+    pub fn step_frame(&mut self, rod: &mut Rod, dt: f32) -> RodFrameReport {
+        self.step_frame_in(rod, dt, &RodEnvironment::default())
+    }
+
+    /// Advance `rod` by one frame of `dt` seconds among the table, tools and grasps of `env`
+    /// (see [`super::environment`]): substeps of predict → attachments to their targets →
+    /// iterations of (direct solve of every elastic constraint, contacts) → velocities.
+    pub fn step_frame_in(
+        &mut self,
+        rod: &mut Rod,
+        dt: f32,
+        env: &RodEnvironment,
+    ) -> RodFrameReport {
         let substeps = self.settings.substeps.max(1);
+        let iterations = self.settings.iterations.max(1);
         let h = dt / substeps as f32;
-        for _ in 0..substeps {
-            self.substep(rod, h, |_, _| {});
+        let inv_h2 = 1.0 / (h as f64 * h as f64);
+        let mut report = RodFrameReport::default();
+        // Attached points are held (inverse mass 0) for this frame only, moving at the
+        // attachment's velocity, which they keep when released.
+        self.held.clear();
+        let count = rod.points.len();
+        for a in env.attachments.iter().filter(|a| a.point < count) {
+            self.held.push((a.point, rod.inv_mass[a.point]));
+            rod.inv_mass[a.point] = 0.0;
+            rod.points[a.point] = a.from;
+            rod.velocities[a.point] = (a.to - a.from) / dt;
         }
+        let table = env.table_height.map(|z| (z, env.table_friction));
+        for k in 0..substeps {
+            let (s0, s1) = (k as f64 / substeps as f64, (k + 1) as f64 / substeps as f64);
+            self.placed.clear();
+            self.placed.extend(
+                env.colliders
+                    .iter()
+                    .map(|c| PlacedCollider::new(c, s0, s1, rod.material.radius)),
+            );
+            self.predict(rod, h);
+            for a in env.attachments.iter().filter(|a| a.point < count) {
+                rod.points[a.point] = a.from.lerp(&a.to, s1 as f32);
+            }
+            if env.self_collision {
+                self.self_contacts.detect(rod, &self.prev_points);
+            }
+            self.lambda.fill(Vector6::zeros());
+            for iteration in 0..iterations {
+                direct::solve(
+                    rod,
+                    &self.compliance,
+                    &mut self.lambda,
+                    inv_h2,
+                    &mut self.scratch,
+                );
+                // Contacts in a pile (thread on thread on table) push each other back in:
+                // a few Gauss–Seidel passes, until one finds nothing to correct.
+                let mut found = (0, 0, 0);
+                for pass in 0..CONTACT_PASSES {
+                    let (on_table, on_tools) =
+                        project_contacts(rod, &self.prev_points, table, &self.placed);
+                    let on_self = if env.self_collision {
+                        self.self_contacts
+                            .project(rod, &self.prev_points, env.self_friction)
+                    } else {
+                        0
+                    };
+                    if pass == 0 {
+                        found = (on_table, on_tools, on_self);
+                    }
+                    if on_table + on_tools + on_self == 0 {
+                        break;
+                    }
+                }
+                if iteration == 0 {
+                    report.table_contacts += found.0;
+                    report.tool_contacts += found.1;
+                    report.self_contacts += found.2;
+                }
+            }
+            self.update_velocities(rod, h);
+            self.update_tension(rod, inv_h2);
+        }
+        for &(point, inv_mass) in self.held.iter().rev() {
+            rod.inv_mass[point] = inv_mass;
+        }
+        report.max_strain = (0..rod.segments())
+            .map(|j| rod.strain(j).abs())
+            .fold(0.0, f32::max);
+        report
     }
 
-    /// One substep of `h` seconds; `contacts(rod, iteration_h)` projects whatever keeps the
-    /// rod out of other bodies, once per iteration after the elastic constraints.
-    pub fn substep(&mut self, rod: &mut Rod, h: f32, mut contacts: impl FnMut(&mut Rod, f32)) {
-        self.predict(rod, h);
-        self.lambda.fill(Vector6::zeros());
-        let inv_h2 = 1.0 / (h as f64 * h as f64);
-        for _ in 0..self.settings.iterations.max(1) {
-            direct::solve(
-                rod,
-                &self.compliance,
-                &mut self.lambda,
-                inv_h2,
-                &mut self.scratch,
-            );
-            contacts(rod, h);
-        }
-        self.update_velocities(rod, h);
+    fn update_tension(&self, rod: &mut Rod, inv_h2: f64) {
         for j in 0..rod.segments() {
             // Jᵀ·λ/h² is the force: λ/(l·h²) on pⱼ₊₁, pulling it back along the segment
             // when stretched.

@@ -11,6 +11,7 @@ pub mod stress;
 pub mod surface;
 pub mod sweep;
 pub mod thread;
+pub mod thread_stress;
 pub mod throughput;
 
 use crate::scene_args::{scene_value, SolverOverrides};
