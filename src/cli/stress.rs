@@ -42,8 +42,12 @@ pub fn run(args: StressArgs) -> Result<()> {
         .into_iter()
         .filter(|c| only.is_none_or(|o| c.group.contains(o) || c.name.contains(o)))
         .collect();
-    // The thread's cases (a rod alone, not a scene): all or none, a second table.
-    let threads = only.is_none_or(|o| "thread".contains(o) || o.contains("thread"));
+    // The thread's cases (a rod alone, not a scene): all or none, a second table; in the
+    // full matrix or when asked for by name (`--only thread`), not in the reduced one.
+    let threads = match only {
+        Some(o) => "thread".contains(o) || o.contains("thread"),
+        None => !reduced,
+    };
     if cases.is_empty() && !threads {
         bail!("no stress case matches {:?}", only.unwrap_or_default());
     }

@@ -163,6 +163,27 @@ impl RodSolver {
         report
     }
 
+    /// One substep of `h` seconds with the caller's own contacts: `contacts(rod, h)` runs
+    /// once per iteration after the elastic solve (the world's thread keeps itself above
+    /// the table and inside the domain this way, with grasps it holds itself).
+    pub fn substep(&mut self, rod: &mut Rod, h: f32, mut contacts: impl FnMut(&mut Rod, f32)) {
+        let inv_h2 = 1.0 / (h as f64 * h as f64);
+        self.predict(rod, h);
+        self.lambda.fill(Vector6::zeros());
+        for _ in 0..self.settings.iterations.max(1) {
+            direct::solve(
+                rod,
+                &self.compliance,
+                &mut self.lambda,
+                inv_h2,
+                &mut self.scratch,
+            );
+            contacts(rod, h);
+        }
+        self.update_velocities(rod, h);
+        self.update_tension(rod, inv_h2);
+    }
+
     fn update_tension(&self, rod: &mut Rod, inv_h2: f64) {
         for j in 0..rod.segments() {
             // Jᵀ·λ/h² is the force: λ/(l·h²) on pⱼ₊₁, pulling it back along the segment
