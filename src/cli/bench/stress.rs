@@ -247,12 +247,12 @@ fn implicit_cases(full: bool) -> Vec<StressCase> {
             drags.push((v, 1e6));
         }
     } else {
-        materials = vec![(1e3, 0.3), (1e6, 0.499)];
-        drags.push((1.0, 1e6));
+        materials = vec![(1e3, 0.3)];
     }
     // Measured stable: the 1 kPa, ν 0.3 indentation. The 1 MPa, ν 0.499 indentation and
     // the capsule dragged through 1 MPa tissue gain energy (README, "Implicit method"), so
-    // the implicit cases are outside the envelope until they pass.
+    // the implicit cases are outside the envelope until they pass, and only the full matrix
+    // runs them (the reduced one is the envelope CI holds the solvers to).
     let implicit = |mut case: StressCase, name: String, in_envelope: bool| {
         case.scene.solver.method = Method::Implicit;
         case.group = "implicit";
@@ -740,10 +740,7 @@ mod tests {
         ] {
             assert!(reduced.iter().any(|c| c.group == group), "{group}");
         }
-        assert!(reduced
-            .iter()
-            .filter(|c| c.group != "implicit")
-            .all(|c| c.in_envelope));
+        assert!(reduced.iter().all(|c| c.in_envelope));
         assert!(cases(Matrix::Full).len() > reduced.len());
     }
 
