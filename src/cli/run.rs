@@ -200,6 +200,15 @@ fn run_headless(
             } else {
                 format!("substeps={} dt={:.2e}s", report.substeps, report.dt_max)
             };
+            // The implicit solve's work this frame (load-independent, unlike the wall time).
+            let step = if report.solve.newton > 0 {
+                format!(
+                    "{step} newton={} cg={}",
+                    report.solve.newton, report.solve.cg
+                )
+            } else {
+                step
+            };
             println!(
                 "t={:.4}s {step} {} vmax={:.4}m/s rtf={:.3}",
                 report.time,

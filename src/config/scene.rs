@@ -115,14 +115,16 @@ pub struct Solver {
     #[serde(default = "default_newton_iterations")]
     pub newton_iterations: u32,
     /// Implicit: Newton stops when the residual falls below this fraction of its first
-    /// value (0 < value < 1).
+    /// value or of the momentum gravity gives the body in one step, whichever is larger
+    /// (0 < value < 1).
     #[serde(default = "default_newton_tolerance")]
     pub newton_tolerance: f64,
     /// Implicit: most conjugate-gradient iterations per Newton iteration (1–10000).
     #[serde(default = "default_cg_iterations")]
     pub cg_iterations: u32,
-    /// Implicit: CG stops when its residual falls below this fraction of the Newton
-    /// residual (0 < value < 1).
+    /// Implicit: the loosest forcing term of the inexact Newton solve: CG stops when its
+    /// residual falls below η times the Newton residual, η at most this value and
+    /// shrinking as Newton converges (Eisenstat–Walker; 0 < value < 1).
     #[serde(default = "default_cg_tolerance")]
     pub cg_tolerance: f64,
     /// Implicit: CG preconditioner, `block_jacobi` (each node's 3×3 Hessian block) or

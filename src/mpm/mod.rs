@@ -67,11 +67,14 @@ pub struct PbMpmParams {
 pub struct ImplicitParams {
     /// Most Newton iterations per substep.
     pub newton_iterations: u32,
-    /// Newton stops when the free-node residual falls below this fraction of its first value.
+    /// Newton stops when the free-node residual falls below this fraction of its first value
+    /// or of the momentum gravity gives the nodes in one step, whichever is larger.
     pub newton_tolerance: f32,
     /// Most conjugate-gradient iterations per Newton iteration.
     pub cg_iterations: u32,
-    /// CG stops when its residual falls below this fraction of the Newton residual.
+    /// The loosest Eisenstat–Walker forcing term: CG stops when its residual falls below
+    /// η times the Newton residual, η at most this (the first Newton iteration's), then
+    /// shrinking as Newton converges (`mpm::cpu::implicit`).
     pub cg_tolerance: f32,
     pub preconditioner: Preconditioner,
 }
@@ -82,7 +85,7 @@ impl Default for ImplicitParams {
             newton_iterations: 8,
             newton_tolerance: 1e-3,
             cg_iterations: 200,
-            cg_tolerance: 1e-2,
+            cg_tolerance: 1e-1,
             preconditioner: Preconditioner::BlockJacobi,
         }
     }
