@@ -268,11 +268,18 @@ impl CpuSolver {
             previous = Some((norm, eta));
             counts.cg += self.conjugate_gradients(&mut ws, &params, eta * norm);
             counts.newton += 1;
-            match self.line_search(&mut ws, dt, energy) {
-                Some(e) if e.is_finite() => {}
+            let at_rounding = match self.line_search(&mut ws, dt, energy) {
+                Some((e, at_rounding)) if e.is_finite() => at_rounding,
                 _ => break,
+            };
+            let more = !at_rounding && counts.newton < params.newton_iterations;
+            energy = self.evaluate(&mut ws, dt, more);
+            if at_rounding {
+                // The last step, taken whole: record where it left the residual.
+                let norm = self.sum_nodes(|i| ws.grad[i].norm_squared() as f64).sqrt();
+                ws.residuals.push(norm);
+                break;
             }
-            energy = self.evaluate(&mut ws, dt, counts.newton < params.newton_iterations);
         }
         // Momentum for the grid update. Free components: the solution v (recomputing them as
         // v* − (∂E/∂v)/m would divide the solve's residual by the node mass: on stiff
@@ -513,16 +520,30 @@ impl CpuSolver {
         }
     }
 
-    /// Backtracking (Armijo) along `ws.step` from `ws.v`; moves `ws.v` and returns Φ there,
-    /// or `None` when the step's predicted decrease of Φ (the Newton decrement) is below
-    /// Φ's rounding: the iterate is as converged as f32 deformation gradients allow (on
-    /// stiff tissue that floor lies above a 1e-3 relative residual).
-    fn line_search(&self, ws: &mut Workspace, dt: f32, energy: f64) -> Option<f64> {
+    /// Backtracking (Armijo) along `ws.step` from `ws.v`; moves `ws.v` and returns Φ there
+    /// and whether the step's predicted decrease of Φ (the Newton decrement) is below Φ's
+    /// rounding. Such a step cannot be judged by Φ (on stiff tissue that happens above a
+    /// 1e-3 relative residual, most often right after a close warm start), but it is
+    /// small in the Hessian's norm, where the quadratic model Newton solved is accurate:
+    /// it is taken whole, and Newton stops after it. `None` when even that step would crush
+    /// a particle.
+    fn line_search(&self, ws: &mut Workspace, dt: f32, energy: f64) -> Option<(f64, bool)> {
         let slope = self.sum_nodes(|i| ws.grad[i].dot(&ws.step[i]) as f64);
         // Φ is summed from f32 deformation gradients: a change below this is rounding.
         let noise = 1e-6 * energy.abs();
         if -0.5 * slope <= noise {
-            return None;
+            {
+                let out = NodeWriter::new(ws);
+                self.for_each_node(|i| unsafe {
+                    *out.trial.at(i) = *out.v.at(i) + *out.step.at(i);
+                });
+            }
+            let trial_energy = self.energy_at(ws, &ws.trial, dt);
+            if !trial_energy.is_finite() {
+                return None;
+            }
+            std::mem::swap(&mut ws.v, &mut ws.trial);
+            return Some((trial_energy, true));
         }
         let mut alpha = 1.0f32;
         let mut trial_energy = f64::NAN;
@@ -540,7 +561,7 @@ impl CpuSolver {
             alpha *= 0.5;
         }
         std::mem::swap(&mut ws.v, &mut ws.trial);
-        Some(trial_energy)
+        Some((trial_energy, false))
     }
 
     /// Preconditioned CG on H·step = −∇Φ over the free components until its residual is
@@ -814,12 +835,13 @@ mod tests {
                 }
                 let first = *start.get_or_insert(r[0]);
                 let last = *r.last().unwrap();
-                // From rest the first Newton step takes the residual down by more than 20×
-                // (the system is nearly linear); later substeps start near the f32 rounding
-                // floor and stop there instead of running to the iteration cap.
+                // From rest the first Newton step takes the residual down by about its
+                // forcing term, 0.1 (the system is nearly linear), later ones further;
+                // later substeps start close (warm start) and stop at the tolerance or at
+                // Φ's f32 rounding instead of running to the iteration cap.
                 if step == 0 {
                     assert!(
-                        r.len() >= 2 && r[1] < 0.05 * first,
+                        r.len() >= 2 && r[1] < 0.15 * first,
                         "{model:?}: residuals {r:?}"
                     );
                 }
