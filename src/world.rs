@@ -376,17 +376,9 @@ impl PlannedFrame {
     }
 }
 
-/// What a scene uses that only the CPU backend steps: the implicit method, slicer tools
-/// (cutting).
+/// What a scene uses that only the CPU backend steps: the implicit method.
 fn cpu_only_feature(scene: &Scene) -> Option<&'static str> {
-    if scene.solver.method == Method::Implicit {
-        return Some(crate::mpm::gpu::IMPLICIT_METHOD);
-    }
-    scene
-        .tools
-        .iter()
-        .any(|t| matches!(t.shape, Shape::Slicer { .. }))
-        .then_some("slicer tools (cutting)")
+    (scene.solver.method == Method::Implicit).then_some(crate::mpm::gpu::IMPLICIT_METHOD)
 }
 
 /// Why a world could not be built.
@@ -489,6 +481,9 @@ impl World {
             max_speed: scene.solver.max_speed as f32,
             max_substeps: scene.solver.max_substeps_per_frame,
             tool_count: tools.len(),
+            cutting: tools
+                .iter()
+                .any(|t| matches!(t.shape, Shape::Slicer { .. })),
             p2g: scene.solver.p2g_atomics,
             method: scene.solver.method,
             pb_mpm: PbMpmParams {

@@ -141,14 +141,71 @@ fn a_blunt_tool_on_the_same_path_leaves_one_piece() {
 }
 
 #[test]
-fn the_gpu_backend_refuses_a_slicer_and_auto_runs_it_on_the_cpu() {
+fn auto_and_gpu_backends_take_a_slicer_scene() {
     let mut scene = shipped("cutting.toml");
-    scene.solver.backend = BackendChoice::Gpu;
-    let err = World::try_new(&scene).err().expect("gpu refuses a slicer");
-    assert!(err.to_string().contains("slicer"), "{err}");
     scene.solver.backend = BackendChoice::Auto;
-    let world = World::try_new(&scene).unwrap();
-    assert_eq!(world.backend().name(), "cpu");
+    let auto = World::try_new(&scene).unwrap();
+    let adapters = dvrk_tissue_sim::mpm::gpu::adapter::adapters();
+    scene.solver.backend = BackendChoice::Gpu;
+    match World::try_new(&scene) {
+        // Cutting runs on the GPU (tests/cutting_gpu.rs checks it against the CPU).
+        Ok(gpu) => assert_ne!(gpu.backend().name(), "cpu"),
+        Err(e) => {
+            assert!(adapters.is_empty(), "{e}");
+            assert_eq!(auto.backend().name(), "cpu");
+        }
+    }
+}
+
+/// Pixels of a picture within 0.2 (per channel, 0–255 scale) of a shade of `colour`: the
+/// colour times a light factor, as particles are shaded.
+fn pixels_of_colour(rgb: &[u8], colour: dvrk_tissue_sim::mpm::Vec3) -> usize {
+    rgb.chunks_exact(3)
+        .filter(|p| {
+            let c = dvrk_tissue_sim::mpm::Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) / 255.0;
+            let shade = c.dot(&colour) / colour.norm_squared();
+            shade > 0.3 && (c - colour * shade).amax() < 0.06
+        })
+        .count()
+}
+
+#[test]
+fn a_snapshot_draws_the_faces_of_the_cut() {
+    use dvrk_tissue_sim::output::snapshot::{self, SnapshotOptions};
+    let scene = shipped("cutting.toml");
+    let mut world = World::new(&scene);
+    let options = SnapshotOptions {
+        width: 320,
+        height: 240,
+        ..Default::default()
+    };
+    let face = snapshot::cut_face_colour(options.measure);
+    let before = snapshot::render(&world, &options);
+    assert_eq!(before.cut_face_particles, 0);
+    assert_eq!(
+        pixels_of_colour(&before.rgb, face),
+        0,
+        "uncut: no cut colour"
+    );
+    // The edge a third of the way down through the block.
+    run_until(&mut world, 0.3);
+    let picture = snapshot::render(&world, &options);
+    let p = world.particles();
+    // The faces: the particle layer either side of the blade plane, half a spacing from it.
+    let spacing = p.volume0[0].cbrt();
+    let expected = p
+        .crack
+        .iter()
+        .filter(|c| c.norm() > 0.0 && c.norm() < spacing)
+        .count();
+    let red = pixels_of_colour(&picture.rgb, face);
+    println!(
+        "{} particles on the cut faces, {red} pixels in the cut colour",
+        picture.cut_face_particles
+    );
+    assert!(expected > 0);
+    assert_eq!(picture.cut_face_particles, expected);
+    assert!(red > 30, "{red} pixels show the cut");
 }
 
 #[test]

@@ -62,5 +62,16 @@ pub fn run(args: SnapshotArgs) -> Result<()> {
         picture.strain_range,
         args.measure
     );
+    if picture.cut_face_particles > 0 {
+        println!(
+            "cut faces: {} particles drawn in {}",
+            picture.cut_face_particles,
+            if args.measure.is_signed() {
+                "green"
+            } else {
+                "red"
+            }
+        );
+    }
     Ok(())
 }

@@ -20,12 +20,53 @@ use rayon::prelude::*;
 
 /// Least particle–plane distance kept, in cells: a particle exactly on the blade plane still
 /// gets a crack that tells its sides apart.
-const MIN_OFFSET_CELLS: f32 = 1e-3;
+pub const MIN_OFFSET_CELLS: f32 = 1e-3;
 
 /// Whether a node at offset `r` (m) from a particle lies across the particle's crack.
 #[inline(always)]
 pub fn separates(crack: Vec3, r: Vec3) -> bool {
     crack.dot(&r) < -crack.norm_squared()
+}
+
+/// The side test of one cut particle against its 3×3×3 stencil, set up once per particle
+/// and transfer. `n·r` for node (a, b, c) at `r = (abc − fx)·dx` is a sum of one term per
+/// axis, so the terms are computed once per axis and node, and the node is across when
+/// their sum is below `−|crack|²` (exactly [`separates`]). The sum is least at a corner of
+/// the stencil, so when even the least one is not across, no node is: most particles near
+/// the blade have the plane only beyond their stencil, and take the plain transfer.
+#[derive(Clone, Copy, Debug)]
+pub struct StencilCut {
+    /// `crack[axis]·(i − fx[axis])·dx` for stencil index i along each axis (m²).
+    along: [[f32; 3]; 3],
+    /// `−|crack|²` (m²).
+    limit: f32,
+}
+
+impl StencilCut {
+    /// The test for a particle with crack `crack` whose stencil base is `fx` cells behind
+    /// it; `None` when it is not cut or its crack lies beyond every node of its stencil.
+    #[inline(always)]
+    pub fn new(crack: Vec3, fx: Vec3, dx: f32) -> Option<Self> {
+        if crack == Vec3::zeros() {
+            return None;
+        }
+        let mut along = [[0.0f32; 3]; 3];
+        let mut least = 0.0f32;
+        for (axis, row) in along.iter_mut().enumerate() {
+            for (i, term) in row.iter_mut().enumerate() {
+                *term = crack[axis] * ((i as f32 - fx[axis]) * dx);
+            }
+            least += row[0].min(row[2]);
+        }
+        let limit = -crack.norm_squared();
+        (least < limit).then_some(StencilCut { along, limit })
+    }
+
+    /// Whether stencil node (a, b, c) lies across the crack.
+    #[inline(always)]
+    pub fn across(&self, a: usize, b: usize, c: usize) -> bool {
+        self.along[0][a] + self.along[1][b] + self.along[2][c] < self.limit
+    }
 }
 
 /// Whether any of the tools cuts (needs the per-particle crack state).
@@ -146,6 +187,42 @@ mod tests {
         assert!(!separates(crack[0], Vec3::new(0.0005, 0.002, 0.0)));
         assert!(!separates(crack[0], Vec3::new(-0.002, 0.0, 0.0)));
         assert!(!separates(Vec3::zeros(), Vec3::new(1.0, 0.0, 0.0)));
+    }
+
+    #[test]
+    fn the_stencil_test_agrees_with_the_node_test_and_skips_uncrossed_stencils() {
+        let dx = 0.002;
+        // A fixed pseudo-random sweep of crack planes and particle positions in the cell.
+        let mut state = 12345u32;
+        let mut uniform = || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (state >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let (mut fast, mut slow) = (0, 0);
+        for _ in 0..2000 {
+            let normal = Vec3::new(uniform() - 0.5, uniform() - 0.5, uniform() - 0.5).normalize();
+            let crack = normal * (uniform() * slicer::STENCIL_REACH_CELLS * dx);
+            let fx = Vec3::new(uniform(), uniform(), uniform()).add_scalar(0.5);
+            let mut any = false;
+            let cut = StencilCut::new(crack, fx, dx);
+            for (a, b, c) in (0..27).map(|k| (k / 9, (k / 3) % 3, k % 3)) {
+                let r = (Vec3::new(a as f32, b as f32, c as f32) - fx) * dx;
+                let node = separates(crack, r);
+                any |= node;
+                if let Some(cut) = cut {
+                    assert_eq!(cut.across(a, b, c), node, "{crack:?} {fx:?} {a}{b}{c}");
+                }
+            }
+            assert_eq!(cut.is_some(), any, "{crack:?} {fx:?}");
+            if any {
+                slow += 1;
+            } else {
+                fast += 1;
+            }
+        }
+        // Both paths are exercised: within the marking band, many planes miss the stencil.
+        assert!(fast > 200 && slow > 200, "fast {fast}, slow {slow}");
+        assert!(StencilCut::new(Vec3::zeros(), Vec3::repeat(1.0), dx).is_none());
     }
 
     #[test]

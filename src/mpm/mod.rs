@@ -129,6 +129,9 @@ pub struct SolverSetup {
     pub max_substeps: u32,
     /// Tools of the scene (the GPU sizes its per-substep tool buffer by it).
     pub tool_count: usize,
+    /// Whether a tool of the scene cuts (a slicer): the GPU then allocates, binds and steps
+    /// the per-particle crack state (the CPU allocates it when the first cut happens).
+    pub cutting: bool,
     /// How the GPU's P2G accumulates (the CPU ignores it).
     pub p2g: P2gAtomics,
     pub method: Method,

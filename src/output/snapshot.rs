@@ -1,5 +1,5 @@
 //! Headless pictures of a scene: tissue particles shaded as small spheres and coloured by
-//! strain, suture threads as tubes, tools ray-marched from their own signed distance functions, the table as a
+//! strain (the particles on the faces of a cut in red), suture threads as tubes, tools ray-marched from their own signed distance functions, the table as a
 //! checkerboard. A CPU renderer, so it works on any machine (no display, no GPU).
 
 use super::strain::{self, StrainMeasure};
@@ -35,12 +35,33 @@ impl Default for SnapshotOptions {
     }
 }
 
-/// An RGB picture and the strain range its colours span.
+/// An RGB picture, the strain range its colours span, and how many particles it draws on
+/// the faces of a cut.
 pub struct Snapshot {
     pub width: u32,
     pub height: u32,
     pub rgb: Vec<u8>,
     pub strain_range: f32,
+    pub cut_face_particles: usize,
+}
+
+/// Colour of the particles on a cut's faces, outside the strain colour map so that a picture
+/// shows where the blade has cut: red against the shape-change map (dark purple to
+/// yellow), green against the signed volume-change map (blue, grey, red).
+pub fn cut_face_colour(measure: StrainMeasure) -> Vec3 {
+    if measure.is_signed() {
+        Vec3::new(0.1, 0.75, 0.2)
+    } else {
+        Vec3::new(0.9, 0.12, 0.1)
+    }
+}
+
+/// Whether a particle with crack `crack` (see [`crate::mpm::crack`]) lies on a face of the
+/// cut: its crack plane is nearer than one particle spacing, i.e. it is in the particle
+/// layer next to the cut (particles further from the plane carry a crack too, up to a
+/// stencil's reach, but lie inside their piece).
+fn on_cut_face(crack: Vec3, spacing: f32) -> bool {
+    crack != Vec3::zeros() && crack.norm() < spacing
 }
 
 impl Snapshot {
@@ -268,12 +289,23 @@ pub fn render(world: &World, opts: &SnapshotOptions) -> Snapshot {
         .first()
         .map_or(world.scene().domain.dx as f32, |v| v.cbrt());
     let r_world = 0.65 * spacing;
-    for (x, strain) in particles.x.iter().zip(&strains) {
+    let cut_face = cut_face_colour(opts.measure);
+    let mut cut_face_particles = 0;
+    for (i, (x, strain)) in particles.x.iter().zip(&strains).enumerate() {
+        let on_face = particles
+            .crack
+            .get(i)
+            .is_some_and(|c| on_cut_face(*c, spacing));
+        cut_face_particles += on_face as usize;
         let Some((sx, sy, z)) = cam.project(*x) else {
             continue;
         };
         let r_px = (r_world * cam.focal / z).max(0.7);
-        let base = opts.measure.colour(*strain, strain_range);
+        let base = if on_face {
+            cut_face
+        } else {
+            opts.measure.colour(*strain, strain_range)
+        };
         let (x0, x1) = (
             (sx - r_px).floor().max(0.0) as usize,
             (sx + r_px).ceil().min(w as f32 - 1.0) as usize,
@@ -409,5 +441,6 @@ pub fn render(world: &World, opts: &SnapshotOptions) -> Snapshot {
             .flat_map(|c| [c.x, c.y, c.z].map(|v| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8))
             .collect(),
         strain_range,
+        cut_face_particles,
     }
 }

@@ -795,6 +795,7 @@ mod tests {
             max_speed: 20.0,
             max_substeps: 1,
             tool_count: 0,
+            cutting: false,
             p2g: Default::default(),
             method: Method::Implicit,
             pb_mpm: crate::mpm::PbMpmParams {

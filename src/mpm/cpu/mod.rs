@@ -215,7 +215,8 @@ impl CpuSolver {
         }
     }
 
-    /// P2G; with `CUT` a particle skips the nodes across its crack.
+    /// P2G; with `CUT` a particle skips the nodes across its crack (the per-node test only
+    /// where the crack passes through its stencil, see [`crack::StencilCut`]).
     fn transfer_to_grid<const CUT: bool>(&mut self, stress_scale: Option<f32>, affine: bool) {
         let layout = self.layout;
         let parts = &self.particles;
@@ -251,8 +252,11 @@ impl CpuSolver {
                         q.column(2).into_owned(),
                     );
                     let offs = axis_offsets(&layout, s.base);
-                    let crack = if CUT { parts.crack[p] } else { Vec3::zeros() };
-                    let cracked = CUT && crack != Vec3::zeros();
+                    let cut = if CUT {
+                        crack::StencilCut::new(parts.crack[p], s.fx, layout.dx)
+                    } else {
+                        None
+                    };
                     let mut qa = momentum;
                     for a in 0..3 {
                         let mut qab = qa;
@@ -260,7 +264,7 @@ impl CpuSolver {
                             let wab = s.w[a].x * s.w[b].y;
                             let mut qabc = qab;
                             for c in 0..3 {
-                                if cracked && across(crack, &s, [a, b, c], layout.dx) {
+                                if cut.is_some_and(|cut| cut.across(a, b, c)) {
                                     qabc += q2;
                                     continue;
                                 }
@@ -386,6 +390,11 @@ impl CpuSolver {
                         let x0 = xs[i];
                         let g = (x0 - layout.origin) * layout.inv_dx;
                         let s = Stencil::new(g);
+                        let cut = if cracked {
+                            crack::StencilCut::new(*crack, s.fx, layout.dx)
+                        } else {
+                            None
+                        };
                         let offs = axis_offsets(&layout, s.base);
                         // B = Σ w v (i − fx)ᵀ = [Σ a·wv, Σ b·wv, Σ c·wv] − v fxᵀ: the per-node work
                         // is a few adds instead of an outer product.
@@ -399,12 +408,11 @@ impl CpuSolver {
                                 let mut sum_b = Vec3::zeros();
                                 for c in 0..3 {
                                     let node = grid[offs[0][a] + offs[1][bb] + offs[2][c]];
-                                    let node_v =
-                                        if cracked && across(*crack, &s, [a, bb, c], layout.dx) {
-                                            vs[i]
-                                        } else {
-                                            Vec3::new(node[0], node[1], node[2])
-                                        };
+                                    let node_v = if cut.is_some_and(|cut| cut.across(a, bb, c)) {
+                                        vs[i]
+                                    } else {
+                                        Vec3::new(node[0], node[1], node[2])
+                                    };
                                     let wv = node_v * (wab * s.w[c].z);
                                     sum_b += wv;
                                     b2 += wv * c as f32;
@@ -471,14 +479,6 @@ impl CpuSolver {
                 |a, b| (a.0.max(b.0), a.1 + b.1, GuardEvent::first(a.2, b.2)),
             )
     }
-}
-
-/// Whether stencil node `abc` lies across the particle's crack (offsets in grid units from
-/// the stencil base, `s.fx` the particle's position from it).
-#[inline(always)]
-fn across(crack: Vec3, s: &Stencil, abc: [usize; 3], dx: f32) -> bool {
-    let r = (Vec3::new(abc[0] as f32, abc[1] as f32, abc[2] as f32) - s.fx) * dx;
-    crack::separates(crack, r)
 }
 
 /// The grip of the first gripper that holds the node (see [`crate::tools::grip`]),

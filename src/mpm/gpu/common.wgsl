@@ -88,18 +88,68 @@ fn make_stencil(g: vec3<f32>) -> Stencil {
     return s;
 }
 
+// ---- cuts (crack.rs) ----
+
+// Particle p's crack n·d (see crack.wgsl): zero when it is not cut, and always zero in a
+// scene without a slicer (CUTTING false: the side tests below fold away).
+fn particle_crack(p: u32) -> vec3<f32> {
+    if (CUTTING) {
+        return cracks[p].xyz;
+    }
+    return vec3<f32>(0.0);
+}
+
+fn is_cracked(crack: vec3<f32>) -> bool {
+    return CUTTING && any(crack != vec3<f32>(0.0));
+}
+
+// The side test of one cut particle against its stencil (crack.rs `StencilCut`): n·r for
+// node (a, b, c) is along[a].x + along[b].y + along[c].z, across when below limit = −|n·d|².
+// `crossed` is false when no node is across (the least sum is at a stencil corner): the
+// particle then takes the plain transfer.
+struct StencilCut {
+    along: array<vec3<f32>, 3>,
+    limit: f32,
+    crossed: bool,
+}
+
+fn stencil_cut(crack: vec3<f32>, s: Stencil) -> StencilCut {
+    var cut: StencilCut;
+    cut.crossed = false;
+    if (!is_cracked(crack)) {
+        return cut;
+    }
+    for (var i = 0u; i < 3u; i++) {
+        cut.along[i] = crack * ((vec3<f32>(f32(i)) - s.fx) * sim.origin_dx.w);
+    }
+    let least = min(cut.along[0], cut.along[2]);
+    cut.limit = -dot(crack, crack);
+    cut.crossed = least.x + least.y + least.z < cut.limit;
+    return cut;
+}
+
+fn cut_across(cut: StencilCut, a: u32, b: u32, c: u32) -> bool {
+    return cut.crossed && cut.along[a].x + cut.along[b].y + cut.along[c].z < cut.limit;
+}
+
 // APIC scatter of one particle (the second half of cpu `particle_to_grid`): node i of the
 // stencil receives w_i · (momentum + q·(i − base)) and w_i · m, with momentum = m·v − q·fx
 // so that q·(i − base − fx) = q·(x_i − x_p)/dx. MLS-MPM's q carries the stress term,
-// PB-MPM's only m·C·dx. acc_add_* come from the P2G accumulation variant.
-fn scatter_apic(s: Stencil, m: f32, v: vec3<f32>, q: mat3x3<f32>) {
+// PB-MPM's only m·C·dx. A cut particle writes nothing to the nodes across its crack.
+// acc_add_* come from the P2G accumulation variant.
+fn scatter_apic(s: Stencil, m: f32, v: vec3<f32>, q: mat3x3<f32>, crack: vec3<f32>) {
     let momentum = v * m - q * s.fx;
     let offs = node_offsets(s.base);
+    let cut = stencil_cut(crack, s);
     for (var a = 0u; a < 3u; a++) {
         for (var b = 0u; b < 3u; b++) {
             for (var c = 0u; c < 3u; c++) {
+                if (cut_across(cut, a, b, c)) {
+                    continue;
+                }
+                let abc = vec3<f32>(f32(a), f32(b), f32(c));
                 let w = s.w[a].x * s.w[b].y * s.w[c].z;
-                let contrib = (momentum + q * vec3<f32>(f32(a), f32(b), f32(c))) * w;
+                let contrib = (momentum + q * abc) * w;
                 let i = NODE_WORDS * (offs[a].x + offs[b].y + offs[c].z);
                 acc_add_p(i, contrib.x);
                 acc_add_p(i + 1u, contrib.y);
@@ -115,23 +165,30 @@ fn grid_pos(x: vec3<f32>) -> vec3<f32> {
 }
 
 // Velocity and affine velocity C gathered from the grid at grid position g (the first half
-// of cpu `grid_to_particle`).
+// of cpu `grid_to_particle`); a cut particle reads its own velocity `own_v` at the nodes
+// across its crack (CPIC's ghost velocity).
 struct Gather {
     v: vec3<f32>,
     c: mat3x3<f32>,
 }
 
-fn gather(g: vec3<f32>) -> Gather {
+fn gather(g: vec3<f32>, crack: vec3<f32>, own_v: vec3<f32>) -> Gather {
     let s = make_stencil(g);
     let offs = node_offsets(s.base);
+    let cut = stencil_cut(crack, s);
     var v = vec3<f32>(0.0);
     var bm = mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
     for (var a = 0u; a < 3u; a++) {
         for (var b = 0u; b < 3u; b++) {
             for (var c = 0u; c < 3u; c++) {
                 let w = s.w[a].x * s.w[b].y * s.w[c].z;
-                let vi = grid_v[offs[a].x + offs[b].y + offs[c].z].xyz * w;
-                let o = vec3<f32>(f32(a), f32(b), f32(c)) - s.fx;
+                let abc = vec3<f32>(f32(a), f32(b), f32(c));
+                var node_v = grid_v[offs[a].x + offs[b].y + offs[c].z].xyz;
+                if (cut_across(cut, a, b, c)) {
+                    node_v = own_v;
+                }
+                let vi = node_v * w;
+                let o = abc - s.fx;
                 v += vi;
                 bm += mat3x3<f32>(vi * o.x, vi * o.y, vi * o.z);
             }
@@ -309,6 +366,13 @@ fn sdf_needle(p: vec3<f32>, radius: f32, arc_angle: f32, wire_radius: f32) -> Hi
     return Hit(length(d) - wire_radius, normal, tangent, 0u);
 }
 
+// The slicer's blunt spine (slicer.rs `spine`): a cylinder of radius thickness/2 along the
+// local x axis, capped by half spheres at x = ±length/2. Its blade has no contact.
+fn sdf_slicer_spine(p: vec3<f32>, len: f32, thickness: f32) -> Hit {
+    let d = p - vec3<f32>(clamp(p.x, -0.5 * len, 0.5 * len), 0.0, 0.0);
+    return solid(length(d) - 0.5 * thickness, unit_or(d, vec3<f32>(0.0, 0.0, 1.0)), 0u);
+}
+
 fn tool_query(t: Tool, p: vec3<f32>) -> Hit {
     let s = t.shape;
     switch t.kind.x {
@@ -316,7 +380,8 @@ fn tool_query(t: Tool, p: vec3<f32>) -> Hit {
         case 1u: { return sdf_capsule(p, s.x, s.y); }
         case 2u: { return sdf_box(p, s.xyz); }
         case 3u: { return sdf_gripper(p, t.lin.w, s.x, s.y, s.z); }
-        default: { return sdf_needle(p, s.x, s.y, s.z); }
+        case 4u: { return sdf_needle(p, s.x, s.y, s.z); }
+        default: { return sdf_slicer_spine(p, s.x, s.z); }
     }
 }
 

@@ -1,5 +1,6 @@
 // G2P (cpu `grid_to_particle`): velocity and affine velocity from the grid, advection with
-// clamping to the domain, deformation-gradient update, damping, and the guard.
+// clamping to the domain, deformation-gradient update, damping, the guard, and a cut
+// particle's crack carried with the material.
 
 var<workgroup> wg_max: atomic<u32>;
 var<workgroup> wg_clamped: atomic<u32>;
@@ -29,7 +30,8 @@ fn g2p_particle(p: u32) {
     let part = particles[p];
     let dt = st.dt;
     let g = grid_pos(part.x.xyz);
-    let gathered = gather(g);
+    let crack = particle_crack(p);
+    let gathered = gather(g, crack, part.v.xyz);
     var v = gathered.v;
     let c_new = gathered.c;
     var g_new = g + v * (dt * sim.inv_dx);
@@ -61,6 +63,21 @@ fn g2p_particle(p: u32) {
     particles[p].v = vec4<f32>(v, 0.0);
     particles[p].c = c_new;
     particles[p].f = f_new;
+    if (is_cracked(crack)) {
+        cracks[p] = vec4<f32>(advect_crack(crack, c_new, dt), 0.0);
+    }
+}
+
+// The crack carried through a substep of velocity gradient c (crack.rs `advect`): the
+// normal turns as a covector, n ← (I − dt·Cᵀ)·n, renormalised; the distance is kept.
+fn advect_crack(crack: vec3<f32>, c: mat3x3<f32>, dt: f32) -> vec3<f32> {
+    let d = length(crack);
+    let turned = crack - (transpose(c) * crack) * dt;
+    let len = length(turned);
+    if (len > 0.0 && is_finite(len)) {
+        return turned * (d / len);
+    }
+    return crack;
 }
 
 // One invocation at the end of a frame: fills in the guard event's details.
@@ -78,15 +95,19 @@ fn finalize_guard() {
 }
 
 // One invocation per particle at the end of a frame: what the readback needs, positions
-// in the first n entries, then the deformation gradient's columns (three entries a
-// particle), read back only when an output asks for it.
+// in the first n entries, with a slicer the cracks in the next n, then the deformation
+// gradient's columns (three entries a particle), read back only when an output asks for it.
 @compute @workgroup_size(WG)
 fn extract_positions(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = gid.x;
     if (p < sim.n_particles) {
         let part = particles[p];
         out_pos[p] = part.x;
-        let at = sim.n_particles + 3u * p;
+        var at = sim.n_particles + 3u * p;
+        if (CUTTING) {
+            out_pos[sim.n_particles + p] = cracks[p];
+            at += sim.n_particles;
+        }
         out_pos[at] = vec4<f32>(part.f[0], 0.0);
         out_pos[at + 1u] = vec4<f32>(part.f[1], 0.0);
         out_pos[at + 2u] = vec4<f32>(part.f[2], 0.0);

@@ -11,6 +11,10 @@
 //! - `grid_update`: gravity, tools (SDF only inside each tool's bounding box), friction,
 //!   momentum exchange reduced per block into per-tool impulses, table, walls;
 //! - `g2p`: interpolation back, advection, F update, damping and the guard;
+//! - `crack`: with a slicer, the particles its edge passes take its plane as their crack;
+//!   P2G and G2P then skip (read the particle's own velocity at) the nodes across it, and
+//!   G2P turns it with the material (see [`crate::mpm::crack`]). Without a slicer the crack
+//!   buffer is a placeholder, nothing is dispatched and the side tests compile away;
 //! - `pbmpm`: PB-MPM's elastic constraint on C, momentum-only P2G and the inner
 //!   iterations' G2P; a PB-MPM substep records the stages above once per iteration, each
 //!   iteration with its own parameter entry (gravity in the first only), integrating in
@@ -33,6 +37,7 @@
 //! frame, so its outputs (point cloud, mesh) are built on the CPU while the device computes.
 
 pub mod adapter;
+mod crack;
 mod g2p;
 mod grid_update;
 mod p2g;
@@ -47,6 +52,7 @@ use super::backend::{FramePlan, FrameStats, P2gAtomics};
 use super::grid::Node;
 use super::{GridLayout, Method, Particles, PbMpmParams, SolverSetup, MAX_TOOLS};
 use adapter::GpuContext;
+use crack::CrackStage;
 use g2p::G2pStage;
 use grid_update::GridUpdateStage;
 use p2g::P2gStage;
@@ -93,6 +99,8 @@ pub struct GpuSolver {
     ctx: GpuContext,
     layout: GridLayout,
     float_p2g: bool,
+    /// The scene has a slicer: particles carry cracks on the device.
+    cutting: bool,
     method: Method,
     pb_mpm: PbMpmParams,
     n: u32,
@@ -100,6 +108,7 @@ pub struct GpuSolver {
     max_substeps: u32,
     res: Resources,
     sparse: SparseStage,
+    crack: CrackStage,
     p2g: P2gStage,
     grid_update: GridUpdateStage,
     g2p: G2pStage,
@@ -179,18 +188,21 @@ impl GpuSolver {
         let builder = StageBuilder {
             device,
             float_p2g,
+            cutting: setup.cutting,
             plain: &res.plain,
             with_args: &res.with_args,
         };
         Ok(GpuSolver {
             sparse: SparseStage::new(&builder),
+            crack: CrackStage::new(&builder),
             p2g: P2gStage::new(&builder),
             grid_update: GridUpdateStage::new(&builder),
             g2p: G2pStage::new(&builder),
             pb: PbMpmStages::new(&builder),
-            readback: Readback::new(device, setup.particles.len()),
+            readback: Readback::new(device, setup.particles.len(), setup.cutting),
             layout: setup.layout,
             float_p2g,
+            cutting: setup.cutting,
             method: setup.method,
             pb_mpm: setup.pb_mpm,
             n: setup.particles.len() as u32,
@@ -243,6 +255,12 @@ impl GpuSolver {
             self.ctx
                 .queue
                 .write_buffer(&self.res.particles, 0, bytemuck::cast_slice(&packed));
+            if self.cutting {
+                let cracks = pack::cracks(&self.host);
+                self.ctx
+                    .queue
+                    .write_buffer(&self.res.cracks, 0, bytemuck::cast_slice(&cracks));
+            }
             self.host_dirty = false;
         }
     }
@@ -283,6 +301,9 @@ impl GpuSolver {
                 label: Some("frame"),
             });
         encoder.copy_buffer_to_buffer(&self.res.particles, 0, &self.res.snapshot, 0, None);
+        if self.cutting {
+            encoder.copy_buffer_to_buffer(&self.res.cracks, 0, &self.res.crack_snapshot, 0, None);
+        }
         {
             let groups = Groups {
                 particles: self.n.div_ceil(WG).max(1),
@@ -324,10 +345,11 @@ impl GpuSolver {
         self.readback.collect(&self.ctx.device, &mut self.host)
     }
 
-    /// Records one MLS-MPM (or PIC) substep: block list and clear → P2G → grid update →
-    /// G2P → impulse reduction.
+    /// Records one MLS-MPM (or PIC) substep: cracks (with a slicer) → block list and clear
+    /// → P2G → grid update → G2P → impulse reduction.
     fn record_substep(&self, pass: &mut wgpu::ComputePass, s: u32, groups: &Groups) {
         self.res.bind_step(pass, s);
+        self.crack.record(pass, groups);
         self.sparse.record(pass, groups);
         self.p2g.record(pass, groups);
         self.grid_update.record(pass, groups);
@@ -335,7 +357,8 @@ impl GpuSolver {
         self.grid_update.record_reduce(pass);
     }
 
-    /// Records one PB-MPM substep (cpu `pb_substep`): the block list once, then per
+    /// Records one PB-MPM substep (cpu `pb_substep`): cracks (with a slicer) and the block
+    /// list once, then per
     /// iteration constraint → clear → P2G → grid update → G2P (integrating in the last) →
     /// impulse reduction, each iteration with its own Step entry.
     fn record_pb_substep(
@@ -348,6 +371,7 @@ impl GpuSolver {
         for k in 0..iterations {
             self.res.bind_step(pass, s * iterations + k);
             if k == 0 {
+                self.crack.record(pass, groups);
                 self.sparse.record(pass, groups);
             } else {
                 self.sparse.record_clear(pass, groups);
@@ -364,27 +388,35 @@ impl GpuSolver {
         }
     }
 
-    fn submit_copy(&self, from: &wgpu::Buffer, to: &wgpu::Buffer) {
+    /// Device-side copy of `from` into the particles; the cracks are copied from
+    /// `cracks_from`, or cleared without one (the rest state is uncut).
+    fn submit_copy(&self, from: &wgpu::Buffer, cracks_from: Option<&wgpu::Buffer>) {
         let mut encoder = self
             .ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("copy"),
             });
-        encoder.copy_buffer_to_buffer(from, 0, to, 0, None);
+        encoder.copy_buffer_to_buffer(from, 0, &self.res.particles, 0, None);
+        if self.cutting {
+            match cracks_from {
+                Some(c) => encoder.copy_buffer_to_buffer(c, 0, &self.res.cracks, 0, None),
+                None => encoder.clear_buffer(&self.res.cracks, 0, None),
+            }
+        }
         self.ctx.queue.submit([encoder.finish()]);
     }
 
     /// Device-side copy of the frame-start state back into the particles.
     pub fn restore_frame_start(&mut self) {
-        self.submit_copy(&self.res.snapshot, &self.res.particles);
+        self.submit_copy(&self.res.snapshot, Some(&self.res.crack_snapshot));
         self.host_dirty = false;
         self.download_all();
     }
 
     /// Device-side copy of the rest state into the particles.
     pub fn reset_to_rest(&mut self) {
-        self.submit_copy(&self.res.rest, &self.res.particles);
+        self.submit_copy(&self.res.rest, None);
         self.host_dirty = false;
         self.download_all();
     }
@@ -405,6 +437,14 @@ impl GpuSolver {
             &self.res.particles,
             &mut self.host,
         );
+        if self.cutting {
+            readback::download_cracks(
+                &self.ctx.device,
+                &self.ctx.queue,
+                &self.res.cracks,
+                &mut self.host,
+            );
+        }
     }
 }
 

@@ -16,5 +16,5 @@ fn p2g(@builtin(global_invocation_id) gid: vec3<u32>) {
     let tau = kirchhoff_stress(mat, part.f);
     let stress_scale = -st.dt * 4.0 * sim.inv_dx * sim.inv_dx;
     let q = (tau * (stress_scale * pc.y) + part.c * (m * sim.transfer.x)) * dx;
-    scatter_apic(s, m, part.v.xyz, q);
+    scatter_apic(s, m, part.v.xyz, q, particle_crack(p));
 }

@@ -123,10 +123,13 @@ shared_struct! {
         pub aabb_max: [f32; 4],
         /// The shape's dimensions; a gripper's w: its grip ratio.
         pub shape: [f32; 4],
-        /// x: shape (0 sphere, 1 capsule, 2 box, 3 gripper, 4 needle); y: 1 sticky.
+        /// x: shape (0 sphere, 1 capsule, 2 box, 3 gripper, 4 needle, 5 slicer); y: 1 sticky.
         pub kind: [u32; 4],
     }
 }
+
+/// `GpuTool::kind.x` of a slicer.
+pub const SLICER_KIND: u32 = 5;
 
 /// Every shared struct's WGSL declaration, for the prelude.
 pub const WGSL_STRUCTS: [&str; 5] = [
@@ -179,13 +182,12 @@ impl From<&ToolKinematics> for GpuTool {
                 arc_angle,
                 wire_radius,
             } => ([radius, arc_angle, wire_radius, 0.0], 4),
-            // The GPU backend refuses scenes with a slicer (see `World::try_new`); its spine
-            // packs as the capsule-like kind the shaders do not know.
+            // The spine's contact and the edge's crack marking (crack.wgsl) read these.
             Shape::Slicer {
                 length,
                 height,
                 thickness,
-            } => ([length, height, thickness, 0.0], 5),
+            } => ([length, height, thickness, 0.0], SLICER_KIND),
         };
         let (friction, drag, sticky) = match t.contact {
             ContactModel::Coulomb { friction, drag } => (friction, drag, 0),
@@ -222,6 +224,14 @@ pub fn unpack_particles(src: &[GpuParticle], p: &mut Particles) {
         p.c[i] = unm3(&g.c);
         p.f[i] = unm3(&g.f);
     }
+}
+
+/// Per particle: its crack as a vec4 (zero for a particle not cut, and for all while the
+/// host holds no crack state).
+pub fn cracks(p: &Particles) -> Vec<[f32; 4]> {
+    (0..p.len())
+        .map(|i| v4(p.crack.get(i).copied().unwrap_or_else(Vec3::zeros), 0.0))
+        .collect()
 }
 
 /// Per particle: mass, initial volume, material index (as f32 bits), 0.

@@ -45,7 +45,7 @@ fn pb_p2g(@builtin(global_invocation_id) gid: vec3<u32>) {
     let m = pconst[p].x;
     let s = make_stencil(grid_pos(part.x.xyz));
     let q = part.c * (m * sim.origin_dx.w);
-    scatter_apic(s, m, part.v.xyz, q);
+    scatter_apic(s, m, part.v.xyz, q, particle_crack(p));
 }
 
 // G2P of an inner iteration: v and C only; the guard looks at the last, integrating G2P.
@@ -55,7 +55,8 @@ fn pb_g2p(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (!particle_live(p)) {
         return;
     }
-    let gathered = gather(grid_pos(particles[p].x.xyz));
+    let part = particles[p];
+    let gathered = gather(grid_pos(part.x.xyz), particle_crack(p), part.v.xyz);
     particles[p].v = vec4<f32>(gathered.v, 0.0);
     particles[p].c = gathered.c;
 }

@@ -16,17 +16,20 @@
 //! contact, boundary, the guard), the P2G accumulation variant, and the stage's own file.
 
 use super::grid_update::IMPULSE_WORDS;
-use super::pack::WGSL_STRUCTS;
+use super::pack::{SLICER_KIND, WGSL_STRUCTS};
 use super::readback::word;
 use super::resources::{Binding, ARGS_GROUP};
 use super::WG;
+use crate::mpm::crack::MIN_OFFSET_CELLS;
 use crate::mpm::grid::{Node, BLOCK, NODES_PER_BLOCK, WALL_NODES};
 use crate::mpm::material::{J_MIN, ROTATION_ITERATIONS};
 use crate::mpm::MAX_TOOLS;
+use crate::tools::slicer::STENCIL_REACH_CELLS;
 use std::fmt::Write;
 
-/// The shared declarations for a P2G variant (f32 or i32 fixed-point accumulators).
-fn prelude(float_p2g: bool) -> String {
+/// The shared declarations for a P2G variant (f32 or i32 fixed-point accumulators), in a
+/// solver that cuts (a scene with a slicer) or does not.
+fn prelude(float_p2g: bool, cutting: bool) -> String {
     let mut out = String::from("// Generated from Rust (src/mpm/gpu/prelude.rs).\n\n");
     let u32s: [(&str, usize); 7] = [
         ("WG", WG as usize),
@@ -41,6 +44,15 @@ fn prelude(float_p2g: bool) -> String {
         writeln!(out, "const {name}: u32 = {value}u;").unwrap();
     }
     writeln!(out, "const J_MIN: f32 = {J_MIN:?};").unwrap();
+    // Cutting: whether particles carry cracks, and the constants of crack.rs / slicer.rs.
+    writeln!(out, "const CUTTING: bool = {cutting};").unwrap();
+    writeln!(out, "const SLICER_KIND: u32 = {SLICER_KIND}u;").unwrap();
+    writeln!(
+        out,
+        "const STENCIL_REACH_CELLS: f32 = {STENCIL_REACH_CELLS:?};"
+    )
+    .unwrap();
+    writeln!(out, "const MIN_OFFSET_CELLS: f32 = {MIN_OFFSET_CELLS:?};").unwrap();
     writeln!(
         out,
         "const ROTATION_ITERATIONS: i32 = {ROTATION_ITERATIONS};"
@@ -78,7 +90,7 @@ fn prelude(float_p2g: bool) -> String {
 
 /// Full source of one stage: the prelude, the shared functions, the P2G accumulation
 /// variant, and the stage itself.
-fn shader_source(stage: &str, float_p2g: bool) -> String {
+fn shader_source(stage: &str, float_p2g: bool, cutting: bool) -> String {
     let acc = if float_p2g {
         include_str!("acc_float.wgsl")
     } else {
@@ -86,7 +98,7 @@ fn shader_source(stage: &str, float_p2g: bool) -> String {
     };
     format!(
         "{}\n{}\n{acc}\n{stage}",
-        prelude(float_p2g),
+        prelude(float_p2g, cutting),
         include_str!("common.wgsl")
     )
 }
@@ -96,6 +108,8 @@ fn shader_source(stage: &str, float_p2g: bool) -> String {
 pub struct StageBuilder<'a> {
     pub device: &'a wgpu::Device,
     pub float_p2g: bool,
+    /// Whether the scene cuts (see [`super::crack`]).
+    pub cutting: bool,
     /// Group 0 only.
     pub plain: &'a wgpu::PipelineLayout,
     /// Group 0 and the indirect arguments.
@@ -107,7 +121,9 @@ impl StageBuilder<'_> {
         self.device
             .create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(label),
-                source: wgpu::ShaderSource::Wgsl(shader_source(stage, self.float_p2g).into()),
+                source: wgpu::ShaderSource::Wgsl(
+                    shader_source(stage, self.float_p2g, self.cutting).into(),
+                ),
             })
     }
 
@@ -140,8 +156,8 @@ mod tests {
     use super::shader_source;
     use wgpu::naga;
 
-    /// Every stage's full source parses and validates, with either P2G variant (no device
-    /// needed: a mismatch between the prelude and a stage shows here first).
+    /// Every stage's full source parses and validates, with either P2G variant, cutting or
+    /// not (no device needed: a mismatch between the prelude and a stage shows here first).
     #[test]
     fn every_stage_source_validates() {
         let stages = [
@@ -150,10 +166,11 @@ mod tests {
             ("grid_update", super::super::grid_update::SOURCE),
             ("g2p", super::super::g2p::SOURCE),
             ("pbmpm", super::super::pbmpm::SOURCE),
+            ("crack", super::super::crack::SOURCE),
         ];
-        for float_p2g in [false, true] {
+        for (float_p2g, cutting) in [(false, false), (true, false), (false, true), (true, true)] {
             for (name, stage) in stages {
-                let source = shader_source(stage, float_p2g);
+                let source = shader_source(stage, float_p2g, cutting);
                 let module = naga::front::wgsl::parse_str(&source)
                     .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&source)));
                 naga::valid::Validator::new(
@@ -161,7 +178,9 @@ mod tests {
                     naga::valid::Capabilities::all(),
                 )
                 .validate(&module)
-                .unwrap_or_else(|e| panic!("{name} (float P2G {float_p2g}): {e:?}"));
+                .unwrap_or_else(|e| {
+                    panic!("{name} (float P2G {float_p2g}, cutting {cutting}): {e:?}")
+                });
             }
         }
     }

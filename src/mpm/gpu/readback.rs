@@ -49,6 +49,14 @@ pub const STATS_WORDS: usize = word::IMPULSE + MAX_TOOLS * IMPULSE_WORDS;
 pub const STATS_BYTES: u64 = 1024;
 /// Bytes per particle of the end-of-frame extract: a position and three F columns, vec4 each.
 pub const EXTRACT_BYTES: usize = 64;
+/// Bytes per particle the extract holds on top of [`EXTRACT_BYTES`] in a scene that cuts: its
+/// crack, a vec4.
+pub const CRACK_BYTES: usize = 16;
+
+/// Bytes per particle of the extract of a solver that cuts or does not.
+pub fn extract_bytes_per_particle(cutting: bool) -> usize {
+    EXTRACT_BYTES + if cutting { CRACK_BYTES } else { 0 }
+}
 
 const _: () = assert!(word::GUARD_POS + 3 <= word::IMPULSE);
 const _: () = assert!(STATS_WORDS * 4 <= STATS_BYTES as usize);
@@ -63,6 +71,8 @@ pub fn stats_at_frame_start() -> [u32; STATS_WORDS] {
 /// The readback ring: frame k reads back through `staging[k % 2]`.
 pub struct Readback {
     staging: [wgpu::Buffer; 2],
+    /// Whether the extract holds the cracks after the positions (a scene with a slicer).
+    cutting: bool,
     frame: u64,
     /// The frame submitted and not collected yet.
     pending: Option<PendingFrame>,
@@ -85,17 +95,18 @@ pub struct RecordedCopies {
 }
 
 impl Readback {
-    pub fn new(device: &wgpu::Device, n: usize) -> Self {
+    pub fn new(device: &wgpu::Device, n: usize, cutting: bool) -> Self {
         let staging = [0, 1].map(|i| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(if i == 0 { "readback 0" } else { "readback 1" }),
-                size: STATS_BYTES + (n * EXTRACT_BYTES).max(16) as u64,
+                size: STATS_BYTES + (n * extract_bytes_per_particle(cutting)).max(16) as u64,
                 usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             })
         });
         Readback {
             staging,
+            cutting,
             frame: 0,
             pending: None,
         }
@@ -105,8 +116,9 @@ impl Readback {
         self.pending.is_some()
     }
 
-    /// Records the copies of the frame's statistics and extract (positions, and the
-    /// deformation gradients with `deformation`) into the next staging buffer.
+    /// Records the copies of the frame's statistics and extract (positions, the cracks in a
+    /// scene that cuts, and the deformation gradients with `deformation`) into the next
+    /// staging buffer.
     pub fn record(
         &mut self,
         encoder: &mut wgpu::CommandEncoder,
@@ -120,7 +132,9 @@ impl Readback {
         let staging = &self.staging[slot];
         encoder.copy_buffer_to_buffer(stats, 0, staging, 0, STATS_BYTES);
         let extract_bytes = if deformation {
-            n * EXTRACT_BYTES
+            n * extract_bytes_per_particle(self.cutting)
+        } else if self.cutting {
+            n * (16 + CRACK_BYTES)
         } else {
             n * 16
         };
@@ -172,10 +186,17 @@ impl Readback {
         let extract: &[[f32; 4]] = bytemuck::cast_slice(
             &bytes[STATS_BYTES as usize..STATS_BYTES as usize + extract_bytes],
         );
-        let (positions, gradients) = extract.split_at(n.min(extract.len()));
+        let (positions, rest) = extract.split_at(n.min(extract.len()));
         for (x, p) in host.x.iter_mut().zip(positions) {
             *x = Vec3::new(p[0], p[1], p[2]);
         }
+        let gradients = if self.cutting {
+            let (cracks, gradients) = rest.split_at(n.min(rest.len()));
+            unpack_cracks(cracks, host);
+            gradients
+        } else {
+            rest
+        };
         for (f, cols) in host.f.iter_mut().zip(gradients.chunks_exact(3)) {
             *f = pack::unpack_mat3(cols);
         }
@@ -206,6 +227,38 @@ pub fn download_particles(
     queue.submit([encoder.finish()]);
     let bytes = map_read(device, &staging);
     pack::unpack_particles(bytemuck::cast_slice(&bytes), host);
+    drop(bytes);
+    staging.unmap();
+}
+
+/// The cracks (vec4 each) into `host.crack`, which then holds one per particle.
+pub fn unpack_cracks(src: &[[f32; 4]], host: &mut Particles) {
+    host.crack.resize(host.len(), Vec3::zeros());
+    for (c, g) in host.crack.iter_mut().zip(src) {
+        *c = Vec3::new(g[0], g[1], g[2]);
+    }
+}
+
+/// Blocking download of the cracks in `cracks` into `host.crack`.
+pub fn download_cracks(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    cracks: &wgpu::Buffer,
+    host: &mut Particles,
+) {
+    let size = (host.len() * CRACK_BYTES) as u64;
+    let staging = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("crack download"),
+        size,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder =
+        device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+    encoder.copy_buffer_to_buffer(cracks, 0, &staging, 0, size);
+    queue.submit([encoder.finish()]);
+    let bytes = map_read(device, &staging);
+    unpack_cracks(bytemuck::cast_slice(&bytes), host);
     drop(bytes);
     staging.unmap();
 }

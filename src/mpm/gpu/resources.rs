@@ -7,7 +7,7 @@
 use super::grid_update::IMPULSE_WORDS;
 use super::p2g::FIXED_SCALE;
 use super::pack::{self, GpuMaterial, GpuParticle, GpuTool, SimUniform, StepUniform};
-use super::readback::{self, EXTRACT_BYTES, STATS_BYTES};
+use super::readback::{self, extract_bytes_per_particle, CRACK_BYTES, STATS_BYTES};
 use crate::mpm::backend::FramePlan;
 use crate::mpm::grid::Node;
 use crate::mpm::{SolverSetup, TableHold, Vec3, MAX_TOOLS};
@@ -39,10 +39,12 @@ pub enum Binding {
     Partials,
     /// The end-of-frame extract read back.
     Extract,
+    /// Per particle: its crack n·d (see `crack.wgsl`); a placeholder without a slicer.
+    Cracks,
 }
 
 impl Binding {
-    pub const ALL: [Binding; 13] = [
+    pub const ALL: [Binding; 14] = [
         Binding::Sim,
         Binding::Step,
         Binding::Particles,
@@ -56,6 +58,7 @@ impl Binding {
         Binding::Stats,
         Binding::Partials,
         Binding::Extract,
+        Binding::Cracks,
     ];
 
     /// The variable's name in WGSL.
@@ -74,6 +77,7 @@ impl Binding {
             Binding::Stats => "stats",
             Binding::Partials => "partials",
             Binding::Extract => "out_pos",
+            Binding::Cracks => "cracks",
         }
     }
 
@@ -101,6 +105,7 @@ impl Binding {
             Binding::Stats => "array<atomic<u32>>",
             Binding::Partials => "array<f32>",
             Binding::Extract => "array<vec4<f32>>",
+            Binding::Cracks => "array<vec4<f32>>",
         }
     }
 
@@ -126,7 +131,7 @@ impl Binding {
     }
 }
 
-const _: () = assert!(Binding::ALL.len() == Binding::Extract as usize + 1);
+const _: () = assert!(Binding::ALL.len() == Binding::Cracks as usize + 1);
 
 /// Buffers, bind groups and pipeline layouts of one solver.
 pub struct Resources {
@@ -135,6 +140,10 @@ pub struct Resources {
     pub snapshot: wgpu::Buffer,
     /// Rest particles, for the reset.
     pub rest: wgpu::Buffer,
+    /// Per-particle cracks (vec4) in a scene with a slicer, 16 unused bytes otherwise.
+    pub cracks: wgpu::Buffer,
+    /// Frame-start cracks, for the guard's restore (16 unused bytes without a slicer).
+    pub crack_snapshot: wgpu::Buffer,
     tools: wgpu::Buffer,
     steps: wgpu::Buffer,
     pub stats: wgpu::Buffer,
@@ -284,7 +293,16 @@ impl Resources {
             (blocks * MAX_TOOLS * IMPULSE_WORDS * 4) as u64,
             copy,
         );
-        let extract = storage(device, "frame extract", (n * EXTRACT_BYTES) as u64, copy);
+        let extract = storage(
+            device,
+            "frame extract",
+            (n * extract_bytes_per_particle(setup.cutting)) as u64,
+            copy,
+        );
+        // The crack state exists only in a scene that can cut.
+        let crack_bytes = if setup.cutting { n * CRACK_BYTES } else { 0 } as u64;
+        let cracks = storage(device, "cracks", crack_bytes, copy);
+        let crack_snapshot = storage(device, "frame-start cracks", crack_bytes, copy);
         let args = storage(device, "indirect args", 16, wgpu::BufferUsages::INDIRECT);
         let sim = uniform(device, "sim", std::mem::size_of::<SimUniform>() as u64);
         let steps = uniform(
@@ -342,6 +360,7 @@ impl Resources {
             Binding::Stats => stats.as_entire_binding(),
             Binding::Partials => partials.as_entire_binding(),
             Binding::Extract => extract.as_entire_binding(),
+            Binding::Cracks => cracks.as_entire_binding(),
         };
         let bind_entries: Vec<_> = Binding::ALL
             .iter()
@@ -377,6 +396,8 @@ impl Resources {
             particles,
             snapshot,
             rest,
+            cracks,
+            crack_snapshot,
             tools,
             steps,
             stats,
