@@ -105,9 +105,11 @@ fn quat64(q: &Quat) -> nalgebra::Quaternion<f64> {
     nalgebra::Quaternion::new(q.w as f64, q.i as f64, q.j as f64, q.k as f64)
 }
 
-/// q·e3·q̄ in f64.
+/// q·e3·q̄ in f64, of unit length: the f32 quaternion is unit only to f32 rounding (the
+/// constraint would target a length off by that much, and [d3]× would not be the
+/// Jacobian's exact cross matrix of a unit vector).
 fn rotate_z(q: &Quat) -> V3 {
-    super::state::rotate_z(q).cast::<f64>()
+    super::state::rotate_z(q).cast::<f64>().normalize()
 }
 
 #[cfg(test)]

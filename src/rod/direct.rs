@@ -38,7 +38,9 @@ pub struct DirectScratch {
 
 /// One direct solve; `lambda` (stretch-shear in rows 0..3, bend-twist in 3..6 of each group)
 /// accumulates over the substep. Returns false, leaving the rod unchanged, if the system
-/// could not be factorised (it is positive definite while every compliance is positive).
+/// could not be factorised. It is J·W·Jᵀ + α̃, positive definite while every compliance is
+/// positive, however many points have inverse mass 0 (pinned, grasped): the diagonal blocks
+/// are assembled as products J·W·Jᵀ so that rounding keeps them positive semi-definite.
 pub fn solve(
     rod: &mut Rod,
     compliance: &Compliance,
@@ -90,9 +92,12 @@ pub fn solve(
         let d3x = s.d3[j].cross_matrix();
         let e = s.bend_jacobian[j];
         let mut block = s.diag[j];
-        // S·S: points (w0 + w1)/l², frame [d3]×[d3]×ᵀ = I − d3·d3ᵀ.
-        let ss = M3::identity() * ((w0 + w1) * il * il)
-            + (M3::identity() - s.d3[j] * s.d3[j].transpose()) * wq;
+        // S·S: points (w0 + w1)/l², frame [d3]×[d3]×ᵀ. Formed as that product, not as
+        // I − d3·d3ᵀ: the two differ by (|d3|² − 1)·I, and an error of 1e-16 in |d3| times an
+        // inverse inertia of ~1e13 is a negative axial term beside axial compliances of
+        // ~1e5. A piece of chain held at both ends has no point mass to give along its axis,
+        // so its axial pivot is that compliance alone, and the factorisation failed there.
+        let ss = M3::identity() * ((w0 + w1) * il * il) + d3x * d3x.transpose() * wq;
         let sb = -(d3x * e.transpose()) * wq;
         let wq_next = if j + 1 < n {
             rod.inv_inertia[j + 1] as f64
