@@ -35,15 +35,6 @@ pub fn tool_collider(tool: &WorldTool, t0: f64, t1: f64) -> RodCollider {
     }
 }
 
-/// How much heavier than its share of the thread a held (grasped or pinned) point is made
-/// for the frame. The rod's direct solve does not factorise with two or more points of
-/// inverse mass 0 on one chain (the stretch rows then fix the chord between them), so held
-/// points are not the solver's attachments (inverse mass 0) yet: each keeps a tiny inverse
-/// mass and a force cancelling its weight, starts the frame on its target moving at the
-/// target's velocity, and is put on its end target after the frame: what the solve moves
-/// it in between is ~1e-4 of what it moves a free point.
-const HELD_MASS_RATIO: f32 = 1e4;
-
 /// One thread and how it steps.
 pub struct ThreadBody {
     pub name: String,
@@ -62,6 +53,8 @@ pub struct ThreadBody {
     grasps: Grasps,
     /// This frame's attachments (grasped and pinned points); reused.
     attachments: Vec<RodAttachment>,
+    /// This frame's colliders: the tools not holding the thread; reused.
+    colliders: Vec<RodCollider>,
 }
 
 impl ThreadBody {
@@ -108,11 +101,12 @@ impl ThreadBody {
             self_friction: config.self_friction as f32,
             grasps: Grasps::default(),
             attachments: Vec::new(),
+            colliders: Vec::new(),
         }
     }
 
     /// Advances one frame of `dt` seconds while the tools `colliders` (every tool of the
-    /// scene) and among them the grippers `grippers` move over it: first grasps begin or end
+    /// scene, in scene order) and among them the grippers `grippers` move over it: first grasps begin or end
     /// (jaws closed on the thread catch the points between their faces; opening lets them
     /// go), then the rod steps among the table, walls and tools, the grasped points moving
     /// with their jaws and the pinned ones staying put.
@@ -128,36 +122,38 @@ impl ThreadBody {
                 from: at,
                 to: at,
             }));
-        // Held heavy and weightless (see HELD_MASS_RATIO), not as the solver's attachments.
-        let gravity = self.solver.gravity;
-        for a in &self.attachments {
-            let i = a.point;
-            self.rod.inv_mass[i] /= HELD_MASS_RATIO;
-            self.rod.external_forces[i] = -gravity / self.rod.inv_mass[i];
-            self.rod.points[i] = a.from;
-            self.rod.velocities[i] = (a.to - a.from) / dt as f32;
-        }
+        // A gripper holding the thread is its grasp: the points between its jaws move with
+        // it, and its jaws (pressed shut past the thread) would push them out again.
+        self.colliders.clear();
+        self.colliders.extend(
+            colliders
+                .iter()
+                .enumerate()
+                .filter(|(tool, _)| !self.grasps.holds_with(*tool))
+                .map(|(_, c)| *c),
+        );
         let env = RodEnvironment {
             table_height: self.table.map(|(z, _)| z),
             table_friction: self.table.map_or(0.0, |(_, mu)| mu),
-            colliders,
-            attachments: &[],
+            colliders: &self.colliders,
+            attachments: &self.attachments,
             walls: Some(self.walls),
             self_collision: self.self_contact,
             self_friction: self.self_friction,
         };
         self.solver.step_frame_in(&mut self.rod, dt as f32, &env);
-        for a in &self.attachments {
-            let i = a.point;
-            self.rod.inv_mass[i] *= HELD_MASS_RATIO;
-            self.rod.external_forces[i] = Vec3::zeros();
-            self.rod.points[i] = a.to;
-        }
     }
 
     /// Current length over rest length, minus one.
     pub fn elongation(&self) -> f64 {
         self.rod.length() as f64 / self.rod.rest_length() as f64 - 1.0
+    }
+
+    /// The knot determinant of the centreline (see [`knot`]): 1 unknotted, 3 an overhand
+    /// knot (trefoil).
+    pub fn knot_determinant(&self) -> u128 {
+        let points: Vec<_> = self.rod.points.iter().map(|p| p.cast::<f64>()).collect();
+        knot::knot_determinant(&points)
     }
 
     /// Points held by grippers now.
