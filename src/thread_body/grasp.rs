@@ -111,13 +111,13 @@ impl Grasps {
             }
             let pose = &view.from;
             let mut points = Vec::new();
-            for i in 0..rod.points.len() {
-                if pinned[i] || self.holds_point(i) {
+            for (i, (point, &is_pinned)) in rod.points.iter().zip(pinned).enumerate() {
+                if is_pinned || self.holds_point(i) {
                     continue;
                 }
                 let local = pose
                     .rotation
-                    .inverse_transform_vector(&(rod.points[i].cast::<f64>() - pose.position));
+                    .inverse_transform_vector(&(point.cast::<f64>() - pose.position));
                 if view.between_jaws(&local, radius) {
                     points.push((i, local));
                 }
