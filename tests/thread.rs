@@ -20,6 +20,29 @@ fn thread(segments: usize, direction: Vec3) -> Rod {
     rod
 }
 
+/// The solver with its default settings.
+fn default_solver(rod: &Rod, gravity: Vec3) -> RodSolver {
+    RodSolver::new(rod, RodSolverSettings::default(), gravity)
+}
+
+/// A convergence study's errors, (segments, error) by doubling segments: each must be below
+/// `bound / segments` (first order) and below 0.7 of the one before (shrinking).
+fn assert_converges(errors: &[(usize, f32)], bound: f32) {
+    for (k, &(segments, error)) in errors.iter().enumerate() {
+        assert!(
+            error < bound / segments as f32,
+            "{segments} segments: error {error} above {bound}/segments"
+        );
+        if k > 0 {
+            let previous = errors[k - 1].1;
+            assert!(
+                error < 0.7 * previous,
+                "{segments} segments: error {error} vs {previous} at half the segments"
+            );
+        }
+    }
+}
+
 fn run(rod: &mut Rod, solver: &mut RodSolver, frames: usize, mut each: impl FnMut(&Rod)) {
     for _ in 0..frames {
         solver.step_frame(rod, FRAME);
@@ -49,7 +72,7 @@ fn hanging_strain_error(rod: &Rod, pull: f32) -> f32 {
 #[test]
 fn hanging_thread_strain_matches_its_weight_over_ea() {
     let mut rod = thread(40, -Vec3::z());
-    let mut solver = RodSolver::new(&rod, RodSolverSettings::default(), GRAVITY);
+    let mut solver = default_solver(&rod, GRAVITY);
     run(&mut rod, &mut solver, 120, |_| {});
     let err = hanging_strain_error(&rod, 0.0);
     assert!(err < 1e-3, "strain error {err}");
@@ -66,7 +89,7 @@ fn hanging_thread_strain_matches_its_weight_over_ea() {
 fn swinging_thread_keeps_its_length() {
     for segments in [40, 100, 1000] {
         let mut rod = thread(segments, Vec3::x());
-        let mut solver = RodSolver::new(&rod, RodSolverSettings::default(), GRAVITY);
+        let mut solver = default_solver(&rod, GRAVITY);
         let mut worst = 0.0f32;
         let mut lowest = f32::MAX;
         run(&mut rod, &mut solver, 120, |r| {
@@ -156,7 +179,7 @@ fn negated_frames_leave_a_curved_rest_shape_at_rest() {
         rod.frames[j] = -rod.frames[j];
     }
     rod.pin_point(0);
-    let mut solver = RodSolver::new(&rod, RodSolverSettings::default(), Vec3::zeros());
+    let mut solver = default_solver(&rod, Vec3::zeros());
     run(&mut rod, &mut solver, 30, |_| {});
     let drift = rod
         .points
@@ -189,10 +212,10 @@ fn cantilever(length: f32, segments: usize) -> Rod {
 #[test]
 fn cantilever_tip_deflection_converges_to_ql4_over_8ei() {
     let length = 0.02;
-    let mut previous = f32::MAX;
+    let mut errors = Vec::new();
     for segments in [10, 20, 40] {
         let mut rod = cantilever(length, segments);
-        let mut solver = RodSolver::new(&rod, RodSolverSettings::default(), GRAVITY);
+        let mut solver = default_solver(&rod, GRAVITY);
         // The first mode (~130 Hz) is damped by the implicit steps well within 1 s.
         run(&mut rod, &mut solver, 60, |_| {});
         let m = rod.material;
@@ -203,16 +226,9 @@ fn cantilever_tip_deflection_converges_to_ql4_over_8ei() {
         println!(
             "{segments} segments: tip {tip:.4e} m, qL⁴/8EI {expected:.4e} m, error {error:.3}"
         );
-        assert!(
-            error < 2.5 / segments as f32,
-            "{segments} segments: tip {tip} vs {expected}"
-        );
-        assert!(
-            error < 0.7 * previous,
-            "{segments} segments: error {error} vs {previous}"
-        );
-        previous = error;
+        errors.push((segments, error));
     }
+    assert_converges(&errors, 2.5);
 }
 
 // ---- Environment: table, tools, grasps, self-contact ----
@@ -233,6 +249,18 @@ fn free_thread(segments: usize, start: Vec3, length: f32) -> Rod {
     )
 }
 
+/// One frame with one moving tool and nothing else.
+fn step_past(solver: &mut RodSolver, rod: &mut Rod, collider: RodCollider) {
+    solver.step_frame_in(
+        rod,
+        FRAME,
+        &RodEnvironment {
+            colliders: &[collider],
+            ..Default::default()
+        },
+    );
+}
+
 fn pose(position: Vec3) -> ToolPose {
     ToolPose {
         position: position.cast(),
@@ -245,7 +273,7 @@ fn pose(position: Vec3) -> ToolPose {
 fn thread_rests_on_the_table() {
     let mut rod = free_thread(40, Vec3::new(0.0, 0.0, 0.005), 0.15);
     let r = rod.material.radius;
-    let mut solver = RodSolver::new(&rod, RodSolverSettings::default(), GRAVITY);
+    let mut solver = default_solver(&rod, GRAVITY);
     let env = RodEnvironment {
         table_height: Some(0.0),
         table_friction: 0.3,
@@ -273,7 +301,7 @@ fn table_friction_stops_a_sliding_thread_at_the_coulomb_distance() {
         for v in &mut rod.velocities {
             *v = Vec3::new(0.5, 0.0, 0.0);
         }
-        let mut solver = RodSolver::new(&rod, RodSolverSettings::default(), GRAVITY);
+        let mut solver = default_solver(&rod, GRAVITY);
         let env = RodEnvironment {
             table_height: Some(0.0),
             table_friction: mu,
@@ -306,7 +334,7 @@ fn table_friction_stops_a_sliding_thread_at_the_coulomb_distance() {
 fn needle_wire_pushes_the_middle_of_a_segment() {
     let mut rod = free_thread(40, Vec3::zeros(), 0.15);
     let r = rod.material.radius;
-    let mut solver = RodSolver::new(&rod, RodSolverSettings::default(), Vec3::zeros());
+    let mut solver = default_solver(&rod, Vec3::zeros());
     // Arc of 10 mm radius in the tool's xy plane (angles 0 to 1 rad), turned so that it lies
     // in the world yz plane as a bowl, its middle lowest (x_tool → −z, y_tool → y after the
     // −0.5 rad turn about z_tool), its wire crossing under the thread at x = 20 × 3.75 mm +
@@ -336,14 +364,7 @@ fn needle_wire_pushes_the_middle_of_a_segment() {
             },
             friction: 0.0,
         };
-        solver.step_frame_in(
-            &mut rod,
-            FRAME,
-            &RodEnvironment {
-                colliders: &[collider],
-                ..Default::default()
-            },
-        );
+        step_past(&mut solver, &mut rod, collider);
         centre = next;
         assert!(rod.is_finite());
         // Clearance of the thread's centreline from the wire: sample each segment finely.
@@ -379,7 +400,7 @@ fn tool_friction_carries_the_thread_with_a_moving_plate() {
     let carried = |mu: f32| {
         let r = ThreadMaterial::nylon_3_0().radius;
         let mut rod = free_thread(20, Vec3::new(0.0, 0.0, 0.001 + r), 0.05);
-        let mut solver = RodSolver::new(&rod, RodSolverSettings::default(), GRAVITY);
+        let mut solver = default_solver(&rod, GRAVITY);
         let shape = Shape::Box {
             half_extents: [0.05, 0.05, 0.001],
         };
@@ -393,14 +414,7 @@ fn tool_friction_carries_the_thread_with_a_moving_plate() {
                 pose_end: pose(next),
                 friction: mu,
             };
-            solver.step_frame_in(
-                &mut rod,
-                FRAME,
-                &RodEnvironment {
-                    colliders: &[collider],
-                    ..Default::default()
-                },
-            );
+            step_past(&mut solver, &mut rod, collider);
             centre = next;
         }
         (rod.points[10].y, rod.points[10].z - 0.001)
@@ -427,7 +441,7 @@ fn tool_friction_carries_the_thread_with_a_moving_plate() {
 #[test]
 fn attached_point_follows_its_target_and_is_released() {
     let mut rod = free_thread(40, Vec3::new(0.0, 0.0, 0.2), 0.15);
-    let mut solver = RodSolver::new(&rod, RodSolverSettings::default(), GRAVITY);
+    let mut solver = default_solver(&rod, GRAVITY);
     let mut from = rod.points[0];
     for _ in 0..30 {
         let to = from + Vec3::new(-0.01, 0.0, 0.005);
@@ -471,7 +485,7 @@ fn attached_point_follows_its_target_and_is_released() {
 /// 1 m/s (4 mm per substep, 37 thread radii) through the lower one. With self-collision the
 /// lower strand is pushed down ahead of it and stays beneath. Returns the strands' heights
 /// where they cross and their closest approach at the frames' ends.
-fn drag_through(self_collision: bool) -> (f32, f32, f32) {
+fn drag_through() -> (f32, f32, f32) {
     let l = 0.02f32;
     let mut points = Vec::new();
     let n = 16;
@@ -489,7 +503,7 @@ fn drag_through(self_collision: bool) -> (f32, f32, f32) {
     }
     let upper_end = points.len() - 1;
     let mut rod = Rod::from_polyline(ThreadMaterial::nylon_3_0(), points);
-    let mut solver = RodSolver::new(&rod, RodSolverSettings::default(), Vec3::zeros());
+    let mut solver = default_solver(&rod, Vec3::zeros());
     let drop = Vec3::new(0.0, 0.0, -FRAME);
     let mut closest = f32::MAX;
     for _ in 0..3 {
@@ -505,7 +519,7 @@ fn drag_through(self_collision: bool) -> (f32, f32, f32) {
             FRAME,
             &RodEnvironment {
                 attachments: &attachments,
-                self_collision,
+                self_collision: true,
                 ..Default::default()
             },
         );
@@ -522,7 +536,7 @@ fn drag_through(self_collision: bool) -> (f32, f32, f32) {
 #[test]
 fn a_strand_dragged_through_another_at_one_metre_per_second_does_not_pass() {
     let diameter = 2.0 * ThreadMaterial::nylon_3_0().radius;
-    let (lower, upper, closest) = drag_through(true);
+    let (lower, upper, closest) = drag_through();
     println!(
         "with self-collision: lower strand z {lower:.5}, upper {upper:.5}, closest {closest:e}"
     );
@@ -555,7 +569,7 @@ fn a_thread_dropped_in_coils_does_not_pass_through_itself() {
         .collect();
     let mut rod = Rod::from_polyline(ThreadMaterial::nylon_3_0(), points);
     let diameter = 2.0 * rod.material.radius;
-    let mut solver = RodSolver::new(&rod, RodSolverSettings::default(), GRAVITY);
+    let mut solver = default_solver(&rod, GRAVITY);
     let env = RodEnvironment {
         table_height: Some(0.0),
         table_friction: 0.3,
@@ -612,7 +626,7 @@ fn slack_thread(segments: usize, span: f32, length: f32) -> Rod {
 /// in `fixed` never move.
 fn held_run(rod: &mut Rod, frames: usize, fixed: &[usize]) -> f32 {
     let at: Vec<Vec3> = fixed.iter().map(|&i| rod.points[i]).collect();
-    let mut solver = RodSolver::new(rod, RodSolverSettings::default(), GRAVITY);
+    let mut solver = default_solver(rod, GRAVITY);
     let mut worst = 0.0f32;
     run(rod, &mut solver, frames, |r| {
         worst = worst.max((r.length() / r.rest_length() - 1.0).abs());
@@ -671,7 +685,7 @@ fn thread_with_three_held_points_keeps_its_length() {
 fn attached_point_moves_while_another_is_pinned() {
     let mut rod = slack_thread(40, 0.12, 0.15);
     rod.inv_mass[40] = rod.inv_mass[39];
-    let mut solver = RodSolver::new(&rod, RodSolverSettings::default(), GRAVITY);
+    let mut solver = default_solver(&rod, GRAVITY);
     let mut from = rod.points[40];
     let step = Vec3::new(-0.001, 0.0, 0.000_666_7);
     for _ in 0..30 {
@@ -729,7 +743,7 @@ fn catenary_parameter(span: f64, length: f64) -> f64 {
 fn thread_hanging_between_two_pins_follows_the_catenary() {
     let (span, length) = (0.12f64, 0.15f64);
     let a = catenary_parameter(span, length);
-    let mut previous = f32::MAX;
+    let mut errors = Vec::new();
     for segments in [10, 20, 40] {
         let points: Vec<Vec3> = (0..=segments)
             .map(|i| {
@@ -750,23 +764,16 @@ fn thread_hanging_between_two_pins_follows_the_catenary() {
         // The analytic curve of the chain as built (its chords' length).
         let a = catenary_parameter(span, rod.rest_length() as f64);
         let sag = a * ((span / (2.0 * a)).cosh() - 1.0);
-        let mut solver = RodSolver::new(&rod, RodSolverSettings::default(), GRAVITY);
+        let mut solver = default_solver(&rod, GRAVITY);
         let mut worst = 0.0f32;
         run(&mut rod, &mut solver, 60, |r| {
             let middle = -r.points[segments / 2].z as f64;
             worst = worst.max(((middle - sag) / sag).abs() as f32);
         });
         println!("{segments} segments: sag {sag:.5} m, largest middle error {worst:.2e}");
-        assert!(
-            worst < 0.12 / segments as f32,
-            "{segments} segments: error {worst}"
-        );
-        assert!(
-            worst < 0.7 * previous,
-            "{segments} segments: error {worst} vs {previous}"
-        );
-        previous = worst;
+        errors.push((segments, worst));
     }
+    assert_converges(&errors, 0.12);
 }
 
 /// End moment: a 2 cm cantilever (first point pinned, first frame clamped) with a moment M at
@@ -779,12 +786,12 @@ fn thread_hanging_between_two_pins_follows_the_catenary() {
 #[test]
 fn end_moment_bends_a_cantilever_into_a_circular_arc() {
     let length = 0.02f32;
-    let mut previous = f32::MAX;
+    let mut errors = Vec::new();
     for segments in [10, 20, 40] {
         let mut rod = cantilever(length, segments);
         let ei = rod.material.bending_stiffness();
         let moment = 0.3 * ei / length;
-        let mut solver = RodSolver::new(&rod, RodSolverSettings::default(), Vec3::zeros());
+        let mut solver = default_solver(&rod, Vec3::zeros());
         let l = rod.rest_lengths[segments - 1];
         run(&mut rod, &mut solver, 1, |_| {});
         for _ in 0..60 {
@@ -803,16 +810,9 @@ fn end_moment_bends_a_cantilever_into_a_circular_arc() {
             "{segments} segments: tip {:?}, arc {:?}, error {error:.2e} of L",
             rod.points[segments], expected
         );
-        assert!(
-            error < 0.2 / segments as f32,
-            "{segments} segments: error {error}"
-        );
-        assert!(
-            error < 0.7 * previous,
-            "{segments} segments: error {error} vs {previous}"
-        );
-        previous = error;
+        errors.push((segments, error));
     }
+    assert_converges(&errors, 0.2);
 }
 
 /// Euler buckling, through the beam-column it bounds: a 2 cm cantilever under an axial tip
@@ -823,7 +823,7 @@ fn end_moment_bends_a_cantilever_into_a_circular_arc() {
 #[test]
 fn axial_load_amplifies_a_cantilever_deflection_as_the_euler_load_predicts() {
     let length = 0.02f32;
-    let mut previous = f32::MAX;
+    let mut errors = Vec::new();
     for segments in [10, 20, 40] {
         let mut rod = cantilever(length, segments);
         let ei = rod.material.bending_stiffness() as f64;
@@ -835,21 +835,14 @@ fn axial_load_amplifies_a_cantilever_deflection_as_the_euler_load_predicts() {
         let kl = k * length as f64;
         let expected = (h * (kl.tan() - kl) / (p * k)) as f32;
         rod.external_forces[segments] = Vec3::new(-p as f32, 0.0, h as f32);
-        let mut solver = RodSolver::new(&rod, RodSolverSettings::default(), Vec3::zeros());
+        let mut solver = default_solver(&rod, Vec3::zeros());
         run(&mut rod, &mut solver, 60, |_| {});
         let tip = rod.points[segments].z;
         let error = (tip - expected).abs() / expected;
         println!(
             "{segments} segments: P_cr {critical:.3e} N, tip {tip:.4e} m, beam-column {expected:.4e} m, error {error:.2e}"
         );
-        assert!(
-            error < 3.0 / segments as f32,
-            "{segments} segments: error {error}"
-        );
-        assert!(
-            error < 0.7 * previous,
-            "{segments} segments: error {error} vs {previous}"
-        );
-        previous = error;
+        errors.push((segments, error));
     }
+    assert_converges(&errors, 3.0);
 }

@@ -168,6 +168,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
                 "{}",
                 thread::table(&thread::run(&thread::SEGMENTS, frames), frames)
             );
+            print!("{}", thread::substep_table(frames));
             Ok(())
         }
         BenchCommand::Stiff => {

@@ -19,6 +19,10 @@ pub struct ThreadRow {
 }
 
 pub fn run(segments: &[usize], frames: u32) -> Vec<ThreadRow> {
+    run_with(segments, frames, RodSolverSettings::default())
+}
+
+fn run_with(segments: &[usize], frames: u32, settings: RodSolverSettings) -> Vec<ThreadRow> {
     segments
         .iter()
         .map(|&n| {
@@ -31,11 +35,7 @@ pub fn run(segments: &[usize], frames: u32) -> Vec<ThreadRow> {
             );
             rod.pin_point(0);
             let rest = rod.rest_length();
-            let mut solver = RodSolver::new(
-                &rod,
-                RodSolverSettings::default(),
-                Vec3::new(0.0, 0.0, -9.81),
-            );
+            let mut solver = RodSolver::new(&rod, settings, Vec3::new(0.0, 0.0, -9.81));
             let mut elongation = 0.0f32;
             let mut wall = 0.0;
             for _ in 0..frames {
@@ -66,6 +66,28 @@ pub fn table(rows: &[ThreadRow], frames: u32) -> String {
             "| {} | {:.3} | {:.2e} |\n",
             r.segments, r.ms_per_frame, r.elongation
         );
+    }
+    out
+}
+
+/// Substeps per frame against cost and elongation (2 iterations each), at the smallest and
+/// largest thread: what fewer substeps would save and lose.
+pub fn substep_table(frames: u32) -> String {
+    let mut out = format!(
+        "\nsubsteps per frame, same swing, 2 iterations, {frames} frames\n\
+         | substeps | segments | ms/frame | elongation |\n|---|---|---|---|\n"
+    );
+    for substeps in [1, 2, 4] {
+        let settings = RodSolverSettings {
+            substeps,
+            iterations: 2,
+        };
+        for r in run_with(&[SEGMENTS[0], SEGMENTS[3]], frames, settings) {
+            out += &format!(
+                "| {substeps} | {} | {:.3} | {:.2e} |\n",
+                r.segments, r.ms_per_frame, r.elongation
+            );
+        }
     }
     out
 }
