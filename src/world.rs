@@ -13,10 +13,11 @@ use crate::mpm::{
     timestep, Lame, MaterialParams, Method, Particles, PbMpmParams, SolverSetup, Vec3,
 };
 use crate::mpm::{GripSums, SolveCounts};
+use crate::rod::RodCollider;
 use crate::sleep::SleepSettings;
 use crate::sleep::{Aabb, SleepState};
 use crate::thread_body::grasp::GripperView;
-use crate::thread_body::ThreadBody;
+use crate::thread_body::{tool_collider, ThreadBody};
 use crate::tools::{
     ContactModel, JawCommand, JawGains, JawServo, Shape, ToolKinematics, ToolPose, ToolVelocity,
     Trajectory,
@@ -787,8 +788,13 @@ impl World {
             .enumerate()
             .filter_map(|(i, t)| GripperView::of(i, t, t_start, t_end))
             .collect();
+        let colliders: Vec<RodCollider> = self
+            .tools
+            .iter()
+            .map(|t| tool_collider(t, t_start, t_end))
+            .collect();
         for thread in &mut self.threads {
-            thread.step_frame(t_end - t_start, &grippers);
+            thread.step_frame(t_end - t_start, &colliders, &grippers);
         }
     }
 

@@ -1,10 +1,31 @@
 //! The suture thread in scenes: `config/thread.toml` headless (a gripper picks the thread up
 //! off the table, lifts it by the grasped point while the rest hangs, opens and it falls
-//! back), a thread-only scene with a pinned end, and the thread's topics in a recorded bag.
+//! back), a thread-only scene with a pinned end, a capsule pushing a lying thread, and the
+//! thread's topics in a recorded bag.
 
 use dvrk_tissue_sim::config;
 use dvrk_tissue_sim::world::World;
+use nalgebra::Vector3;
 use std::path::Path;
+
+/// A thread-only domain (30 × 20 × 30 cm, 1 cm cells) around the origin, for scenes of one
+/// `[[thread]]` table given after it.
+const HANG_DOMAIN: &str = r#"
+[domain]
+origin = [-0.15, -0.1, -0.2]
+size = [0.3, 0.2, 0.3]
+dx = 0.01
+"#;
+
+/// The scene of `text` (TOML), named `name` in messages.
+fn scene(text: &str, name: &str) -> config::Scene {
+    config::from_str(text, Path::new(name)).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn elongation_within(world: &World, bound: f64) {
+    let elongation = world.threads()[0].elongation();
+    assert!(elongation.abs() < bound, "elongation {elongation}");
+}
 
 fn shipped(name: &str) -> config::Scene {
     config::load(
@@ -110,16 +131,14 @@ fn gripper_picks_the_thread_up_lifts_it_and_lets_it_fall() {
 
 #[test]
 fn a_thread_only_scene_with_a_pinned_end_hangs_from_it() {
-    let text = r#"
-[domain]
-origin = [-0.15, -0.1, -0.2]
-size = [0.3, 0.2, 0.3]
-dx = 0.01
+    let text = format!(
+        r#"{HANG_DOMAIN}
 [[thread]]
 start = [-0.05, 0.0, 0.05]
 pinned = "start"
-"#;
-    let scene = config::from_str(text, Path::new("hang.toml")).unwrap_or_else(|e| panic!("{e}"));
+"#
+    );
+    let scene = scene(&text, "hang.toml");
     assert!(scene.tissues.is_empty());
     let mut world = World::new(&scene);
     run_until(&mut world, 1.5);
@@ -128,11 +147,7 @@ pinned = "start"
     assert_eq!(rod.points[0], nalgebra::Vector3::new(-0.05, 0.0, 0.05));
     let end = rod.points[rod.points.len() - 1];
     assert!(end.z < 0.05 - 0.08, "free end at z {} m", end.z);
-    assert!(
-        world.threads()[0].elongation().abs() < 1e-3,
-        "elongation {}",
-        world.threads()[0].elongation()
-    );
+    elongation_within(&world, 1e-3);
 }
 
 #[test]
@@ -205,19 +220,17 @@ fn headless_record_of_thread_toml_holds_the_thread_topics_and_the_summary_report
 
 #[test]
 fn a_thread_pinned_at_both_ends_sags_between_them_and_keeps_its_ends() {
-    let text = r#"
-[domain]
-origin = [-0.15, -0.1, -0.2]
-size = [0.3, 0.2, 0.3]
-dx = 0.01
+    let text = format!(
+        r#"{HANG_DOMAIN}
 [[thread]]
 start = [-0.05, 0.0, 0.05]
 direction = [1.0, 0.0, -0.2]
 length = 0.1
 segments = 40
 pinned = "both"
-"#;
-    let scene = config::from_str(text, Path::new("both.toml")).unwrap_or_else(|e| panic!("{e}"));
+"#
+    );
+    let scene = scene(&text, "both.toml");
     let mut world = World::new(&scene);
     let rod0 = world.threads()[0].rod.clone();
     run_until(&mut world, 1.0);
@@ -229,6 +242,80 @@ pinned = "both"
     let chord_mid = (rod0.points[0] + rod0.points[40]) * 0.5;
     let sag = chord_mid.z - rod.points[20].z;
     assert!(sag > 0.0 && sag < 0.005, "sag {sag} m");
-    let elongation = world.threads()[0].elongation();
-    assert!(elongation.abs() < 1e-3, "elongation {elongation}");
+    elongation_within(&world, 1e-3);
+}
+
+/// Distance from `p` to the segment from `a` to `b`.
+fn to_segment(p: Vector3<f32>, a: Vector3<f32>, b: Vector3<f32>) -> f32 {
+    let ab = b - a;
+    let t = ((p - a).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0);
+    (p - (a + ab * t)).norm()
+}
+
+#[test]
+fn a_capsule_pushed_across_a_lying_thread_moves_it_and_never_passes_through_it() {
+    // A 15 cm thread on the table along x; an upright capsule (3 mm radius, reaching 1 mm
+    // below the table top) sweeps along y through its middle at 0.1 m/s, from y = −20 mm
+    // to +20 mm.
+    let text = r#"
+[domain]
+origin = [-0.1, -0.05, -0.01]
+size = [0.2, 0.1, 0.06]
+dx = 0.002
+[table]
+height = 0.0
+[[thread]]
+start = [-0.075, 0.0, 0.0002]
+[[tool]]
+name = "probe"
+shape = { type = "capsule", radius = 0.003, half_length = 0.01 }
+contact = { model = "coulomb", friction = 0.3 }
+[[tool.keyframe]]
+t = 0.0
+position = [0.0, -0.02, 0.012]
+[[tool.keyframe]]
+t = 0.1
+position = [0.0, -0.02, 0.012]
+[[tool.keyframe]]
+t = 0.5
+position = [0.0, 0.02, 0.012]
+"#;
+    let scene = scene(text, "push.toml");
+    let mut world = World::new(&scene);
+    let (capsule_radius, half_length) = (0.003f32, 0.01f32);
+    let r = world.threads()[0].rod.material.radius;
+    let mut deepest = f32::MAX;
+    while world.time() < 0.7 - 1e-9 {
+        world.step_frame().expect("frame");
+        let rod = &world.threads()[0].rod;
+        assert!(rod.is_finite());
+        let centre: Vector3<f32> = world.tools()[0].pose_at(world.time()).position.cast();
+        let axis = Vector3::new(0.0, 0.0, half_length);
+        // Clearance of the centreline (points and segment interiors) from the capsule.
+        for w in rod.points.windows(2) {
+            for k in 0..8 {
+                let p = w[0] + (w[1] - w[0]) * (k as f32 / 8.0);
+                deepest = deepest.min(to_segment(p, centre - axis, centre + axis));
+            }
+        }
+    }
+    // Never inside the capsule by more than 10 % of the thread's radius.
+    assert!(
+        deepest > capsule_radius + 0.9 * r,
+        "centreline came {deepest} m from the capsule's axis (radius {capsule_radius} m)"
+    );
+    // Carried along: the middle is on the far side of the capsule, ahead of it.
+    let rod = &world.threads()[0].rod;
+    let middle = rod.points[rod.points.len() / 2];
+    assert!(
+        middle.y > 0.02 + capsule_radius,
+        "thread middle at y {} m, capsule at 0.02 m",
+        middle.y
+    );
+    // Pushed, not lifted: it stays on the table, and keeps its length.
+    assert!(
+        rod.points.iter().all(|p| p.z < 4.0 * r),
+        "thread left the table"
+    );
+    elongation_within(&world, 1e-3);
 }

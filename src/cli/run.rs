@@ -272,6 +272,12 @@ fn run_headless(
             last.z,
             t.grasped_points()
         );
+        let det = t.knot_determinant();
+        println!(
+            "summary: knot thread {}: det {det} ({})",
+            t.name,
+            dvrk_tissue_sim::thread_body::knot::knot_name(det)
+        );
     }
     // The recorder's writer ends once the loop, which holds its sending end, is gone.
     drop(sim);

@@ -3,7 +3,8 @@
 //! that refuse threads the rod cannot simulate.
 //!
 //! Every key but `start` has a default: a 15 cm USP 3-0 nylon thread along +x of 60
-//! segments (2.5 mm each), both ends free, the rod solver's default substeps and iterations.
+//! segments (2.5 mm each), both ends free, colliding with itself, the rod solver's default
+//! substeps and iterations.
 
 use super::validate::Problem;
 use super::Scene;
@@ -45,6 +46,13 @@ pub struct Thread {
     /// Coulomb friction coefficient against the table.
     #[serde(default = "default_friction")]
     pub friction: f64,
+    /// Whether the thread collides with itself (continuous segment–segment contact: it
+    /// cannot pass through itself, so knots hold).
+    #[serde(default = "default_self_contact")]
+    pub self_contact: bool,
+    /// Coulomb friction coefficient of the thread on itself.
+    #[serde(default = "default_self_friction")]
+    pub self_friction: f64,
     /// Solver substeps per frame.
     #[serde(default = "default_substeps")]
     pub substeps: u32,
@@ -99,6 +107,12 @@ fn default_density() -> f64 {
 fn default_friction() -> f64 {
     0.3
 }
+fn default_self_contact() -> bool {
+    true
+}
+fn default_self_friction() -> f64 {
+    0.2
+}
 fn default_substeps() -> u32 {
     RodSolverSettings::default().substeps
 }
@@ -121,6 +135,8 @@ impl Thread {
             density: default_density(),
             pinned: PinnedEnds::None,
             friction: default_friction(),
+            self_contact: default_self_contact(),
+            self_friction: default_self_friction(),
             substeps: default_substeps(),
             iterations: default_iterations(),
         }
@@ -257,12 +273,14 @@ pub(super) fn validate(
                 ),
             ),
         }
-        require(
-            within(t.friction, (0.0, 10.0)),
-            key("friction"),
-            format!("{:?}", t.friction),
-            "0 ≤ value ≤ 10 (Coulomb coefficient)".into(),
-        );
+        for (k, v) in [("friction", t.friction), ("self_friction", t.self_friction)] {
+            require(
+                within(v, (0.0, 10.0)),
+                key(k),
+                format!("{v:?}"),
+                "0 ≤ value ≤ 10 (Coulomb coefficient)".into(),
+            );
+        }
         require(
             (1..=100).contains(&t.substeps),
             key("substeps"),

@@ -12,6 +12,8 @@
 //! - `attachments`: points held kinematically (a grasp): each moves linearly from `from` to
 //!   `to` over the frame with inverse mass 0, and is free again in the next frame unless
 //!   attached again.
+//! - `walls`: an axis-aligned box (lower and upper corner) the centreline points stay
+//!   inside, such as a scene's domain less its wall cells and the thread radius.
 //! - `self_collision`: segment–segment contact of the thread with itself (see
 //!   [`super::self_contact`]), with friction `self_friction`.
 //!
@@ -54,6 +56,7 @@ pub struct RodEnvironment<'a> {
     pub table_friction: f32,
     pub colliders: &'a [RodCollider],
     pub attachments: &'a [RodAttachment],
+    pub walls: Option<(Vec3, Vec3)>,
     pub self_collision: bool,
     pub self_friction: f32,
 }
@@ -245,6 +248,20 @@ pub(crate) fn project_contacts(
         }
     }
     (table_contacts, tool_contacts)
+}
+
+/// Puts the free points of `rod` back inside the box from `lo` to `hi` (frictionless
+/// walls). Returns how many it moved.
+pub(crate) fn project_walls(rod: &mut Rod, lo: Vec3, hi: Vec3) -> u32 {
+    let mut moved = 0;
+    for (p, &w) in rod.points.iter_mut().zip(&rod.inv_mass) {
+        let inside = p.sup(&lo).inf(&hi);
+        if w > 0.0 && inside != *p {
+            *p = inside;
+            moved += 1;
+        }
+    }
+    moved
 }
 
 /// A point's contact with a tool: how far to move it along the world normal.

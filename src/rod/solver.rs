@@ -3,7 +3,9 @@
 
 use super::constraints::Compliance;
 use super::direct::{self, DirectScratch};
-use super::environment::{project_contacts, PlacedCollider, RodEnvironment, RodFrameReport};
+use super::environment::{
+    project_contacts, project_walls, PlacedCollider, RodEnvironment, RodFrameReport,
+};
 use super::self_contact::SelfContacts;
 use super::state::{Quat, Rod};
 use crate::mpm::Vec3;
@@ -132,6 +134,7 @@ impl RodSolver {
                 for pass in 0..CONTACT_PASSES {
                     let (on_table, on_tools) =
                         project_contacts(rod, &self.prev_points, table, &self.placed);
+                    let on_walls = env.walls.map_or(0, |(lo, hi)| project_walls(rod, lo, hi));
                     let on_self = if env.self_collision {
                         self.self_contacts
                             .project(rod, &self.prev_points, env.self_friction)
@@ -141,7 +144,7 @@ impl RodSolver {
                     if pass == 0 {
                         found = (on_table, on_tools, on_self);
                     }
-                    if on_table + on_tools + on_self == 0 {
+                    if on_table + on_tools + on_self + on_walls == 0 {
                         break;
                     }
                 }
@@ -161,27 +164,6 @@ impl RodSolver {
             .map(|j| rod.strain(j).abs())
             .fold(0.0, f32::max);
         report
-    }
-
-    /// One substep of `h` seconds with the caller's own contacts: `contacts(rod, h)` runs
-    /// once per iteration after the elastic solve (the world's thread keeps itself above
-    /// the table and inside the domain this way, with grasps it holds itself).
-    pub fn substep(&mut self, rod: &mut Rod, h: f32, mut contacts: impl FnMut(&mut Rod, f32)) {
-        let inv_h2 = 1.0 / (h as f64 * h as f64);
-        self.predict(rod, h);
-        self.lambda.fill(Vector6::zeros());
-        for _ in 0..self.settings.iterations.max(1) {
-            direct::solve(
-                rod,
-                &self.compliance,
-                &mut self.lambda,
-                inv_h2,
-                &mut self.scratch,
-            );
-            contacts(rod, h);
-        }
-        self.update_velocities(rod, h);
-        self.update_tension(rod, inv_h2);
     }
 
     fn update_tension(&self, rod: &mut Rod, inv_h2: f64) {

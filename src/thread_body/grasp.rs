@@ -3,17 +3,18 @@
 //! closed on the thread — the jaw controller presses them shut (see
 //! [`crate::tools::JawServo::pressing`]) with the tips no further apart than the thread is
 //! thick — every thread point inside the closed jaws' volume is caught between the faces
-//! and from then on moves rigidly with the tool frame (a kinematic attachment, see
-//! [`HELD_MASS_RATIO`]). When the
-//! jaws stop pressing or open wider than the thread, the points are let go with the
-//! velocity the jaws gave them.
+//! and from then on moves rigidly with the tool frame: each frame it is a
+//! [`RodAttachment`] (inverse mass 0) from where the jaws hold it at the frame's start to
+//! where they hold it at its end, so that it turns with the tool as well as moving with it.
+//! When the jaws stop pressing or open wider than the thread, the points are let go with
+//! the velocity the jaws gave them.
 //!
 //! The closed jaws' volume, in the tool frame (x across the jaw width, y across the faces,
 //! z from the hinge to the tips): |x| ≤ width/2 + r, −r ≤ z ≤ length + r, |y| ≤ thickness + r.
 //! A point that far from the faces' plane was swept between them as they closed.
 
 use crate::mpm::Vec3;
-use crate::rod::Rod;
+use crate::rod::{Rod, RodAttachment};
 use crate::tools::{Shape, ToolPose};
 use crate::world::WorldTool;
 use nalgebra::Vector3;
@@ -80,25 +81,6 @@ impl GripperView {
     }
 }
 
-/// How much heavier than its share of the thread a held point is made. The rod's direct
-/// solve fails to factorise with two or more points of zero inverse mass on one chain (two
-/// grasps, a grasp and a pinned end, both ends pinned), so a held point keeps a tiny inverse
-/// mass, a force cancelling its weight, and is put back on its target before and after each
-/// substep: what the solve moves it in between is ~1e-4 of what it moves a free point.
-pub const HELD_MASS_RATIO: f32 = 1e4;
-
-/// Makes point `i` of `rod` held: heavy, weightless (its weight cancelled), at rest.
-pub fn hold(rod: &mut Rod, i: usize, free_inv_mass: f32, gravity: Vec3) {
-    rod.inv_mass[i] = free_inv_mass / HELD_MASS_RATIO;
-    rod.external_forces[i] = -gravity / rod.inv_mass[i];
-}
-
-/// Lets point `i` go: its own mass again, no force.
-pub fn release(rod: &mut Rod, i: usize, free_inv_mass: f32) {
-    rod.inv_mass[i] = free_inv_mass;
-    rod.external_forces[i] = Vec3::zeros();
-}
-
 /// One gripper's hold on a thread: the points caught and where they sit in the tool frame.
 #[derive(Clone, Debug)]
 struct Grasp {
@@ -116,47 +98,28 @@ impl Grasps {
     /// Ends the grasps whose jaws no longer hold and begins one for each gripper newly
     /// closed on the thread (an empty one when nothing lay between its jaws, so that closed
     /// jaws brushing the thread later do not pick it up). `pinned` points stay the scene's.
-    pub fn update(
-        &mut self,
-        rod: &mut Rod,
-        grippers: &[GripperView],
-        radius: f32,
-        pinned: &[bool],
-        free_inv_mass: &[f32],
-        gravity: Vec3,
-    ) {
+    pub fn update(&mut self, rod: &Rod, grippers: &[GripperView], radius: f32, pinned: &[bool]) {
         let still_closed = |g: &Grasp| {
             grippers
                 .iter()
                 .any(|v| v.tool == g.tool && v.closed_on(radius))
         };
-        let (kept, released): (Vec<_>, Vec<_>) = std::mem::take(&mut self.held)
-            .into_iter()
-            .partition(still_closed);
-        self.held = kept;
-        for grasp in released {
-            for (i, _) in grasp.points {
-                if !pinned[i] && !self.holds_point(i) {
-                    release(rod, i, free_inv_mass[i]);
-                }
-            }
-        }
+        self.held.retain(still_closed);
         for view in grippers {
             if !view.closed_on(radius) || self.held.iter().any(|g| g.tool == view.tool) {
                 continue;
             }
             let pose = &view.from;
             let mut points = Vec::new();
-            for i in 0..rod.points.len() {
-                if pinned[i] || self.holds_point(i) {
+            for (i, (point, &is_pinned)) in rod.points.iter().zip(pinned).enumerate() {
+                if is_pinned || self.holds_point(i) {
                     continue;
                 }
                 let local = pose
                     .rotation
-                    .inverse_transform_vector(&(rod.points[i].cast::<f64>() - pose.position));
+                    .inverse_transform_vector(&(point.cast::<f64>() - pose.position));
                 if view.between_jaws(&local, radius) {
                     points.push((i, local));
-                    hold(rod, i, free_inv_mass[i], gravity);
                 }
             }
             self.held.push(Grasp {
@@ -166,21 +129,22 @@ impl Grasps {
         }
     }
 
-    /// Puts every grasped point where its jaws are at fraction `s0` of the frame, moving
-    /// at the velocity that brings it to where they are at `s1` after the substep of `h`
-    /// seconds.
-    pub fn start_substep(&self, rod: &mut Rod, grippers: &[GripperView], s0: f64, s1: f64, h: f32) {
-        self.each_target(grippers, s0, |i, from| {
-            rod.points[i] = from;
+    /// Appends one attachment per grasped point: from where its jaws hold it at the frame's
+    /// start to where they hold it at its end.
+    pub fn attachments(&self, grippers: &[GripperView], out: &mut Vec<RodAttachment>) {
+        let first = out.len();
+        self.each_target(grippers, 0.0, |point, from| {
+            out.push(RodAttachment {
+                point,
+                from,
+                to: from,
+            })
         });
-        self.each_target(grippers, s1, |i, to| {
-            rod.velocities[i] = (to - rod.points[i]) / h;
+        let mut k = first;
+        self.each_target(grippers, 1.0, |_, to| {
+            out[k].to = to;
+            k += 1;
         });
-    }
-
-    /// Puts every grasped point where its jaws are at fraction `s` of the frame.
-    pub fn end_substep(&self, rod: &mut Rod, grippers: &[GripperView], s: f64) {
-        self.each_target(grippers, s, |i, to| rod.points[i] = to);
     }
 
     fn each_target(&self, grippers: &[GripperView], s: f64, mut f: impl FnMut(usize, Vec3)) {

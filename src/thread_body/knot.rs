@@ -28,6 +28,17 @@ pub fn knot_determinant(points: &[V3]) -> u128 {
     determinant_of(&crossings)
 }
 
+/// What a knot determinant tells of the simplest knot that has it.
+pub fn knot_name(determinant: u128) -> &'static str {
+    match determinant {
+        1 => "no knot",
+        3 => "trefoil",
+        5 => "figure-eight",
+        9 => "square or granny",
+        _ => "other knot",
+    }
+}
+
 /// Points of `open` followed by a return path outside its bounding sphere.
 fn close_far_away(open: &[V3]) -> Vec<V3> {
     let n = open.len();

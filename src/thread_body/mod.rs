@@ -1,19 +1,39 @@
 //! A suture thread in the world: the rod (see [`crate::rod`]) with its solver, the ends the
-//! scene holds, the table and domain it lies in, and the grippers holding it
-//! ([`grasp`]). The world steps each thread once per frame alongside the tissue.
+//! scene holds, the table, domain walls and tools it meets, and the grippers holding it
+//! ([`grasp`]). The world steps each thread once per frame alongside the tissue, through
+//! [`RodSolver::step_frame_in`] with one [`RodEnvironment`] per frame.
 //!
-//! `contact` keeps the thread above the table and inside the domain; `knot` tells whether
-//! its centreline is knotted.
+//! `knot` tells whether its centreline is knotted.
 
-pub mod contact;
 pub mod grasp;
 pub mod knot;
 
 use crate::config::{Scene, Thread};
+use crate::mpm::grid::WALL_NODES;
 use crate::mpm::Vec3;
-use crate::rod::{Rod, RodSolver};
-use contact::ThreadBounds;
+use crate::rod::{Rod, RodAttachment, RodCollider, RodEnvironment, RodSolver};
+use crate::tools::ContactModel;
+use crate::world::WorldTool;
 use grasp::{Grasps, GripperView};
+
+/// Coulomb coefficient of a `sticky` tool against the thread: sticky contact holds the
+/// tissue's nodes to the tool; for the thread it becomes a grip this strong, the rod's
+/// friction being position based (static while the slip is below μ times the penetration).
+const STICKY_TOOL_FRICTION: f32 = 1.0;
+
+/// Tool `tool` as the thread sees it over [t0, t1]: its shape moving (jaws included) from
+/// its pose at `t0` to its pose at `t1`.
+pub fn tool_collider(tool: &WorldTool, t0: f64, t1: f64) -> RodCollider {
+    RodCollider {
+        shape: tool.shape,
+        pose_start: tool.pose_at(t0),
+        pose_end: tool.pose_at(t1),
+        friction: match tool.contact {
+            ContactModel::Coulomb { friction, .. } => friction,
+            ContactModel::Sticky => STICKY_TOOL_FRICTION,
+        },
+    }
+}
 
 /// One thread and how it steps.
 pub struct ThreadBody {
@@ -24,12 +44,17 @@ pub struct ThreadBody {
     pinned: Vec<bool>,
     /// The scene's held points and where they are held.
     anchors: Vec<(usize, Vec3)>,
-    /// Each point's inverse mass when free (restored when a grasp lets go).
-    free_inv_mass: Vec<f32>,
-    bounds: ThreadBounds,
+    /// Height of the table (m) and the Coulomb coefficient against it.
+    table: Option<(f32, f32)>,
+    /// The box the centreline stays inside: the domain less its wall cells and the radius.
+    walls: (Vec3, Vec3),
+    self_contact: bool,
+    self_friction: f32,
     grasps: Grasps,
-    /// Velocities at the start of the substep being solved (friction's reference).
-    velocities_before: Vec<Vec3>,
+    /// This frame's attachments (grasped and pinned points); reused.
+    attachments: Vec<RodAttachment>,
+    /// This frame's colliders: the tools not holding the thread; reused.
+    colliders: Vec<RodCollider>,
 }
 
 impl ThreadBody {
@@ -37,84 +62,98 @@ impl ThreadBody {
     pub fn new(scene: &Scene, config: &Thread) -> ThreadBody {
         let start = nalgebra::Vector3::from(config.start).cast::<f32>();
         let direction = nalgebra::Vector3::from(config.direction).cast::<f32>();
-        let mut rod = Rod::straight(
+        let rod = Rod::straight(
             config.material(),
             start,
             direction,
             config.length as f32,
             config.segments as usize,
         );
-        let free_inv_mass = rod.inv_mass.clone();
         let gravity = nalgebra::Vector3::from(scene.domain.gravity).cast::<f32>();
         let mut pinned = vec![false; rod.points.len()];
         let mut anchors = Vec::new();
         let last = rod.points.len() - 1;
         for (i, held) in [(0, config.pinned.start()), (last, config.pinned.end())] {
             if held {
-                grasp::hold(&mut rod, i, free_inv_mass[i], gravity);
                 pinned[i] = true;
                 anchors.push((i, rod.points[i]));
             }
         }
+        let d = &scene.domain;
+        let r = config.radius as f32;
+        // Walls as the tissue sees them: the domain less its wall cells.
+        let margin = WALL_NODES as f64 * d.dx;
+        let lo = Vec3::from_fn(|a, _| (d.origin[a] + margin) as f32 + r);
+        let hi = Vec3::from_fn(|a, _| (d.origin[a] + d.size[a] - margin) as f32 - r);
         let solver = RodSolver::new(&rod, config.solver_settings(), gravity);
         ThreadBody {
             name: config.name.clone(),
-            velocities_before: rod.velocities.clone(),
-            bounds: ThreadBounds::new(scene, config),
             rod,
             solver,
             pinned,
             anchors,
-            free_inv_mass,
+            table: scene
+                .table
+                .as_ref()
+                .map(|t| (t.height as f32, config.friction as f32)),
+            walls: (lo, hi),
+            self_contact: config.self_contact,
+            self_friction: config.self_friction as f32,
             grasps: Grasps::default(),
+            attachments: Vec::new(),
+            colliders: Vec::new(),
         }
     }
 
-    /// Advances one frame of `dt` seconds while the grippers `grippers` move over it:
-    /// first grasps begin or end (jaws closed on the thread catch the points between their
-    /// faces; opening lets them go), then each substep moves the grasped points with their
-    /// jaws and solves the rod against the table.
-    pub fn step_frame(&mut self, dt: f64, grippers: &[GripperView]) {
+    /// Advances one frame of `dt` seconds while the tools `colliders` (every tool of the
+    /// scene, in scene order) and among them the grippers `grippers` move over it: first grasps begin or end
+    /// (jaws closed on the thread catch the points between their faces; opening lets them
+    /// go), then the rod steps among the table, walls and tools, the grasped points moving
+    /// with their jaws and the pinned ones staying put.
+    pub fn step_frame(&mut self, dt: f64, colliders: &[RodCollider], grippers: &[GripperView]) {
         let radius = self.rod.material.radius;
-        let gravity = self.solver.gravity;
-        self.grasps.update(
-            &mut self.rod,
-            grippers,
-            radius,
-            &self.pinned,
-            &self.free_inv_mass,
-            gravity,
+        self.grasps
+            .update(&self.rod, grippers, radius, &self.pinned);
+        self.attachments.clear();
+        self.grasps.attachments(grippers, &mut self.attachments);
+        self.attachments
+            .extend(self.anchors.iter().map(|&(point, at)| RodAttachment {
+                point,
+                from: at,
+                to: at,
+            }));
+        // A gripper holding the thread is its grasp: the points between its jaws move with
+        // it, and its jaws (pressed shut past the thread) would push them out again.
+        self.colliders.clear();
+        self.colliders.extend(
+            colliders
+                .iter()
+                .enumerate()
+                .filter(|(tool, _)| !self.grasps.holds_with(*tool))
+                .map(|(_, c)| *c),
         );
-        let substeps = self.solver.settings.substeps.max(1);
-        let h = (dt / substeps as f64) as f32;
-        for s in 0..substeps {
-            let (s0, s1) = (s as f64 / substeps as f64, (s + 1) as f64 / substeps as f64);
-            self.grasps
-                .start_substep(&mut self.rod, grippers, s0, s1, h);
-            self.hold_anchors();
-            self.velocities_before.clone_from(&self.rod.velocities);
-            let bounds = &self.bounds;
-            self.solver
-                .substep(&mut self.rod, h, |rod, _| bounds.project(rod));
-            let gravity_z = self.solver.gravity.z;
-            self.bounds
-                .friction(&mut self.rod, &self.velocities_before, gravity_z, h);
-            self.grasps.end_substep(&mut self.rod, grippers, s1);
-            self.hold_anchors();
-        }
-    }
-
-    /// The scene's held points where they are held, at rest.
-    fn hold_anchors(&mut self) {
-        for &(i, at) in &self.anchors {
-            self.rod.points[i] = at;
-            self.rod.velocities[i] = Vec3::zeros();
-        }
+        let env = RodEnvironment {
+            table_height: self.table.map(|(z, _)| z),
+            table_friction: self.table.map_or(0.0, |(_, mu)| mu),
+            colliders: &self.colliders,
+            attachments: &self.attachments,
+            walls: Some(self.walls),
+            self_collision: self.self_contact,
+            self_friction: self.self_friction,
+        };
+        self.solver.step_frame_in(&mut self.rod, dt as f32, &env);
     }
 
     /// Current length over rest length, minus one.
     pub fn elongation(&self) -> f64 {
         self.rod.length() as f64 / self.rod.rest_length() as f64 - 1.0
+    }
+
+    /// The knot determinant of the centreline (see [`knot`]): 1 unknotted, 3 an overhand
+    /// knot (trefoil).
+    pub fn knot_determinant(&self) -> u128 {
+        let points: Vec<_> = self.rod.points.iter().map(|p| p.cast::<f64>()).collect();
+        knot::knot_determinant(&points)
     }
 
     /// Points held by grippers now.
