@@ -82,6 +82,11 @@ fn rclpy_grasp_lifts_the_default_liver_and_opening_releases_it() {
 }
 
 #[test]
+fn rclpy_psm1_picks_up_the_thread_and_opening_drops_it() {
+    rclpy_test("test_thread_pickup.py", "config/thread.toml", 63);
+}
+
+#[test]
 fn teleop_demo_grasps_lifts_and_releases_the_liver() {
     // The demo exits non-zero when nothing was lifted; it prints what it lifted.
     if let Some(out) = rclpy_test(
