@@ -377,10 +377,13 @@ impl PlannedFrame {
 }
 
 /// What a scene uses that only the CPU backend steps: the implicit method, slicer tools
-/// (cutting).
+/// (cutting), tissue toughness (tearing).
 fn cpu_only_feature(scene: &Scene) -> Option<&'static str> {
     if scene.solver.method == Method::Implicit {
         return Some(crate::mpm::gpu::IMPLICIT_METHOD);
+    }
+    if scene.tissues.iter().any(|t| t.material.toughness.is_some()) {
+        return Some("tissue toughness (tearing)");
     }
     scene
         .tools
@@ -431,6 +434,7 @@ impl World {
                 lame,
                 density: m.density as f32,
                 damping: m.damping as f32,
+                toughness: m.toughness.unwrap_or(0.0) as f32,
             });
             let c = Vector3::from(t.center);
             let h = Vector3::from(t.size) * 0.5;
@@ -596,7 +600,7 @@ impl World {
     /// across a cut (see [`crate::mpm::pieces`]).
     pub fn pieces(&self) -> usize {
         let p = self.particles();
-        crate::mpm::pieces::count(&p.x, &p.crack, self.layout().dx)
+        crate::mpm::pieces::count_torn(&p.x, &p.crack, &p.damage, self.layout().dx)
     }
 
     pub fn layout(&self) -> &GridLayout {
