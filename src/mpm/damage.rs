@@ -112,8 +112,19 @@ pub fn softening(tensile_energy: f32, onset: f32) -> f32 {
 /// Advances the particle's damage `d` to the deformation `f` (never down) and returns its
 /// degraded Kirchhoff stress (1 − d) τ⁺ + τ⁻ (Pa). `onset` is [`onset_energy`] of the
 /// particle's material, 0 for a material without toughness (which never damages).
+///
+/// Past [`TORN`] the particle is torn through: its damage becomes 1 and its deformation
+/// gradient keeps only what still stores energy, a volume compression, F ← min(J, 1)^⅓·I.
+/// Without this F would follow the torn material's free flow and grow without bound (its
+/// stretch and shear cost nothing), until it overflowed.
 #[inline(always)]
-pub fn degraded_stress(material: &MaterialParams, onset: f32, f: &Mat3, d: &mut f32) -> Mat3 {
+pub fn degraded_stress(material: &MaterialParams, onset: f32, f: &mut Mat3, d: &mut f32) -> Mat3 {
+    if *d >= TORN {
+        let j = f.determinant();
+        *f = Mat3::identity() * j.clamp(J_MIN, 1.0).cbrt();
+        *d = 1.0;
+        return split(material, f).compression;
+    }
     let parts = split(material, f);
     if onset > 0.0 {
         *d = d.max(softening(parts.tensile_energy, onset));
@@ -179,7 +190,9 @@ mod tests {
                 let psi = energy_density(model, m.lame, &f);
                 let j = f.determinant();
                 let volume = match model {
-                    MaterialModel::NeoHookean => 0.5 * m.lame.lambda as f64 * (j as f64).ln().powi(2),
+                    MaterialModel::NeoHookean => {
+                        0.5 * m.lame.lambda as f64 * (j as f64).ln().powi(2)
+                    }
                     MaterialModel::FixedCorotated => {
                         0.5 * m.lame.lambda as f64 * (j as f64 - 1.0).powi(2)
                     }
@@ -198,15 +211,19 @@ mod tests {
     #[test]
     fn torn_material_resists_compression_only() {
         let m = material(MaterialModel::NeoHookean);
-        let mut d = 1.0;
-        // Stretched: no stress left.
-        let stretched = Mat3::from_diagonal(&nalgebra::Vector3::new(1.5, 1.0, 1.0));
-        assert!(degraded_stress(&m, 1.0, &stretched, &mut d).norm() < 1e-6);
+        let mut d = TORN;
+        // Stretched and sheared: no stress left, and the deformation forgotten.
+        let mut stretched = Mat3::new(1.5, 0.3, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0);
+        assert!(degraded_stress(&m, 1.0, &mut stretched, &mut d).norm() < 1e-6);
+        assert_eq!(d, 1.0);
+        assert_eq!(stretched, Mat3::identity());
         // Squeezed: the volumetric pressure λ ln J is intact (negative: pushes back), the
         // shear part gone.
-        let squeezed = Mat3::identity() * 0.8;
-        let tau = degraded_stress(&m, 1.0, &squeezed, &mut d);
-        let pressure = m.lame.lambda * squeezed.determinant().ln();
+        let mut squeezed = Mat3::new(0.8, 0.1, 0.0, 0.0, 0.8, 0.0, 0.0, 0.0, 0.8);
+        let j = squeezed.determinant();
+        let tau = degraded_stress(&m, 1.0, &mut squeezed, &mut d);
+        assert!((squeezed.determinant() - j).abs() < 1e-5);
+        let pressure = m.lame.lambda * j.ln();
         assert!(pressure < 0.0);
         assert!((tau - Mat3::identity() * pressure).norm() < 1e-4 * pressure.abs());
     }
@@ -234,14 +251,14 @@ mod tests {
         let m = material(MaterialModel::NeoHookean);
         let stretched = Mat3::from_diagonal(&nalgebra::Vector3::new(1.6, 1.0, 1.0));
         let mut d = 0.0;
-        degraded_stress(&m, 100.0, &stretched, &mut d);
+        degraded_stress(&m, 300.0, &mut stretched.clone(), &mut d);
         let reached = d;
-        assert!(reached > 0.5, "{reached}");
-        degraded_stress(&m, 100.0, &Mat3::identity(), &mut d);
+        assert!(reached > 0.5 && reached < TORN, "{reached}");
+        degraded_stress(&m, 300.0, &mut Mat3::identity(), &mut d);
         assert_eq!(d, reached);
         // Without toughness nothing damages.
         let mut d = 0.0;
-        let tau = degraded_stress(&m, 0.0, &stretched, &mut d);
+        let tau = degraded_stress(&m, 0.0, &mut stretched.clone(), &mut d);
         assert_eq!(d, 0.0);
         assert!((tau - kirchhoff_stress(m.model, m.lame, &stretched)).norm() < 1e-3);
     }

@@ -13,11 +13,11 @@ mod binning;
 pub mod implicit;
 pub mod pbmpm;
 
-use super::{crack, damage};
 use super::grid::{Boundary, GridLayout, Node, TableHold, NODES_PER_BLOCK, WALL_NODES};
 use super::guard::{GuardEvent, GuardKind};
 use super::kernel::Stencil;
 use super::material::kirchhoff_stress;
+use super::{crack, damage};
 use super::{
     ImplicitParams, Mat3, MaterialParams, Method, Particles, PbMpmParams, SolveCounts, SolverSetup,
     SubstepStats, ToolImpulse, Vec3, MAX_TOOLS,
@@ -236,6 +236,7 @@ impl CpuSolver {
         let layout = self.layout;
         let onsets = &self.damage_onset[..];
         let damage = SharedMut(self.particles.damage.as_mut_ptr());
+        let deformation = SharedMut(self.particles.f.as_mut_ptr());
         let parts = &self.particles;
         let materials = &self.materials[..];
         let order = &self.bins.order[..];
@@ -259,9 +260,11 @@ impl CpuSolver {
                         let tau = if TEAR {
                             let onset = onsets[parts.material[p] as usize];
                             // SAFETY: with TEAR there is one damage per particle, and P2G
-                            // visits each particle once.
-                            let d = unsafe { &mut *damage.ptr().add(p) };
-                            damage::degraded_stress(&mat, onset, &parts.f[p], d)
+                            // visits each particle once (and reads its F nowhere else).
+                            let (d, f) = unsafe {
+                                (&mut *damage.ptr().add(p), &mut *deformation.ptr().add(p))
+                            };
+                            damage::degraded_stress(&mat, onset, f, d)
                         } else {
                             kirchhoff_stress(mat.model, mat.lame, &parts.f[p])
                         };
