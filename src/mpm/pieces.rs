@@ -5,12 +5,16 @@
 //! Torn-through material (damage ≥ [`TORN`]) links nothing: it is the tear. Each torn
 //! particle belongs to the piece of its nearest intact neighbour within a cell (the tear's
 //! faces), so that the band of torn particles neither bridges the pieces on either side nor
-//! counts as pieces of its own.
+//! counts as pieces of its own; a torn particle with no intact neighbour is in no piece
+//! ([`NO_PIECE`]).
 
 use super::crack::separates;
 use super::damage::TORN;
 use super::Vec3;
 use std::collections::HashMap;
+
+/// The label of a torn particle with no intact neighbour within a cell.
+pub const NO_PIECE: u32 = u32::MAX;
 
 /// Number of connected pieces of the particles at `x` with cracks `crack` (empty: none cut),
 /// linking neighbours nearer than `dx` (m).
@@ -22,6 +26,7 @@ pub fn count(x: &[Vec3], crack: &[Vec3], dx: f32) -> usize {
 pub fn count_torn(x: &[Vec3], crack: &[Vec3], damage: &[f32], dx: f32) -> usize {
     label_torn(x, crack, damage, dx)
         .iter()
+        .filter(|&&l| l != NO_PIECE)
         .max()
         .map_or(0, |&m| m as usize + 1)
 }
@@ -31,7 +36,8 @@ pub fn label(x: &[Vec3], crack: &[Vec3], dx: f32) -> Vec<u32> {
     label_torn(x, crack, &[], dx)
 }
 
-/// [`label`] with damage `damage` (empty: none; see the module docs).
+/// [`label`] with damage `damage` (empty: none; see the module docs): torn particles with
+/// no intact neighbour are [`NO_PIECE`].
 pub fn label_torn(x: &[Vec3], crack: &[Vec3], damage: &[f32], dx: f32) -> Vec<u32> {
     let torn = |i: usize| damage.get(i).is_some_and(|&d| d >= TORN);
     let cell = |p: &Vec3| (p / dx).map(|c| c.floor() as i32);
@@ -100,6 +106,9 @@ pub fn label_torn(x: &[Vec3], crack: &[Vec3], damage: &[f32], dx: f32) -> Vec<u3
     let mut number = HashMap::new();
     (0..x.len() as u32)
         .map(|i| {
+            if torn(i as usize) && face[i as usize].is_none() {
+                return NO_PIECE;
+            }
             let r = root(&mut parent, i);
             let next = number.len() as u32;
             *number.entry(r).or_insert(next)
@@ -153,6 +162,16 @@ mod tests {
         // 1.2 cells apart, not neighbours.
         damage[3] = 0.5;
         assert_eq!(count_torn(&x, &[], &damage, dx), 2);
+        // Torn particles with no intact neighbour are in no piece.
+        damage[4] = 1.0;
+        damage[5] = 1.0;
+        damage[6] = 1.0;
+        let labels = label_torn(&x, &[], &damage, dx);
+        assert_eq!(labels[6], NO_PIECE);
+        assert_eq!(count_torn(&x, &[], &damage, dx), 2);
+        damage[4] = 0.0;
+        damage[5] = 0.0;
+        damage[6] = 0.0;
         // Partly damaged material still links.
         damage[2] = 0.9;
         assert_eq!(count_torn(&x, &[], &damage, dx), 1);
