@@ -377,9 +377,17 @@ impl PlannedFrame {
     }
 }
 
-/// What a scene uses that only the CPU backend steps: the implicit method.
+/// What a scene uses that only the CPU backend steps: the implicit method, tissue toughness
+/// (tearing).
 fn cpu_only_feature(scene: &Scene) -> Option<&'static str> {
-    (scene.solver.method == Method::Implicit).then_some(crate::mpm::gpu::IMPLICIT_METHOD)
+    if scene.solver.method == Method::Implicit {
+        return Some(crate::mpm::gpu::IMPLICIT_METHOD);
+    }
+    scene
+        .tissues
+        .iter()
+        .any(|t| t.material.toughness.is_some())
+        .then_some("tissue toughness (tearing)")
 }
 
 /// Why a world could not be built.
@@ -424,6 +432,7 @@ impl World {
                 lame,
                 density: m.density as f32,
                 damping: m.damping as f32,
+                toughness: m.toughness.unwrap_or(0.0) as f32,
             });
             let c = Vector3::from(t.center);
             let h = Vector3::from(t.size) * 0.5;
@@ -592,7 +601,7 @@ impl World {
     /// across a cut (see [`crate::mpm::pieces`]).
     pub fn pieces(&self) -> usize {
         let p = self.particles();
-        crate::mpm::pieces::count(&p.x, &p.crack, self.layout().dx)
+        crate::mpm::pieces::count_torn(&p.x, &p.crack, &p.damage, self.layout().dx)
     }
 
     pub fn layout(&self) -> &GridLayout {

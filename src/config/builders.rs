@@ -22,6 +22,7 @@ pub fn material(e: f64, nu: f64, density: f64, damping: f64) -> Material {
         poisson_ratio: nu,
         density,
         damping,
+        toughness: None,
     }
 }
 

@@ -265,6 +265,10 @@ pub struct Material {
     /// Mass-proportional velocity damping (1/s), 0 for none.
     #[serde(default)]
     pub damping: f64,
+    /// Toughness G_c (J/m²): the energy a unit area of tear takes (see
+    /// [`crate::mpm::damage`]); absent: the tissue never tears.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub toughness: Option<f64>,
 }
 
 /// A rigid tool with a scripted trajectory (headless runs) or, later, an arm driving it.

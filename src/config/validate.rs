@@ -3,7 +3,7 @@
 
 use super::scene::{ArmMode, Hold, Scene};
 use crate::mpm::grid::WALL_NODES;
-use crate::mpm::MAX_TOOLS;
+use crate::mpm::{Method, MAX_TOOLS};
 use crate::tools::{ContactModel, Shape};
 use std::fmt;
 
@@ -83,6 +83,8 @@ const MAX_DEGREES: f64 = 540.0;
 const MAX_JOINT_SPEED: f64 = 100.0;
 /// Largest friction coefficient: real contacts stay below a few.
 const MAX_FRICTION: f64 = 10.0;
+/// Largest toughness (J/m²): tough skin is of the order of 1e4 J/m², soft tissue 1e1–1e3.
+const MAX_TOUGHNESS: f64 = 1e6;
 /// Longest scripted time (s): a day of simulated time.
 const MAX_TIME: f64 = 86_400.0;
 
@@ -267,6 +269,23 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
             1e6,
             "1/s (a decay time of 1 µs and more)",
         );
+        if let Some(toughness) = m.toughness {
+            c.positive_up_to(
+                key("material.toughness"),
+                toughness,
+                MAX_TOUGHNESS,
+                "J/m² (G_c: energy per unit area of tear)",
+            );
+            c.require(
+                matches!(scene.solver.method, Method::MlsMpm | Method::PicMpm),
+                "solver.method",
+                scene.solver.method,
+                format!(
+                    "mls_mpm or pic_mpm: tissue[{i}].material.toughness (tearing) is stepped by \
+                     the explicit methods only"
+                ),
+            );
+        }
         c.require(
             (1..=4).contains(&t.particles_per_axis),
             key("particles_per_axis"),

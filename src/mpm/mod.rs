@@ -5,6 +5,7 @@
 pub mod backend;
 pub mod cpu;
 pub mod crack;
+pub mod damage;
 pub mod gpu;
 pub mod grid;
 pub mod guard;

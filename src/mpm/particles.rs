@@ -11,6 +11,8 @@ pub struct MaterialParams {
     /// Mass-proportional (Rayleigh α) velocity damping, 1/s, integrated implicitly:
     /// v ← v / (1 + α·dt), stable for any α·dt.
     pub damping: f32,
+    /// Toughness G_c (J/m²) of the damage model (see [`super::damage`]); 0: never tears.
+    pub toughness: f32,
 }
 
 #[derive(Clone, Debug, Default)]
@@ -27,6 +29,8 @@ pub struct Particles {
     pub material: Vec<u16>,
     /// Per-particle crack plane (see [`super::crack`]); empty until a slicer first cuts.
     pub crack: Vec<Vec3>,
+    /// Per-particle damage in [0, 1] (see [`super::damage`]); empty when no material tears.
+    pub damage: Vec<f32>,
 }
 
 impl Particles {
@@ -69,7 +73,7 @@ impl Particles {
         }
     }
 
-    /// Copies the dynamic state (x, v, C, F, cracks) of `other`, which has the same particles,
+    /// Copies the dynamic state (x, v, C, F, cracks, damage) of `other`, which has the same particles,
     /// reusing this one's buffers.
     pub fn copy_state_from(&mut self, other: &Particles) {
         self.x.clone_from(&other.x);
@@ -77,6 +81,7 @@ impl Particles {
         self.c.clone_from(&other.c);
         self.f.clone_from(&other.f);
         self.crack.clone_from(&other.crack);
+        self.damage.clone_from(&other.damage);
     }
 
     /// Total linear momentum (kg·m/s), f64.

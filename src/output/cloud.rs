@@ -1,5 +1,5 @@
 //! The tissue as points: position and one deformation scalar per point (volume change
-//! J − 1, or equivalent strain; see [`StrainMeasure`]), thinned by a particle stride and
+//! J − 1, equivalent strain or tearing damage; see [`StrainMeasure`]), thinned by a particle stride and
 //! optionally by a voxel filter.
 
 use super::strain::StrainMeasure;
@@ -43,12 +43,13 @@ impl TissueCloud {
     /// Particles with non-finite positions or scalars are left out (NaN is never published).
     pub fn from_particles(particles: &Particles, options: &CloudOptions) -> TissueCloud {
         let stride = options.stride.max(1);
+        let values = options.measure.values(particles);
         let (positions, scalar) = particles
             .x
             .iter()
-            .zip(&particles.f)
+            .zip(values)
             .step_by(stride)
-            .map(|(x, f)| ([x.x, x.y, x.z], options.measure.of(f)))
+            .map(|(x, s)| ([x.x, x.y, x.z], s))
             .filter(|(p, s)| s.is_finite() && p.iter().all(|v| v.is_finite()))
             .unzip();
         let cloud = TissueCloud {
@@ -164,6 +165,28 @@ mod tests {
         let cloud = TissueCloud::from_particles(&particles, &options);
         assert_eq!(cloud.scalar_name(), "equivalent_strain");
         assert!(cloud.scalar[0].abs() < 1e-6);
+    }
+
+    #[test]
+    fn the_cloud_carries_damage_when_asked() {
+        let mut particles = cube();
+        let options = CloudOptions {
+            measure: StrainMeasure::Damage,
+            ..CloudOptions::default()
+        };
+        // A tissue that cannot tear has no damage state: zero everywhere.
+        let cloud = TissueCloud::from_particles(&particles, &options);
+        assert_eq!(cloud.scalar_name(), "damage");
+        assert!(cloud.scalar.iter().all(|&s| s == 0.0));
+        particles.damage = (0..particles.len()).map(|i| i as f32 * 0.01).collect();
+        let cloud = TissueCloud::from_particles(&particles, &options);
+        assert_eq!(cloud.scalar, particles.damage);
+        let bytes = cloud.cloud_bytes();
+        let at = 5 * CLOUD_POINT_STEP + 12;
+        assert_eq!(
+            f32::from_le_bytes(bytes[at..at + 4].try_into().unwrap()),
+            particles.damage[5]
+        );
     }
 
     #[test]

@@ -280,7 +280,7 @@ pub fn render(world: &World, opts: &SnapshotOptions) -> Snapshot {
     }
 
     // Tissue: one shaded sphere per particle, coloured by strain.
-    let strains: Vec<f32> = particles.f.iter().map(|f| opts.measure.of(f)).collect();
+    let strains = opts.measure.values(particles);
     let strain_range = opts
         .strain_range
         .unwrap_or_else(|| strain::colour_range(&strains));

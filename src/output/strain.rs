@@ -1,6 +1,6 @@
 //! Per-particle deformation scalars for colouring point clouds and pictures.
 
-use crate::mpm::{Mat3, Vec3};
+use crate::mpm::{Mat3, Particles, Vec3};
 use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -11,17 +11,33 @@ pub enum StrainMeasure {
     /// Equivalent (von Mises) Green strain √(2/3 · dev E : dev E), E = ½(FᵀF − I): shape change.
     #[default]
     Equivalent,
+    /// Tearing damage d ∈ [0, 1] (see [`crate::mpm::damage`]; 1: torn through). Particle
+    /// state, not a function of F: 0 where the tissue cannot tear.
+    Damage,
 }
 
 impl StrainMeasure {
+    /// The measure at deformation gradient `f` (0 for [`StrainMeasure::Damage`], which
+    /// [`StrainMeasure::values`] reads from the particles).
     pub fn of(self, f: &Mat3) -> f32 {
         match self {
+            StrainMeasure::Damage => 0.0,
             StrainMeasure::Volumetric => f.determinant() - 1.0,
             StrainMeasure::Equivalent => {
                 let e = 0.5 * (f.transpose() * f - Mat3::identity());
                 let dev = e - Mat3::identity() * (e.trace() / 3.0);
                 (2.0 / 3.0 * dev.norm_squared()).sqrt()
             }
+        }
+    }
+
+    /// The measure of every particle.
+    pub fn values(self, particles: &Particles) -> Vec<f32> {
+        match self {
+            StrainMeasure::Damage if particles.damage.len() == particles.len() => {
+                particles.damage.clone()
+            }
+            _ => particles.f.iter().map(|f| self.of(f)).collect(),
         }
     }
 
@@ -35,6 +51,7 @@ impl StrainMeasure {
         match self {
             StrainMeasure::Volumetric => "volumetric_strain",
             StrainMeasure::Equivalent => "equivalent_strain",
+            StrainMeasure::Damage => "damage",
         }
     }
 

@@ -75,7 +75,7 @@ impl TissueSurface {
         match self {
             TissueSurface::Mesh { mesh, measure } => {
                 mesh.update(&particles.x);
-                let strain: Vec<f32> = particles.f.iter().map(|f| measure.of(f)).collect();
+                let strain = measure.values(particles);
                 let values = mesh.vertex_values(&strain);
                 let range = colour_range(&values);
                 for t in &mesh.triangles {

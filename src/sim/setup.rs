@@ -174,6 +174,18 @@ pub fn check_arm_urdfs(scene: &Scene) -> Vec<ArmUrdfProblem> {
 /// The surface a scene's outputs get: the constant-topology mesh cannot follow a cut, so a
 /// scene with a slicer that asks for it gets the isosurface instead, with the reason logged.
 pub fn surface_kind(scene: &Scene) -> SurfaceKind {
+    let tears = scene
+        .tissues
+        .iter()
+        .find(|t| t.material.toughness.is_some());
+    if let (SurfaceKind::Mesh, Some(tissue)) = (scene.outputs.surface, tears) {
+        tracing::info!(
+            "outputs.surface: isosurface instead of mesh: tissue {} can tear \
+             (material.toughness), and the mesh's topology is fixed at rest",
+            tissue.name
+        );
+        return SurfaceKind::Isosurface;
+    }
     let cuts = scene
         .tools
         .iter()

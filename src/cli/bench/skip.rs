@@ -6,7 +6,9 @@
 //! - on the default scene, the liver held up 10 mm by the grip against the same jaws closed
 //!   on it without pressing (contact only, nothing held);
 //! - a scalpel parked out of reach against no tools, and the cutting scene mid-cut against
-//!   a blunt tool on the blade's path (the cost of cutting when on).
+//!   a blunt tool on the blade's path (the cost of cutting when on);
+//! - the resting tissue with a toughness it never reaches against none (the cost of the
+//!   damage model when on, CPU only: tearing has no GPU path).
 
 use dvrk_tissue_sim::config::builders::seed000_scene;
 use dvrk_tissue_sim::config::Scene;
@@ -210,6 +212,18 @@ pub fn run(backend: BackendChoice, frames: u32) -> anyhow::Result<Vec<SkipRow>> 
     bare.tools.clear();
     const BARE: &str = "no tools";
     measure(BARE, bare, None, false, None)?;
+    if backend != BackendChoice::Gpu {
+        let mut tough = resting_scene();
+        // Damage computed every substep, never started: the same motion as the baseline.
+        tough.tissues[0].material.toughness = Some(1e5);
+        measure(
+            "at rest, stepped, toughness on (nothing tears)",
+            tough,
+            Some((AWAKE, 1.1)),
+            false,
+            None,
+        )?;
+    }
     measure(
         "gripper, needle, probe parked",
         parked_tools(resting_scene()),

@@ -788,6 +788,7 @@ mod tests {
                 lame: Lame::from_young_poisson(e, 0.45),
                 density: 1000.0,
                 damping: 0.0,
+                toughness: 0.0,
             }],
             boundary: Boundary {
                 table: Some((0.002, TableHold::Bonded)),

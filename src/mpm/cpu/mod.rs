@@ -13,11 +13,11 @@ mod binning;
 pub mod implicit;
 pub mod pbmpm;
 
-use super::crack;
 use super::grid::{Boundary, GridLayout, Node, TableHold, NODES_PER_BLOCK, WALL_NODES};
 use super::guard::{GuardEvent, GuardKind};
 use super::kernel::Stencil;
 use super::material::kirchhoff_stress;
+use super::{crack, damage};
 use super::{
     ImplicitParams, Mat3, MaterialParams, Method, Particles, PbMpmParams, SolveCounts, SolverSetup,
     SubstepStats, ToolImpulse, Vec3, MAX_TOOLS,
@@ -47,6 +47,9 @@ pub struct CpuSolver {
     pub pb_mpm: PbMpmParams,
     /// The implicit solver's Newton and CG settings.
     pub implicit: ImplicitParams,
+    /// Damage onset energy of each material (see [`damage::onsets`]); empty when nothing
+    /// tears, and then the particles keep no damage either.
+    damage_onset: Vec<f32>,
     grid: Vec<Node>,
     bins: Binning,
     /// The implicit solver's buffers, sized on its first substep.
@@ -94,10 +97,16 @@ impl CpuSolver {
     pub fn new(setup: SolverSetup) -> Self {
         let layout = setup.layout;
         let bins = Binning::new(&layout, setup.particles.len());
+        let mut particles = setup.particles;
+        let damage_onset = damage::onsets(&setup.materials, layout.dx).unwrap_or_default();
+        if !damage_onset.is_empty() {
+            particles.damage = vec![0.0; particles.len()];
+        }
         CpuSolver {
+            damage_onset,
             grid: vec![[0.0; 4]; layout.node_count()],
             layout,
-            particles: setup.particles,
+            particles,
             materials: setup.materials,
             boundary: setup.boundary,
             max_speed: setup.max_speed,
@@ -208,17 +217,27 @@ impl CpuSolver {
     /// Kirchhoff stress's force is fused in, without it (PB-MPM) only momentum moves; with
     /// `affine` the momentum carries APIC's affine part m·C·(xᵢ − xₚ) (PIC without).
     fn particle_to_grid(&mut self, stress_scale: Option<f32>, affine: bool) {
-        if self.cutting() {
-            self.transfer_to_grid::<true>(stress_scale, affine)
-        } else {
-            self.transfer_to_grid::<false>(stress_scale, affine)
+        let tearing = !self.damage_onset.is_empty();
+        match (self.cutting(), tearing) {
+            (false, false) => self.transfer_to_grid::<false, false>(stress_scale, affine),
+            (true, false) => self.transfer_to_grid::<true, false>(stress_scale, affine),
+            (false, true) => self.transfer_to_grid::<false, true>(stress_scale, affine),
+            (true, true) => self.transfer_to_grid::<true, true>(stress_scale, affine),
         }
     }
 
     /// P2G; with `CUT` a particle skips the nodes across its crack (the per-node test only
-    /// where the crack passes through its stencil, see [`crack::StencilCut`]).
-    fn transfer_to_grid<const CUT: bool>(&mut self, stress_scale: Option<f32>, affine: bool) {
+    /// where the crack passes through its stencil, see [`crack::StencilCut`]), with `TEAR`
+    /// its damage follows its deformation and degrades its tension (see [`damage`]).
+    fn transfer_to_grid<const CUT: bool, const TEAR: bool>(
+        &mut self,
+        stress_scale: Option<f32>,
+        affine: bool,
+    ) {
         let layout = self.layout;
+        let onsets = &self.damage_onset[..];
+        let damage = SharedMut(self.particles.damage.as_mut_ptr());
+        let deformation = SharedMut(self.particles.f.as_mut_ptr());
         let parts = &self.particles;
         let materials = &self.materials[..];
         let order = &self.bins.order[..];
@@ -239,7 +258,17 @@ impl CpuSolver {
                         Mat3::zeros()
                     };
                     if let Some(scale) = stress_scale {
-                        let tau = kirchhoff_stress(mat.model, mat.lame, &parts.f[p]);
+                        let tau = if TEAR {
+                            let onset = onsets[parts.material[p] as usize];
+                            // SAFETY: with TEAR there is one damage per particle, and P2G
+                            // visits each particle once (and reads its F nowhere else).
+                            let (d, f) = unsafe {
+                                (&mut *damage.ptr().add(p), &mut *deformation.ptr().add(p))
+                            };
+                            damage::degraded_stress(&mat, onset, f, d)
+                        } else {
+                            kirchhoff_stress(mat.model, mat.lame, &parts.f[p])
+                        };
                         q += tau * (scale * parts.volume0[p]);
                     }
                     let q = q * layout.dx;

@@ -122,6 +122,7 @@ mod tests {
             lame: Lame::from_young_poisson(10_000.0, nu),
             density: 1000.0,
             damping: 0.0,
+            toughness: 0.0,
         }
     }
 

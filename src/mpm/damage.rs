@@ -1,0 +1,265 @@
+//! Tearing: a per-particle scalar damage d ∈ [0, 1] that takes the tension out of
+//! material strained past its toughness G_c (J/m², scene key `material.toughness`).
+//!
+//! **Split.** The strain energy density (J/m³) of either model is a shear part ψ_μ ≥ 0 plus a
+//! volume part ψ_λ ≥ 0 (see [`super::material`]):
+//! Neo-Hookean ψ_μ = μ/2 (tr FᵀF − 3) − μ ln J, ψ_λ = λ/2 (ln J)²;
+//! fixed-corotated ψ_μ = μ‖F − R‖², ψ_λ = λ/2 (J − 1)².
+//! Tension is the shear part and, when the particle is dilated (J > 1), the volume part
+//! (Amor et al. 2009's volumetric–deviatoric split): ψ⁺ = ψ_μ + [J > 1] ψ_λ,
+//! ψ⁻ = [J ≤ 1] ψ_λ. Damage degrades only the tension:
+//! ψ = (1 − d) ψ⁺ + ψ⁻, τ = (1 − d) τ⁺ + τ⁻,
+//! so fully damaged material still resists being compressed but carries no tension and no
+//! shear.
+//!
+//! **Evolution.** Damage is driven by the largest tensile energy density seen, Y = max ψ⁺
+//! (J/m³), with an exponential softening law
+//! d(Y) = 0 for Y ≤ Y₀, d(Y) = 1 − exp(−(Y − Y₀)/Y_f) above,
+//! and never decreases (d ← max(d, d(ψ⁺))). Its dissipation rate is −∂ψ/∂d·ḋ = ψ⁺ ḋ, so
+//! a particle damaged from 0 to 1 dissipates ∫ Y dd = ∫_{Y₀}^∞ Y e^{−(Y−Y₀)/Y_f} dY / Y_f
+//! = Y₀ + Y_f per unit volume.
+//!
+//! **Crack band** (Bažant & Oh 1983). Damage localises in a band of material one cell wide,
+//! h = dx, so the energy a unit area of crack dissipates is (Y₀ + Y_f)·h. Setting
+//! Y₀ = Y_f = G_c / (2h) makes it G_c whatever the cell size: the tear's energy balance,
+//! and with it the tearing force, does not depend on dx. There is no separate strength:
+//! the process zone is the cell at the crack tip, the limit of linear elastic fracture
+//! mechanics, where a cell at the tip of a crack with energy release rate G holds an
+//! energy density of about G/h, and it begins to fail when that reaches Y₀ (G ≈ G_c/2) and
+//! is through when G reaches G_c.
+
+use super::material::{rotation_of, J_MIN};
+use super::{Mat3, MaterialModel, MaterialParams};
+
+/// Damage past which a particle counts as torn through: it no longer links pieces (see
+/// [`super::pieces`]) and carries under 1 % of its tension.
+pub const TORN: f32 = 0.99;
+
+/// The tension and compression of a particle's Kirchhoff stress (Pa) and the tensile energy
+/// density ψ⁺ (J/m³) that drives damage.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Split {
+    pub tension: Mat3,
+    pub compression: Mat3,
+    pub tensile_energy: f32,
+}
+
+/// The volumetric–deviatoric split of `material`'s stress at `f` (see the module docs);
+/// `tension + compression` is [`super::material::kirchhoff_stress`].
+#[inline(always)]
+pub fn split(material: &MaterialParams, f: &Mat3) -> Split {
+    let (mu, lambda) = (material.lame.mu, material.lame.lambda);
+    let (mut shear, shear_energy, volume_stress, volume_energy, dilated) = match material.model {
+        MaterialModel::NeoHookean => {
+            let j = f.determinant().max(J_MIN);
+            let ln_j = j.ln();
+            let b = f * f.transpose();
+            (
+                (b - Mat3::identity()) * mu,
+                0.5 * mu * (b.trace() - 3.0) - mu * ln_j,
+                lambda * ln_j,
+                0.5 * lambda * ln_j * ln_j,
+                j > 1.0,
+            )
+        }
+        MaterialModel::FixedCorotated => {
+            let j = f.determinant();
+            let r = rotation_of(f);
+            (
+                (f - r) * f.transpose() * (2.0 * mu),
+                mu * (f - r).norm_squared(),
+                lambda * (j - 1.0) * j,
+                0.5 * lambda * (j - 1.0) * (j - 1.0),
+                j > 1.0,
+            )
+        }
+    };
+    let volume = Mat3::identity() * volume_stress;
+    if dilated {
+        shear += volume;
+        Split {
+            tension: shear,
+            compression: Mat3::zeros(),
+            tensile_energy: shear_energy + volume_energy,
+        }
+    } else {
+        Split {
+            tension: shear,
+            compression: volume,
+            tensile_energy: shear_energy,
+        }
+    }
+}
+
+/// Energy density (J/m³) at which damage starts, and the softening scale, both
+/// Y₀ = Y_f = G_c / (2 dx) (see the module docs); `toughness` G_c in J/m², `dx` in m.
+#[inline(always)]
+pub fn onset_energy(toughness: f32, dx: f32) -> f32 {
+    0.5 * toughness / dx
+}
+
+/// Damage of a particle whose largest tensile energy density so far is `tensile_energy`
+/// (J/m³), for onset and softening scale `onset` (J/m³).
+#[inline(always)]
+pub fn softening(tensile_energy: f32, onset: f32) -> f32 {
+    if tensile_energy <= onset {
+        0.0
+    } else {
+        1.0 - (-(tensile_energy - onset) / onset).exp()
+    }
+}
+
+/// Advances the particle's damage `d` to the deformation `f` (never down) and returns its
+/// degraded Kirchhoff stress (1 − d) τ⁺ + τ⁻ (Pa). `onset` is [`onset_energy`] of the
+/// particle's material, 0 for a material without toughness (which never damages).
+///
+/// Past [`TORN`] the particle is torn through: its damage becomes 1 and its deformation
+/// gradient keeps only what still stores energy, a volume compression, F ← min(J, 1)^⅓·I.
+/// Without this F would follow the torn material's free flow and grow without bound (its
+/// stretch and shear cost nothing), until it overflowed.
+#[inline(always)]
+pub fn degraded_stress(material: &MaterialParams, onset: f32, f: &mut Mat3, d: &mut f32) -> Mat3 {
+    if *d >= TORN {
+        let j = f.determinant();
+        *f = Mat3::identity() * j.clamp(J_MIN, 1.0).cbrt();
+        *d = 1.0;
+        return split(material, f).compression;
+    }
+    let parts = split(material, f);
+    if onset > 0.0 {
+        *d = d.max(softening(parts.tensile_energy, onset));
+    }
+    parts.tension * (1.0 - *d) + parts.compression
+}
+
+/// Damage onset energy of each material (J/m³) on a grid of cell size `dx` (m), 0 for
+/// materials without toughness; `None` when no material has toughness (the solver then
+/// keeps no damage state).
+pub fn onsets(materials: &[MaterialParams], dx: f32) -> Option<Vec<f32>> {
+    materials.iter().any(|m| m.toughness > 0.0).then(|| {
+        materials
+            .iter()
+            .map(|m| {
+                if m.toughness > 0.0 {
+                    onset_energy(m.toughness, dx)
+                } else {
+                    0.0
+                }
+            })
+            .collect()
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mpm::material::{energy_density, kirchhoff_stress};
+    use crate::mpm::Lame;
+
+    fn material(model: MaterialModel) -> MaterialParams {
+        MaterialParams {
+            model,
+            lame: Lame::from_young_poisson(2.0e4, 0.4),
+            density: 1000.0,
+            damping: 0.0,
+            toughness: 10.0,
+        }
+    }
+
+    fn sample_f() -> Vec<Mat3> {
+        vec![
+            Mat3::new(1.1, 0.05, -0.02, 0.03, 0.92, 0.04, -0.01, 0.06, 1.05),
+            Mat3::new(1.3, 0.0, 0.0, 0.0, 0.87, 0.0, 0.0, 0.0, 0.87),
+            Mat3::new(0.8, 0.2, 0.1, -0.15, 1.2, 0.0, 0.05, -0.1, 0.95),
+            Mat3::identity() * 0.9,
+            Mat3::identity() * 1.1,
+        ]
+    }
+
+    #[test]
+    fn the_split_adds_up_to_the_material_stress_and_energy() {
+        for model in [MaterialModel::NeoHookean, MaterialModel::FixedCorotated] {
+            let m = material(model);
+            for f in sample_f() {
+                let s = split(&m, &f);
+                let tau = kirchhoff_stress(model, m.lame, &f);
+                assert!(
+                    (s.tension + s.compression - tau).norm() < 1e-3 * m.lame.mu,
+                    "{model:?} {f}"
+                );
+                let psi = energy_density(model, m.lame, &f);
+                let j = f.determinant();
+                let volume = match model {
+                    MaterialModel::NeoHookean => {
+                        0.5 * m.lame.lambda as f64 * (j as f64).ln().powi(2)
+                    }
+                    MaterialModel::FixedCorotated => {
+                        0.5 * m.lame.lambda as f64 * (j as f64 - 1.0).powi(2)
+                    }
+                };
+                let tensile = if j > 1.0 { psi } else { psi - volume };
+                assert!(
+                    (s.tensile_energy as f64 - tensile).abs() < 1e-3 * m.lame.mu as f64,
+                    "{model:?} {f}: ψ⁺ {} vs {tensile}",
+                    s.tensile_energy
+                );
+                assert!(s.tensile_energy >= -1e-3 * m.lame.mu);
+            }
+        }
+    }
+
+    #[test]
+    fn torn_material_resists_compression_only() {
+        let m = material(MaterialModel::NeoHookean);
+        let mut d = TORN;
+        // Stretched and sheared: no stress left, and the deformation forgotten.
+        let mut stretched = Mat3::new(1.5, 0.3, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0);
+        assert!(degraded_stress(&m, 1.0, &mut stretched, &mut d).norm() < 1e-6);
+        assert_eq!(d, 1.0);
+        assert_eq!(stretched, Mat3::identity());
+        // Squeezed: the volumetric pressure λ ln J is intact (negative: pushes back), the
+        // shear part gone.
+        let mut squeezed = Mat3::new(0.8, 0.1, 0.0, 0.0, 0.8, 0.0, 0.0, 0.0, 0.8);
+        let j = squeezed.determinant();
+        let tau = degraded_stress(&m, 1.0, &mut squeezed, &mut d);
+        assert!((squeezed.determinant() - j).abs() < 1e-5);
+        let pressure = m.lame.lambda * j.ln();
+        assert!(pressure < 0.0);
+        assert!((tau - Mat3::identity() * pressure).norm() < 1e-4 * pressure.abs());
+    }
+
+    #[test]
+    fn damage_never_heals_and_dissipates_the_band_energy() {
+        let onset = onset_energy(20.0, 0.002);
+        assert_eq!(onset, 5000.0);
+        assert_eq!(softening(onset * 0.99, onset), 0.0);
+        // ∫ Y dd over the softening law, numerically: Y₀ + Y_f = 2·onset = G_c/dx.
+        let mut dissipated = 0.0f64;
+        let mut d_prev = 0.0f64;
+        for i in 0..200_000 {
+            let y = onset as f64 * (1.0 + i as f64 * 1e-4);
+            let d = softening(y as f32, onset) as f64;
+            dissipated += y * (d - d_prev);
+            d_prev = d;
+        }
+        let expected = 20.0 / 0.002;
+        assert!(
+            (dissipated - expected).abs() < 1e-3 * expected,
+            "{dissipated} vs {expected}"
+        );
+        // Irreversible: unloading keeps the damage reached.
+        let m = material(MaterialModel::NeoHookean);
+        let stretched = Mat3::from_diagonal(&nalgebra::Vector3::new(1.6, 1.0, 1.0));
+        let mut d = 0.0;
+        degraded_stress(&m, 3000.0, &mut stretched.clone(), &mut d);
+        let reached = d;
+        assert!(reached > 0.5 && reached < TORN, "{reached}");
+        degraded_stress(&m, 3000.0, &mut Mat3::identity(), &mut d);
+        assert_eq!(d, reached);
+        // Without toughness nothing damages.
+        let mut d = 0.0;
+        let tau = degraded_stress(&m, 0.0, &mut stretched.clone(), &mut d);
+        assert_eq!(d, 0.0);
+        assert!((tau - kirchhoff_stress(m.model, m.lame, &stretched)).norm() < 1e-3);
+    }
+}
