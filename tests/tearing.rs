@@ -151,6 +151,7 @@ fn trouser(dx: f32, toughness: f32) -> Trouser {
         max_speed: 50.0,
         max_substeps: 1,
         tool_count: 3,
+        cutting: false,
         p2g: P2gAtomics::Auto,
         method: Method::MlsMpm,
         pb_mpm: PbMpmParams {
