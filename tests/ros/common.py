@@ -72,6 +72,16 @@ class Recorder:
         self.wait_for(lambda: publisher.get_subscription_count() > 0, timeout,
                       f"the node to subscribe {publisher.topic_name}")
 
+    def sim_time(self, topic="/PSM1/measured_js"):
+        """Simulated time: the stamp of the latest message on `topic` (subscribed)."""
+        stamp = self.latest(topic).header.stamp
+        return stamp.sec + stamp.nanosec * 1e-9
+
+    def wait_sim(self, seconds, what, topic="/PSM1/measured_js"):
+        """Waits `seconds` of simulated time, however slowly the simulation runs."""
+        end = self.sim_time(topic) + seconds
+        self.wait_for(lambda: self.sim_time(topic) >= end, 600.0, what)
+
     def close(self):
         self.node.destroy_node()
         rclpy.shutdown()

@@ -26,16 +26,6 @@ rec.wait_subscribers(move)
 rec.wait_subscribers(jaw_move)
 
 
-def sim_time():
-    stamp = rec.latest("/PSM1/measured_js").header.stamp
-    return stamp.sec + stamp.nanosec * 1e-9
-
-
-def wait_sim(seconds, what):
-    end = sim_time() + seconds
-    rec.wait_for(lambda: sim_time() >= end, 600.0, what)
-
-
 def points(cloud):
     data = bytes(cloud.data)
     return [struct.unpack_from("<3f", data, i * cloud.point_step) for i in range(cloud.width)]
@@ -76,7 +66,7 @@ print(f"RESULT closed jaw={jaw()[0]:.4f} rad effort={jaw()[1]:.3f} N·m")
 move.publish(JointState(position=q[:2] + [home_insertion + 0.001] + q[3:]))
 rec.wait_for(lambda: abs(rec.latest("/PSM1/measured_js").position[2] - home_insertion - 0.001)
              < 1e-4, 600.0, "the 10 mm lift")
-wait_sim(0.3, "the hold")
+rec.wait_sim(0.3, "the hold")
 held_rise = region_z() - z0
 wrenches = [m for _, m in rec.messages["/tools/gripper/wrench"][-10:]]
 # Tool z points down along the instrument: the tissue pulls the lifted jaws down, along +z.
@@ -86,7 +76,7 @@ check(held_rise >= 0.005, f"the grasped region rose {held_rise * 1e3:.2f} mm (>=
 check(pull > 0.05, f"the gripper wrench carries the pull ({pull:.3f} N)")
 
 jaw_move.publish(JointState(name=["jaw"], position=[math.radians(50)]))
-wait_sim(1.0, "the release")
+rec.wait_sim(1.0, "the release")
 released_rise = region_z() - z0
 wrenches = [m for _, m in rec.messages["/tools/gripper/wrench"][-5:]]
 after = max(abs(w.wrench.force.z) for w in wrenches)

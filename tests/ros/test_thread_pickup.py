@@ -28,16 +28,6 @@ rec.wait_subscribers(move)
 rec.wait_subscribers(jaw_move)
 
 
-def sim_time():
-    stamp = rec.latest("/PSM1/measured_js").header.stamp
-    return stamp.sec + stamp.nanosec * 1e-9
-
-
-def wait_sim(seconds, what):
-    end = sim_time() + seconds
-    rec.wait_for(lambda: sim_time() >= end, 600.0, what)
-
-
 def centreline():
     marker = rec.latest(CENTRELINE)
     return [(p.x, p.y, p.z) for p in marker.points]
@@ -60,7 +50,7 @@ def jaw():
 
 
 # The thread falls 6 mm onto the table first (scene start): let it settle.
-wait_sim(0.5, "the thread to settle")
+rec.wait_sim(0.5, "the thread to settle")
 rest = centreline()
 rest_length = length(rest)
 z0 = middle_z(rest)
@@ -83,11 +73,11 @@ rec.wait_for(lambda: abs(rec.latest("/PSM1/measured_js").position[2] - home_inse
              < 1e-4, 600.0, "the insertion")
 jaw_move.publish(JointState(name=["jaw"], position=[math.radians(-20)]))
 rec.wait_for(lambda: jaw()[0] < 0.03, 600.0, "the jaws to close on the thread")
-wait_sim(0.2, "the jaws to press")
+rec.wait_sim(0.2, "the jaws to press")
 move.publish(JointState(position=q[:2] + [home_insertion - 0.0095] + q[3:]))
 rec.wait_for(lambda: abs(rec.latest("/PSM1/measured_js").position[2] - home_insertion + 0.0095)
              < 1e-4, 600.0, "the 40 mm lift")
-wait_sim(0.3, "the hold")
+rec.wait_sim(0.3, "the hold")
 held = centreline()
 rise = middle_z(held) - z0
 stretch = length(held) / rest_length - 1.0
@@ -99,7 +89,7 @@ check(abs(stretch) < 0.001, f"the thread keeps its length ({stretch * 100:+.4f} 
 check(lowest_end < rise + z0 - 0.002, "the ends hang below the grasp")
 
 jaw_move.publish(JointState(name=["jaw"], position=[math.radians(50)]))
-wait_sim(1.0, "the thread to fall")
+rec.wait_sim(1.0, "the thread to fall")
 fallen = centreline()
 top = max(p[2] for p in fallen)
 print(f"RESULT released: highest point {top * 1e3:.2f} mm")
