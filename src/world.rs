@@ -377,12 +377,9 @@ impl PlannedFrame {
     }
 }
 
-/// What a scene uses that only the CPU backend steps: the implicit method, tissue toughness
-/// (tearing).
+/// What a scene uses that only the CPU backend steps: tissue toughness (tearing). (What
+/// depends on the adapter as well, see [`gpu::unsupported`].)
 fn cpu_only_feature(scene: &Scene) -> Option<&'static str> {
-    if scene.solver.method == Method::Implicit {
-        return Some(crate::mpm::gpu::IMPLICIT_METHOD);
-    }
     scene
         .tissues
         .iter()
@@ -514,7 +511,18 @@ impl World {
                 }
                 None
             }
-            None => gpu::adapter::select(scene.solver.backend)?,
+            None => match gpu::adapter::select(scene.solver.backend)? {
+                Some(ctx) if scene.solver.backend == BackendChoice::Auto => {
+                    match gpu::unsupported(&ctx, &setup) {
+                        Some(feature) => {
+                            tracing::info!("backend: cpu (auto: the GPU backend has no {feature})");
+                            None
+                        }
+                        None => Some(ctx),
+                    }
+                }
+                other => other,
+            },
         };
         let backend = match gpu_context {
             Some(ctx) => Backend::Gpu(Box::new(GpuSolver::new(ctx, setup)?)),

@@ -650,7 +650,7 @@ impl CpuSolver {
 /// corrects is wasted work; as Newton converges the ratio falls and η with it. Never
 /// tighter than needed to bring the residual to half the Newton `goal`: the last step
 /// solves only as far as stopping needs.
-fn forcing_term(norm: f64, previous: Option<(f64, f64)>, goal: f64, loosest: f64) -> f64 {
+pub fn forcing_term(norm: f64, previous: Option<(f64, f64)>, goal: f64, loosest: f64) -> f64 {
     const GAMMA: f64 = 0.9;
     let eta = match previous {
         None => loosest,

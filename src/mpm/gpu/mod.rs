@@ -18,7 +18,9 @@
 //! - `pbmpm`: PB-MPM's elastic constraint on C, momentum-only P2G and the inner
 //!   iterations' G2P; a PB-MPM substep records the stages above once per iteration, each
 //!   iteration with its own parameter entry (gravity in the first only), integrating in
-//!   the last (`record_pb_substep`).
+//!   the last (`record_pb_substep`);
+//! - `implicit`: backward-Euler MLS-MPM, Newton–CG on the grid velocities (its own
+//!   buffers in bind group 1; a frame is several submissions, see that module).
 //!
 //! `resources.rs` holds the buffers and bind groups the stages share, `readback.rs` what
 //! comes back to the host, `pack.rs` the structs shared with WGSL.
@@ -40,6 +42,7 @@ pub mod adapter;
 mod crack;
 mod g2p;
 mod grid_update;
+mod implicit;
 mod p2g;
 mod pack;
 mod pbmpm;
@@ -50,11 +53,12 @@ mod sparse;
 
 use super::backend::{FramePlan, FrameStats, P2gAtomics};
 use super::grid::Node;
-use super::{GridLayout, Method, Particles, PbMpmParams, SolverSetup, MAX_TOOLS};
+use super::{GridLayout, Method, Particles, PbMpmParams, SolveCounts, SolverSetup, MAX_TOOLS};
 use adapter::GpuContext;
 use crack::CrackStage;
 use g2p::G2pStage;
 use grid_update::GridUpdateStage;
+use implicit::ImplicitStages;
 use p2g::P2gStage;
 pub use p2g::FIXED_SCALE;
 use pack::GpuParticle;
@@ -64,8 +68,12 @@ use readback::Readback;
 use resources::{Resources, ARGS_GROUP};
 use sparse::SparseStage;
 
-/// How [`GpuError::Unsupported`] names the implicit method, which the GPU does not step yet.
-pub const IMPLICIT_METHOD: &str = "solver.method = \"implicit\"";
+/// How [`GpuError::Unsupported`] names the implicit method on an adapter without f32
+/// atomics (see `implicit`).
+pub const IMPLICIT_WITHOUT_FLOAT_ATOMICS: &str =
+    "solver.method = \"implicit\" on an adapter without f32 atomics (SHADER_FLOAT32_ATOMIC)";
+/// How [`GpuError::Unsupported`] names the implicit method in a scene with a slicer.
+pub const IMPLICIT_WITH_CUTTING: &str = "solver.method = \"implicit\" in a scene that cuts";
 
 /// Why the GPU backend could not be used.
 #[derive(Debug, thiserror::Error)]
@@ -113,12 +121,28 @@ pub struct GpuSolver {
     grid_update: GridUpdateStage,
     g2p: G2pStage,
     pb: PbMpmStages,
+    /// With `method = "implicit"`: the Newton–CG solve.
+    implicit: Option<ImplicitStages>,
+    /// Newton and CG iterations of the frame in flight.
+    frame_solve: SolveCounts,
     readback: Readback,
     /// Whether frames read back the deformation gradients as well as the positions.
     read_deformation: bool,
     host: Particles,
     /// The host copy has edits the device does not have yet.
     host_dirty: bool,
+}
+
+/// What of `setup` the backend cannot step on this adapter: the implicit method needs f32
+/// atomics and a scene that does not cut (see `implicit`).
+pub fn unsupported(ctx: &GpuContext, setup: &SolverSetup) -> Option<&'static str> {
+    if setup.method != Method::Implicit {
+        return None;
+    }
+    if setup.cutting {
+        return Some(IMPLICIT_WITH_CUTTING);
+    }
+    (!ctx.float_atomics).then_some(IMPLICIT_WITHOUT_FLOAT_ATOMICS)
 }
 
 /// Whether the scene fits the device's limits.
@@ -150,8 +174,8 @@ fn check_limits(device: &wgpu::Device, setup: &SolverSetup) -> Result<(), GpuErr
 
 impl GpuSolver {
     pub fn new(ctx: GpuContext, setup: SolverSetup) -> Result<Self, GpuError> {
-        if setup.method == Method::Implicit {
-            return Err(GpuError::Unsupported(IMPLICIT_METHOD));
+        if let Some(feature) = unsupported(&ctx, &setup) {
+            return Err(GpuError::Unsupported(feature));
         }
         let float_p2g = match setup.p2g {
             P2gAtomics::Auto => ctx.float_atomics,
@@ -192,7 +216,23 @@ impl GpuSolver {
             plain: &res.plain,
             with_args: &res.with_args,
         };
+        let implicit = (setup.method == Method::Implicit).then(|| {
+            let module = builder.module("implicit", implicit::SOURCE);
+            ImplicitStages::new(
+                device,
+                &res,
+                &module,
+                (
+                    setup.layout.node_count(),
+                    setup.particles.len(),
+                    setup.layout.block_count(),
+                ),
+                setup.implicit,
+            )
+        });
         Ok(GpuSolver {
+            implicit,
+            frame_solve: SolveCounts::default(),
             sparse: SparseStage::new(&builder),
             crack: CrackStage::new(&builder),
             p2g: P2gStage::new(&builder),
@@ -293,6 +333,10 @@ impl GpuSolver {
         let (entries, relaxation) = step_entries(self.method, self.pb_mpm);
         self.res
             .write_frame_inputs(&self.ctx.queue, plan, entries, relaxation);
+        if self.method == Method::Implicit {
+            self.submit_implicit_frame(plan);
+            return;
+        }
 
         let mut encoder = self
             .ctx
@@ -305,11 +349,7 @@ impl GpuSolver {
             encoder.copy_buffer_to_buffer(&self.res.cracks, 0, &self.res.crack_snapshot, 0, None);
         }
         {
-            let groups = Groups {
-                particles: self.n.div_ceil(WG).max(1),
-                blocks: (self.layout.block_count() as u32).div_ceil(WG),
-                active_blocks: &self.res.args,
-            };
+            let groups = self.groups();
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("substeps"),
                 timestamp_writes: None,
@@ -319,7 +359,7 @@ impl GpuSolver {
                 match self.method {
                     Method::MlsMpm | Method::PicMpm => self.record_substep(&mut pass, s, &groups),
                     Method::PbMpm => self.record_pb_substep(&mut pass, s, entries, &groups),
-                    Method::Implicit => unreachable!("GpuSolver::new refuses implicit"),
+                    Method::Implicit => unreachable!("implicit frames: submit_implicit_frame"),
                 }
             }
             self.res.bind_step(&mut pass, 0);
@@ -342,7 +382,18 @@ impl GpuSolver {
     /// # Panics
     /// When no frame was submitted, or the device is lost.
     pub fn collect_frame(&mut self) -> FrameStats {
-        self.readback.collect(&self.ctx.device, &mut self.host)
+        let mut stats = self.readback.collect(&self.ctx.device, &mut self.host);
+        stats.solve = std::mem::take(&mut self.frame_solve);
+        stats
+    }
+
+    /// The dispatch sizes of a frame.
+    fn groups(&self) -> Groups<'_> {
+        Groups {
+            particles: self.n.div_ceil(WG).max(1),
+            blocks: (self.layout.block_count() as u32).div_ceil(WG),
+            active_blocks: &self.res.args,
+        }
     }
 
     /// Records one MLS-MPM (or PIC) substep: cracks (with a slicer) → block list and clear

@@ -154,6 +154,8 @@ pub struct Resources {
     pub extract: wgpu::Buffer,
     pub bind_group: wgpu::BindGroup,
     pub args_group: wgpu::BindGroup,
+    /// Group 0's layout (the implicit solve adds a group of its own after it).
+    pub group0: wgpu::BindGroupLayout,
     /// Group 0 only.
     pub plain: wgpu::PipelineLayout,
     /// Group 0 and the indirect arguments: for the stages that write them, so that the
@@ -405,6 +407,7 @@ impl Resources {
             extract,
             bind_group,
             args_group,
+            group0,
             plain,
             with_args,
             step_stride,

@@ -1,0 +1,1005 @@
+// Backward-Euler MLS-MPM (cpu `implicit`): the node and particle kernels of the Newton–CG
+// solve on the grid velocities. Group 1 holds the solve's own buffers (implicit.rs); the
+// host drives Newton and the line search, the conjugate gradients run on the device with
+// their scalars in `im_scal`. Needs f32 atomics (the solver refuses implicit without them).
+
+struct ImNode {
+    // xyz: v* = p/m + g dt; w: the node mass.
+    v_star: vec4<f32>,
+    v: vec4<f32>,
+    trial: vec4<f32>,
+    grad: vec4<f32>,
+    step: vec4<f32>,
+    r: vec4<f32>,
+    z: vec4<f32>,
+    d: vec4<f32>,
+    prescribed: vec4<f32>,
+    normal: vec4<f32>,
+    // xyz: v − v* along the free components at the end of a substep; w: that substep's
+    // epoch (bits), so that only the last substep's correction is read.
+    correction: vec4<f32>,
+    free: mat3x3<f32>,
+    // The diagonal Hessian block while evaluating, then the preconditioner.
+    block: mat3x3<f32>,
+}
+
+@group(1) @binding(0) var<storage, read_write> im_nodes: array<ImNode>;
+// Per node ACC_WORDS f32 accumulators: ∂E/∂v (0..3), the diagonal Hessian block (3..12),
+// the Hessian product (12..15).
+@group(1) @binding(1) var<storage, read_write> im_acc: array<atomic<f32>>;
+// Per particle: the 9×9 velocity-gradient stiffness (hessian.rs), column-major.
+@group(1) @binding(2) var<storage, read_write> im_stiff: array<f32>;
+// Per workgroup reduction partials: two regions of arrayLength/2 entries.
+@group(1) @binding(3) var<storage, read_write> im_partials: array<f32>;
+// Scalars (f32 as bits, or u32): the I_* words below.
+@group(1) @binding(4) var<storage, read_write> im_scal: array<atomic<u32>>;
+
+const ACC_WORDS: u32 = 16u;
+const I_COUNT: u32 = 0u;
+const I_DONE: u32 = 1u;
+const I_ITER: u32 = 2u;
+const I_CRUSH: u32 = 3u;
+const I_ALPHA: u32 = 4u;
+const I_TARGET: u32 = 5u;
+const I_EPOCH: u32 = 6u;
+const I_CAP: u32 = 7u;
+const I_RZ: u32 = 8u;
+const I_CG_ALPHA: u32 = 9u;
+const I_BETA: u32 = 10u;
+
+// Which sum `im_sum` writes (its two regions to SLOT and SLOT + 1), over node or particle
+// workgroups; which velocity the energy kernels read; whether `im_eval*` build the Hessian
+// and the block-Jacobi preconditioner.
+override SLOT: u32 = 12u;
+override OVER_NODES: bool = true;
+override SELECT_TRIAL: bool = false;
+override HESSIAN: bool = false;
+override BLOCK_JACOBI: bool = true;
+
+const ID3 = mat3x3<f32>(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0));
+
+fn scal_f(i: u32) -> f32 {
+    return bitcast<f32>(atomicLoad(&im_scal[i]));
+}
+
+fn set_scal_f(i: u32, v: f32) {
+    atomicStore(&im_scal[i], bitcast<u32>(v));
+}
+
+fn cg_done() -> bool {
+    return atomicLoad(&im_scal[I_DONE]) != 0u;
+}
+
+// ---- reductions: a workgroup's two sums into the partials, then `im_sum` ----
+
+var<workgroup> wg_a: array<f32, WG>;
+var<workgroup> wg_b: array<f32, WG>;
+
+// Every invocation of the workgroup calls this (it has barriers).
+fn reduce_to_partials(lid: u32, wid: u32, a: f32, b: f32) {
+    wg_a[lid] = a;
+    wg_b[lid] = b;
+    workgroupBarrier();
+    for (var s = WG / 2u; s > 0u; s = s / 2u) {
+        if (lid < s) {
+            wg_a[lid] += wg_a[lid + s];
+            wg_b[lid] += wg_b[lid + s];
+        }
+        workgroupBarrier();
+    }
+    if (lid == 0u) {
+        let stride = arrayLength(&im_partials) / 2u;
+        im_partials[wid] = wg_a[0];
+        im_partials[stride + wid] = wg_b[0];
+    }
+}
+
+// One workgroup: the partials of the last reducing kernel summed (compensated) into
+// im_scal[SLOT] and im_scal[SLOT + 1].
+@compute @workgroup_size(WG)
+fn im_sum(@builtin(local_invocation_index) lid: u32) {
+    var count = (sim.n_particles + WG - 1u) / WG;
+    if (OVER_NODES) {
+        count = atomicLoad(&im_scal[I_COUNT]);
+    }
+    let stride = arrayLength(&im_partials) / 2u;
+    var sa = 0.0;
+    var ca = 0.0;
+    var sb = 0.0;
+    var cb = 0.0;
+    for (var i = lid; i < count; i += WG) {
+        let ya = im_partials[i] - ca;
+        let ta = sa + ya;
+        ca = (ta - sa) - ya;
+        sa = ta;
+        let yb = im_partials[stride + i] - cb;
+        let tb = sb + yb;
+        cb = (tb - sb) - yb;
+        sb = tb;
+    }
+    wg_a[lid] = sa;
+    wg_b[lid] = sb;
+    workgroupBarrier();
+    for (var s = WG / 2u; s > 0u; s = s / 2u) {
+        if (lid < s) {
+            wg_a[lid] += wg_a[lid + s];
+            wg_b[lid] += wg_b[lid + s];
+        }
+        workgroupBarrier();
+    }
+    if (lid == 0u) {
+        set_scal_f(SLOT, wg_a[0]);
+        set_scal_f(SLOT + 1u, wg_b[0]);
+    }
+}
+
+// ---- stencil with MLS kernel gradients ----
+
+struct Grads {
+    idx: array<u32, 27>,
+    grad: array<vec3<f32>, 27>,
+}
+
+// The 27 stencil nodes of a particle and ∇wᵢₚ = wᵢₚ·4/dx²·(xᵢ − xₚ) (1/m).
+fn stencil_gradients(x: vec3<f32>) -> Grads {
+    let s = make_stencil(grid_pos(x));
+    let offs = node_offsets(s.base);
+    let scale = 4.0 * sim.inv_dx;
+    var out: Grads;
+    for (var a = 0u; a < 3u; a++) {
+        for (var b = 0u; b < 3u; b++) {
+            for (var c = 0u; c < 3u; c++) {
+                let k = 9u * a + 3u * b + c;
+                out.idx[k] = offs[a].x + offs[b].y + offs[c].z;
+                let w = s.w[a].x * s.w[b].y * s.w[c].z;
+                out.grad[k] = (vec3<f32>(f32(a), f32(b), f32(c)) - s.fx) * (w * scale);
+            }
+        }
+    }
+    return out;
+}
+
+fn node_velocity(i: u32) -> vec3<f32> {
+    if (SELECT_TRIAL) {
+        return im_nodes[i].trial.xyz;
+    }
+    return im_nodes[i].v.xyz;
+}
+
+// Σᵢ vᵢ ∇wᵢₚᵀ over the stencil, of the iterate (or the trial).
+fn velocity_gradient(g: Grads) -> mat3x3<f32> {
+    var m = mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    for (var k = 0u; k < 27u; k++) {
+        let v = node_velocity(g.idx[k]);
+        m += mat3x3<f32>(v * g.grad[k].x, v * g.grad[k].y, v * g.grad[k].z);
+    }
+    return m;
+}
+
+// ---- strain energy in terms of H = F − I (no cancellation of the O(1) parts) ----
+
+// u − ln(1 + u).
+fn u_minus_log1p(u: f32) -> f32 {
+    if (abs(u) < 0.05) {
+        var term = u * u;
+        var sum = 0.0;
+        var sign = 1.0;
+        for (var k = 2; k < 9; k++) {
+            sum += sign * term / f32(k);
+            term *= u;
+            sign = -sign;
+        }
+        return sum;
+    }
+    return u - log(1.0 + u);
+}
+
+// J − 1 from H: tr H + the principal 2×2 minors + det H.
+fn j_minus_one(h: mat3x3<f32>) -> f32 {
+    let minors = h[0][0] * h[1][1] - h[1][0] * h[0][1] + h[0][0] * h[2][2] - h[2][0] * h[0][2]
+        + h[1][1] * h[2][2] - h[2][1] * h[1][2];
+    return h[0][0] + h[1][1] + h[2][2] + minors + determinant(h);
+}
+
+fn frob2(m: mat3x3<f32>) -> f32 {
+    return dot(m[0], m[0]) + dot(m[1], m[1]) + dot(m[2], m[2]);
+}
+
+// Rotation closest to `a` as a quaternion (common.wgsl `rotation_of`).
+fn rotation_quat(a: mat3x3<f32>) -> vec4<f32> {
+    var q = vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    for (var i = 0; i < ROTATION_ITERATIONS; i++) {
+        let r = quat_to_mat(q);
+        let num = cross(r[0], a[0]) + cross(r[1], a[1]) + cross(r[2], a[2]);
+        let den = abs(dot(r[0], a[0]) + dot(r[1], a[1]) + dot(r[2], a[2])) + 1e-9;
+        let omega = num / den;
+        let angle = length(omega);
+        if (angle < 1e-9) {
+            break;
+        }
+        let axis = omega / angle;
+        let h = 0.5 * angle;
+        q = quat_mul(vec4<f32>(axis * sin(h), cos(h)), q);
+        q = q / length(q);
+    }
+    return q;
+}
+
+// I − R(q), entry by entry without subtracting from one.
+fn identity_minus_rotation(q: vec4<f32>) -> mat3x3<f32> {
+    let x = q.x;
+    let y = q.y;
+    let z = q.z;
+    let w = q.w;
+    return mat3x3<f32>(
+        vec3<f32>(2.0 * (y * y + z * z), -2.0 * (x * y + w * z), -2.0 * (x * z - w * y)),
+        vec3<f32>(-2.0 * (x * y - w * z), 2.0 * (x * x + z * z), -2.0 * (y * z + w * x)),
+        vec3<f32>(-2.0 * (x * z + w * y), -2.0 * (y * z - w * x), 2.0 * (x * x + y * y)),
+    );
+}
+
+// Ψ (J/m³) at F = I + H (material.rs `energy_density`, the J clamp included).
+fn energy_density(mat: Material, h: mat3x3<f32>) -> f32 {
+    let u = j_minus_one(h);
+    if (mat.model == 0u) {
+        let tr = h[0][0] + h[1][1] + h[2][2];
+        if (1.0 + u <= J_MIN) {
+            let ln_j = log(J_MIN);
+            return 0.5 * mat.mu * (2.0 * tr + frob2(h)) - mat.mu * ln_j + 0.5 * mat.lambda * ln_j * ln_j;
+        }
+        // ½μ(2 tr H + |H|²) − μ ln J with ln J = u − g(u), u = tr H + m₂ + det H:
+        // μ(½|H|² − m₂ − det H + g(u)).
+        let minors_det = u - tr;
+        let ln_j = u - u_minus_log1p(u);
+        return mat.mu * (0.5 * frob2(h) - minors_det + u_minus_log1p(u)) + 0.5 * mat.lambda * ln_j * ln_j;
+    }
+    let q = rotation_quat(ID3 + h);
+    let f_minus_r = h + identity_minus_rotation(q);
+    return mat.mu * frob2(f_minus_r) + 0.5 * mat.lambda * u * u;
+}
+
+// First Piola–Kirchhoff stress (material.rs `first_piola`: τ F⁻ᵀ, zero where F is singular).
+fn first_piola(mat: Material, f: mat3x3<f32>) -> mat3x3<f32> {
+    let j = determinant(f);
+    if (j == 0.0) {
+        return mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    }
+    let cof = mat3x3<f32>(cross(f[1], f[2]), cross(f[2], f[0]), cross(f[0], f[1]));
+    return kirchhoff_stress(mat, f) * (cof * (1.0 / j));
+}
+
+// ---- ∂P/∂F (hessian.rs) ----
+
+fn cofactor(f: mat3x3<f32>) -> mat3x3<f32> {
+    return mat3x3<f32>(cross(f[1], f[2]), cross(f[2], f[0]), cross(f[0], f[1]));
+}
+
+fn cofactor_derivative(f: mat3x3<f32>, d: mat3x3<f32>) -> mat3x3<f32> {
+    return mat3x3<f32>(
+        cross(d[1], f[2]) + cross(f[1], d[2]),
+        cross(d[2], f[0]) + cross(f[2], d[0]),
+        cross(d[0], f[1]) + cross(f[0], d[1]),
+    );
+}
+
+fn ddot(a: mat3x3<f32>, b: mat3x3<f32>) -> f32 {
+    return dot(a[0], b[0]) + dot(a[1], b[1]) + dot(a[2], b[2]);
+}
+
+fn inverse3(m: mat3x3<f32>) -> mat3x3<f32> {
+    let det = determinant(m);
+    if (det == 0.0) {
+        return mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    }
+    return transpose(cofactor(m)) * (1.0 / det);
+}
+
+fn cross_matrix(w: vec3<f32>) -> mat3x3<f32> {
+    return mat3x3<f32>(vec3<f32>(0.0, w.z, -w.y), vec3<f32>(-w.z, 0.0, w.x), vec3<f32>(w.y, -w.x, 0.0));
+}
+
+struct Lin {
+    kind: u32,
+    mu: f32,
+    lambda: f32,
+    a: mat3x3<f32>,
+    b: mat3x3<f32>,
+    f: mat3x3<f32>,
+    cof: mat3x3<f32>,
+    s: f32,
+}
+
+// What every direction δF shares (hessian.rs `Linearization::new`); kind 0 Neo-Hookean
+// (a = F⁻ᵀ, s = μ − λ ln J, lambda = λ above the clamp), 1 fixed-corotated (a = R,
+// b = ((tr S)I − S)⁻¹, s = J), 2 the shear term alone (singular F).
+fn linearize(mat: Material, f: mat3x3<f32>) -> Lin {
+    var l: Lin;
+    l.mu = mat.mu;
+    l.f = f;
+    let j = determinant(f);
+    if (mat.model == 0u) {
+        if (j == 0.0) {
+            l.kind = 2u;
+            return l;
+        }
+        l.kind = 0u;
+        l.a = transpose(inverse3(f));
+        l.s = mat.mu - mat.lambda * log(max(j, J_MIN));
+        l.lambda = select(0.0, mat.lambda, j > J_MIN);
+        return l;
+    }
+    l.kind = 1u;
+    l.lambda = mat.lambda;
+    let r = rotation_of(f);
+    let s0 = transpose(r) * f;
+    let s = (s0 + transpose(s0)) * 0.5;
+    l.a = r;
+    l.b = inverse3(ID3 * (s[0][0] + s[1][1] + s[2][2]) - s);
+    l.cof = cofactor(f);
+    l.s = j;
+    return l;
+}
+
+fn apply_lin(l: Lin, df: mat3x3<f32>) -> mat3x3<f32> {
+    if (l.kind == 2u) {
+        return df * l.mu;
+    }
+    if (l.kind == 0u) {
+        let fit = l.a;
+        return df * l.mu + fit * transpose(df) * fit * l.s + fit * (l.lambda * ddot(fit, df));
+    }
+    let a = transpose(l.a) * df;
+    let skew = a - transpose(a);
+    let axial = vec3<f32>(skew[1][2], skew[2][0], skew[0][1]);
+    let dr = l.a * cross_matrix(l.b * axial);
+    return (df - dr) * (2.0 * l.mu) + l.cof * (l.lambda * ddot(l.cof, df))
+        + cofactor_derivative(l.f, df) * (l.lambda * (l.s - 1.0));
+}
+
+// Column-major flattening: k = row + 3·column; WGSL's m[column][row].
+fn unit_matrix(k: u32) -> mat3x3<f32> {
+    var m = mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    m[k / 3u][k % 3u] = 1.0;
+    return m;
+}
+
+// Cholesky test of a + shift·I (hessian.rs `project_psd`'s fast path).
+fn is_positive_definite(a: ptr<function, array<f32, 81>>, shift: f32) -> bool {
+    var l: array<f32, 81>;
+    for (var j = 0u; j < 9u; j++) {
+        var d = (*a)[j * 9u + j] + shift;
+        for (var k = 0u; k < j; k++) {
+            d -= l[j * 9u + k] * l[j * 9u + k];
+        }
+        if (!(d > 0.0)) {
+            return false;
+        }
+        let ljj = sqrt(d);
+        l[j * 9u + j] = ljj;
+        for (var i = j + 1u; i < 9u; i++) {
+            var s = (*a)[i * 9u + j];
+            for (var k = 0u; k < j; k++) {
+                s -= l[i * 9u + k] * l[j * 9u + k];
+            }
+            l[i * 9u + j] = s / ljj;
+        }
+    }
+    return true;
+}
+
+// The closest PSD matrix (negative eigenvalues set to zero) by cyclic Jacobi rotations.
+fn clamp_negative_eigenvalues(a: ptr<function, array<f32, 81>>) {
+    var v: array<f32, 81>;
+    for (var i = 0u; i < 81u; i++) {
+        v[i] = select(0.0, 1.0, i % 10u == 0u);
+    }
+    for (var sweep = 0; sweep < 16; sweep++) {
+        var off = 0.0;
+        var total = 0.0;
+        for (var i = 0u; i < 81u; i++) {
+            total += (*a)[i] * (*a)[i];
+            if (i % 10u != 0u) {
+                off += (*a)[i] * (*a)[i];
+            }
+        }
+        if (off <= 1e-14 * total) {
+            break;
+        }
+        for (var p = 0u; p < 8u; p++) {
+            for (var q = p + 1u; q < 9u; q++) {
+                let apq = (*a)[p * 9u + q];
+                if (apq == 0.0) {
+                    continue;
+                }
+                let theta = ((*a)[q * 9u + q] - (*a)[p * 9u + p]) / (2.0 * apq);
+                let t = sign(theta + select(0.0, 1.0, theta == 0.0)) / (abs(theta) + sqrt(theta * theta + 1.0));
+                let c = 1.0 / sqrt(t * t + 1.0);
+                let s = t * c;
+                for (var k = 0u; k < 9u; k++) {
+                    let akp = (*a)[k * 9u + p];
+                    let akq = (*a)[k * 9u + q];
+                    (*a)[k * 9u + p] = c * akp - s * akq;
+                    (*a)[k * 9u + q] = s * akp + c * akq;
+                }
+                for (var k = 0u; k < 9u; k++) {
+                    let apk = (*a)[p * 9u + k];
+                    let aqk = (*a)[q * 9u + k];
+                    (*a)[p * 9u + k] = c * apk - s * aqk;
+                    (*a)[q * 9u + k] = s * apk + c * aqk;
+                }
+                for (var k = 0u; k < 9u; k++) {
+                    let vkp = v[k * 9u + p];
+                    let vkq = v[k * 9u + q];
+                    v[k * 9u + p] = c * vkp - s * vkq;
+                    v[k * 9u + q] = s * vkp + c * vkq;
+                }
+            }
+        }
+    }
+    var lambda: array<f32, 9>;
+    for (var k = 0u; k < 9u; k++) {
+        lambda[k] = max((*a)[k * 9u + k], 0.0);
+    }
+    for (var i = 0u; i < 9u; i++) {
+        for (var j = 0u; j < 9u; j++) {
+            var s = 0.0;
+            for (var k = 0u; k < 9u; k++) {
+                s += v[i * 9u + k] * lambda[k] * v[j * 9u + k];
+            }
+            (*a)[i * 9u + j] = s;
+        }
+    }
+}
+
+// The particle's velocity-gradient stiffness V₀dt²·Lᵀ A L into im_stiff (row-major 9×9,
+// symmetric), A the projected ∂P/∂F at F and L: vec(δG) ↦ vec(δG Fₙ) (hessian.rs
+// `velocity_gradient_stiffness`).
+fn store_stiffness(p: u32, mat: Material, f: mat3x3<f32>, f_n: mat3x3<f32>, volume_dt2: f32) {
+    let lin = linearize(mat, f);
+    var a: array<f32, 81>;
+    for (var j = 0u; j < 9u; j++) {
+        let dp = apply_lin(lin, unit_matrix(j));
+        for (var k = 0u; k < 9u; k++) {
+            a[k * 9u + j] = dp[k / 3u][k % 3u];
+        }
+    }
+    for (var i = 0u; i < 9u; i++) {
+        for (var j = i + 1u; j < 9u; j++) {
+            let m = 0.5 * (a[i * 9u + j] + a[j * 9u + i]);
+            a[i * 9u + j] = m;
+            a[j * 9u + i] = m;
+        }
+    }
+    if (!is_positive_definite(&a, 1e-5 * (mat.lambda + 2.0 * mat.mu))) {
+        clamp_negative_eigenvalues(&a);
+    }
+    // (A L)[k][r + 3s] = Σ_c A[k][r + 3c] Fₙ(s, c); K[r + 3s][j] = Σ_c Fₙ(s, c) (A L)[r + 3c][j].
+    var al: array<f32, 81>;
+    for (var k = 0u; k < 9u; k++) {
+        for (var r = 0u; r < 3u; r++) {
+            for (var s = 0u; s < 3u; s++) {
+                var sum = 0.0;
+                for (var c = 0u; c < 3u; c++) {
+                    sum += a[k * 9u + r + 3u * c] * f_n[c][s];
+                }
+                al[k * 9u + r + 3u * s] = sum;
+            }
+        }
+    }
+    let base = p * 81u;
+    for (var r = 0u; r < 3u; r++) {
+        for (var s = 0u; s < 3u; s++) {
+            for (var j = 0u; j < 9u; j++) {
+                var sum = 0.0;
+                for (var c = 0u; c < 3u; c++) {
+                    sum += f_n[c][s] * al[(r + 3u * c) * 9u + j];
+                }
+                im_stiff[base + (r + 3u * s) * 9u + j] = sum * volume_dt2;
+            }
+        }
+    }
+}
+
+// K·vec(g) unflattened.
+fn stiffness_times(p: u32, g: mat3x3<f32>) -> mat3x3<f32> {
+    let base = p * 81u;
+    var out = mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    for (var i = 0u; i < 9u; i++) {
+        var s = 0.0;
+        for (var j = 0u; j < 9u; j++) {
+            s += im_stiff[base + i * 9u + j] * g[j / 3u][j % 3u];
+        }
+        out[i / 3u][i % 3u] = s;
+    }
+    return out;
+}
+
+fn acc_add3(i: u32, word: u32, v: vec3<f32>) {
+    let at = i * ACC_WORDS + word;
+    atomicAdd(&im_acc[at], v.x);
+    atomicAdd(&im_acc[at + 1u], v.y);
+    atomicAdd(&im_acc[at + 2u], v.z);
+}
+
+fn acc_load3(i: u32, word: u32) -> vec3<f32> {
+    let at = i * ACC_WORDS + word;
+    return vec3<f32>(atomicLoad(&im_acc[at]), atomicLoad(&im_acc[at + 1u]), atomicLoad(&im_acc[at + 2u]));
+}
+
+fn acc_load_block(i: u32) -> mat3x3<f32> {
+    return mat3x3<f32>(acc_load3(i, 3u), acc_load3(i, 6u), acc_load3(i, 9u));
+}
+
+fn active_node(wid: u32, lid: u32) -> u32 {
+    return active_blocks[wid] * NODES_PER_BLOCK + lid;
+}
+
+// ---- P2G without stress, and the nodes' start ----
+
+// APIC momentum and mass only (cpu `particle_to_grid(None, …)`).
+@compute @workgroup_size(WG)
+fn im_p2g(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let p = gid.x;
+    if (!particle_live(p)) {
+        return;
+    }
+    let part = particles[p];
+    let m = pconst[p].x;
+    let s = make_stencil(grid_pos(part.x.xyz));
+    let q = part.c * (m * sim.origin_dx.w);
+    scatter_apic(s, m, part.v.xyz, q, vec3<f32>(0.0));
+}
+
+struct Constraint {
+    free: mat3x3<f32>,
+    prescribed: vec3<f32>,
+    normal: vec3<f32>,
+}
+
+fn fixed_at(v: vec3<f32>) -> Constraint {
+    return Constraint(mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0)), v, vec3<f32>(0.0));
+}
+
+// Which components tools, the table and the walls prescribe (constraints.rs).
+fn node_constraint(ijk: vec3<u32>, x: vec3<f32>, v_star: vec3<f32>) -> Constraint {
+    for (var t = 0u; t < sim.n_tools; t++) {
+        let tool = tools[st.substep * sim.n_tools + t];
+        if (tool.shape.w < 0.0) {
+            continue;
+        }
+        if (grip_region(tool, x).x < 0.0) {
+            continue;
+        }
+        let dv = tool.lin.xyz + cross(tool.ang.xyz, x - tool.trans.xyz) - v_star;
+        let normal = tool.rot[1];
+        let along_normal = normal * dot(normal, dv);
+        return fixed_at(v_star + along_normal + (dv - along_normal) * tool.shape.w);
+    }
+    var normals: array<vec3<f32>, 4>;
+    var count = 0u;
+    var v = v_star;
+    var hit_tool = NO_TOOL;
+    var best: Hit;
+    for (var t = 0u; t < sim.n_tools; t++) {
+        let tool = tools[st.substep * sim.n_tools + t];
+        if (!in_aabb(tool, x)) {
+            continue;
+        }
+        let hit = tool_probe(tool, x);
+        if (hit.distance < 0.0 && (hit_tool == NO_TOOL || hit.distance < best.distance)) {
+            hit_tool = t;
+            best = hit;
+        }
+    }
+    if (hit_tool != NO_TOOL) {
+        let tool = tools[st.substep * sim.n_tools + hit_tool];
+        let v_tool = surface_velocity(tool, x, best.part);
+        if (tool.kind.y == 1u) {
+            return fixed_at(v_tool);
+        }
+        if (dot(v - v_tool, best.normal) < 0.0) {
+            v = resolve(false, tool.aabb_min.w, tool.aabb_max.w, v, v_tool, best.normal, best.tangent);
+            if (dot(best.tangent, best.tangent) > 0.0) {
+                return fixed_at(v);
+            }
+            normals[count] = best.normal;
+            count += 1u;
+        }
+    }
+    let table = sim.blocks.w;
+    if (table != 0u && x.z <= sim.table.x + 1e-3 * sim.origin_dx.w) {
+        if (table == 1u) {
+            return fixed_at(vec3<f32>(0.0));
+        }
+        if (v.z < 0.0) {
+            v.z = 0.0;
+            normals[count] = vec3<f32>(0.0, 0.0, 1.0);
+            count += 1u;
+        }
+    }
+    let walls = i32(WALL_NODES);
+    for (var a = 0u; a < 3u; a++) {
+        let i = i32(ijk[a]);
+        let low = i < walls && v[a] < 0.0;
+        let high = i >= i32(sim.nodes[a]) - walls && v[a] > 0.0;
+        if (low || high) {
+            v[a] = 0.0;
+            var n = vec3<f32>(0.0);
+            n[a] = select(-1.0, 1.0, low);
+            normals[count] = n;
+            count += 1u;
+        }
+    }
+    if (count == 0u) {
+        return Constraint(ID3, vec3<f32>(0.0), vec3<f32>(0.0));
+    }
+    if (count == 1u) {
+        let n = normals[0];
+        let nn = mat3x3<f32>(n * n.x, n * n.y, n * n.z);
+        return Constraint(ID3 - nn, n * dot(n, v), n);
+    }
+    return fixed_at(v);
+}
+
+// One workgroup per active block: mass and v*, the constraints, v = S v* + prescribed and
+// the rest candidate trial = prescribed; counts the active blocks for `im_sum`; sums m².
+@compute @workgroup_size(NODES_PER_BLOCK)
+fn im_prepare(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32,
+              @builtin(num_workgroups) groups: vec3<u32>) {
+    if (wid.x == 0u && lid == 0u) {
+        atomicStore(&im_scal[I_COUNT], groups.x);
+    }
+    let b = active_blocks[wid.x];
+    let i = b * NODES_PER_BLOCK + lid;
+    let at = NODE_WORDS * i;
+    let m = acc_load_m(at + 3u);
+    var node: ImNode;
+    let zero = mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    node.free = zero;
+    node.block = zero;
+    node.correction = im_nodes[i].correction;
+    node.v_star = vec4<f32>(0.0, 0.0, 0.0, m);
+    if (m > 0.0) {
+        let ijk = node_coords(b, lid);
+        let x = sim.origin_dx.xyz + vec3<f32>(ijk) * sim.origin_dx.w;
+        let p = vec3<f32>(acc_load_p(at), acc_load_p(at + 1u), acc_load_p(at + 2u));
+        let v_star = p / m + st.gravity.xyz * st.dt;
+        let c = node_constraint(ijk, x, v_star);
+        node.v_star = vec4<f32>(v_star, m);
+        node.free = c.free;
+        node.prescribed = vec4<f32>(c.prescribed, 0.0);
+        node.normal = vec4<f32>(c.normal, 0.0);
+        node.v = vec4<f32>(c.free * v_star + c.prescribed, 0.0);
+        node.trial = node.prescribed;
+    }
+    im_nodes[i] = node;
+    reduce_to_partials(lid, wid.x, m * m, 0.0);
+}
+
+// The warm-start candidate v* plus the last substep's elastic velocity change (zero where
+// the last substep did not touch the node).
+@compute @workgroup_size(NODES_PER_BLOCK)
+fn im_trial_correction(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let i = active_node(wid.x, lid);
+    let n = im_nodes[i];
+    var corr = vec3<f32>(0.0);
+    if (bitcast<u32>(n.correction.w) + 1u == atomicLoad(&im_scal[I_EPOCH])) {
+        corr = n.correction.xyz;
+    }
+    im_nodes[i].trial = vec4<f32>(n.free * (n.v_star.xyz + corr) + n.prescribed.xyz, 0.0);
+}
+
+// ---- energy at the iterate or the trial (line search, warm start) ----
+
+// Elastic energy Σ V₀Ψ; a particle crushed to J_MIN or inverted raises I_CRUSH (Φ = ∞).
+@compute @workgroup_size(WG)
+fn im_energy(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgroup_id) wid: vec3<u32>,
+             @builtin(local_invocation_index) lid: u32) {
+    let p = gid.x;
+    var e = 0.0;
+    if (p < sim.n_particles) {
+        let part = particles[p];
+        let g = stencil_gradients(part.x.xyz);
+        let dg = velocity_gradient(g) * st.dt;
+        let h = (part.f - ID3) + dg * part.f;
+        if (1.0 + j_minus_one(h) <= J_MIN) {
+            atomicStore(&im_scal[I_CRUSH], 1u);
+        } else {
+            let pc = pconst[p];
+            e = pc.y * energy_density(materials[bitcast<u32>(pc.z)], h);
+        }
+    }
+    reduce_to_partials(lid, wid.x, e, 0.0);
+}
+
+// Kinetic energy Σ ½m|v − v*|² of the iterate or the trial.
+@compute @workgroup_size(NODES_PER_BLOCK)
+fn im_kinetic(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let i = active_node(wid.x, lid);
+    let n = im_nodes[i];
+    var k = 0.0;
+    if (n.v_star.w > 0.0) {
+        let dv = node_velocity(i) - n.v_star.xyz;
+        k = 0.5 * n.v_star.w * dot(dv, dv);
+    }
+    reduce_to_partials(lid, wid.x, k, 0.0);
+}
+
+// ---- Φ, its gradient and the Hessian at the iterate ----
+
+@compute @workgroup_size(NODES_PER_BLOCK)
+fn im_eval_clear(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let i = active_node(wid.x, lid);
+    for (var k = 0u; k < 12u; k++) {
+        atomicStore(&im_acc[i * ACC_WORDS + k], 0.0);
+    }
+}
+
+// Per particle: V₀Ψ, the elastic gradient V₀dt·P Fₙᵀ ∇wᵢ scattered, and with HESSIAN the
+// stiffness (and the preconditioner's diagonal blocks).
+@compute @workgroup_size(WG)
+fn im_eval(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgroup_id) wid: vec3<u32>,
+           @builtin(local_invocation_index) lid: u32) {
+    let p = gid.x;
+    var e = 0.0;
+    if (p < sim.n_particles) {
+        let part = particles[p];
+        let pc = pconst[p];
+        let mat = materials[bitcast<u32>(pc.z)];
+        let g = stencil_gradients(part.x.xyz);
+        let dt = st.dt;
+        let f_n = part.f;
+        let dg = velocity_gradient(g) * dt;
+        let h = (f_n - ID3) + dg * f_n;
+        let f = ID3 + h;
+        e = pc.y * energy_density(mat, h);
+        let q = first_piola(mat, f) * transpose(f_n) * (pc.y * dt);
+        for (var k = 0u; k < 27u; k++) {
+            acc_add3(g.idx[k], 0u, q * g.grad[k]);
+        }
+        if (HESSIAN) {
+            store_stiffness(p, mat, f, f_n, pc.y * dt * dt);
+            if (BLOCK_JACOBI) {
+                let base = p * 81u;
+                for (var k = 0u; k < 27u; k++) {
+                    let d = g.grad[k];
+                    // Block (a, b) = Σ_c Σ_c' K[a + 3c][b + 3c'] d_c d_c'.
+                    var blk = mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+                    for (var a = 0u; a < 3u; a++) {
+                        for (var bb = 0u; bb < 3u; bb++) {
+                            var s = 0.0;
+                            for (var c = 0u; c < 3u; c++) {
+                                for (var cc = 0u; cc < 3u; cc++) {
+                                    s += im_stiff[base + (a + 3u * c) * 9u + bb + 3u * cc] * d[c] * d[cc];
+                                }
+                            }
+                            blk[bb][a] = s;
+                        }
+                    }
+                    acc_add3(g.idx[k], 3u, blk[0]);
+                    acc_add3(g.idx[k], 6u, blk[1]);
+                    acc_add3(g.idx[k], 9u, blk[2]);
+                }
+            }
+        }
+    }
+    reduce_to_partials(lid, wid.x, e, 0.0);
+}
+
+// Per node: the projected ∇Φ, with HESSIAN the preconditioner; sums ½m|v − v*|² and |∇Φ|².
+@compute @workgroup_size(NODES_PER_BLOCK)
+fn im_eval_nodes(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let i = active_node(wid.x, lid);
+    let n = im_nodes[i];
+    let m = n.v_star.w;
+    var kinetic = 0.0;
+    var norm2 = 0.0;
+    if (m > 0.0) {
+        let dv = n.v.xyz - n.v_star.xyz;
+        let grad = n.free * (dv * m + acc_load3(i, 0u));
+        im_nodes[i].grad = vec4<f32>(grad, 0.0);
+        norm2 = dot(grad, grad);
+        kinetic = 0.5 * m * dot(dv, dv);
+        if (HESSIAN) {
+            var d = ID3 * m;
+            if (BLOCK_JACOBI) {
+                d += acc_load_block(i);
+            }
+            // Inverse on the free subspace: (S D S + I − S)⁻¹ restricted by S.
+            let restricted = n.free * d * n.free + (ID3 - n.free);
+            var inv = ID3 * (1.0 / m);
+            if (determinant(restricted) != 0.0) {
+                inv = inverse3(restricted);
+            }
+            im_nodes[i].block = n.free * inv * n.free;
+        }
+    } else {
+        im_nodes[i].grad = vec4<f32>(0.0);
+    }
+    reduce_to_partials(lid, wid.x, kinetic, norm2);
+}
+
+// ---- conjugate gradients on H·step = −∇Φ, scalars on the device ----
+
+@compute @workgroup_size(NODES_PER_BLOCK)
+fn im_cg_init(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let i = active_node(wid.x, lid);
+    let n = im_nodes[i];
+    let r = -n.grad.xyz;
+    let z = n.block * r;
+    im_nodes[i].step = vec4<f32>(0.0);
+    im_nodes[i].r = vec4<f32>(r, 0.0);
+    im_nodes[i].z = vec4<f32>(z, 0.0);
+    im_nodes[i].d = vec4<f32>(z, 0.0);
+    reduce_to_partials(lid, wid.x, dot(r, z), 0.0);
+}
+
+// One invocation: rz from the sum at SLOT (the host's SLOT_RZ0), the loop's state reset.
+@compute @workgroup_size(1)
+fn im_cg_start() {
+    atomicStore(&im_scal[I_RZ], atomicLoad(&im_scal[SLOT]));
+    atomicStore(&im_scal[I_DONE], 0u);
+    atomicStore(&im_scal[I_ITER], 0u);
+}
+
+@compute @workgroup_size(NODES_PER_BLOCK)
+fn im_product_clear(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let i = active_node(wid.x, lid);
+    for (var k = 12u; k < 15u; k++) {
+        atomicStore(&im_acc[i * ACC_WORDS + k], 0.0);
+    }
+}
+
+// Per particle: the stiffness part of H·d (gather, 9×9, scatter).
+@compute @workgroup_size(WG)
+fn im_product(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let p = gid.x;
+    if (p >= sim.n_particles || cg_done()) {
+        return;
+    }
+    let g = stencil_gradients(particles[p].x.xyz);
+    var dg = mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    for (var k = 0u; k < 27u; k++) {
+        let d = im_nodes[g.idx[k]].d.xyz;
+        dg += mat3x3<f32>(d * g.grad[k].x, d * g.grad[k].y, d * g.grad[k].z);
+    }
+    let q = stiffness_times(p, dg);
+    for (var k = 0u; k < 27u; k++) {
+        acc_add3(g.idx[k], 12u, q * g.grad[k]);
+    }
+}
+
+// Per node: product = S(K d + m d); sums d·product.
+@compute @workgroup_size(NODES_PER_BLOCK)
+fn im_product_finish(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let i = active_node(wid.x, lid);
+    let n = im_nodes[i];
+    let q = n.free * (acc_load3(i, 12u) + n.d.xyz * n.v_star.w);
+    let at = i * ACC_WORDS + 12u;
+    atomicStore(&im_acc[at], q.x);
+    atomicStore(&im_acc[at + 1u], q.y);
+    atomicStore(&im_acc[at + 2u], q.z);
+    reduce_to_partials(lid, wid.x, dot(n.d.xyz, q), 0.0);
+}
+
+// One invocation: α = rz/(d·Hd) from the sum at SLOT, or done (cap reached, or a
+// direction of no positive curvature).
+@compute @workgroup_size(1)
+fn im_cg_alpha() {
+    if (cg_done()) {
+        return;
+    }
+    let pap = scal_f(SLOT);
+    let iterations = atomicLoad(&im_scal[I_ITER]);
+    if (iterations >= atomicLoad(&im_scal[I_CAP]) || !(pap > 0.0) || !is_finite(pap)) {
+        atomicStore(&im_scal[I_DONE], 1u);
+        return;
+    }
+    set_scal_f(I_CG_ALPHA, scal_f(I_RZ) / pap);
+    atomicStore(&im_scal[I_ITER], iterations + 1u);
+}
+
+// Per node: step += αd, r −= αHd, z = P r; sums |r|² and r·z.
+@compute @workgroup_size(NODES_PER_BLOCK)
+fn im_cg_update(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let i = active_node(wid.x, lid);
+    var rr = 0.0;
+    var rz = 0.0;
+    if (!cg_done()) {
+        let n = im_nodes[i];
+        let alpha = scal_f(I_CG_ALPHA);
+        let r = n.r.xyz - acc_load3(i, 12u) * alpha;
+        let z = n.block * r;
+        im_nodes[i].step = vec4<f32>(n.step.xyz + n.d.xyz * alpha, 0.0);
+        im_nodes[i].r = vec4<f32>(r, 0.0);
+        im_nodes[i].z = vec4<f32>(z, 0.0);
+        rr = dot(r, r);
+        rz = dot(r, z);
+    }
+    reduce_to_partials(lid, wid.x, rr, rz);
+}
+
+// One invocation: done when ‖r‖ reaches the target, else β = rz_new/rz.
+@compute @workgroup_size(1)
+fn im_cg_beta() {
+    if (cg_done()) {
+        return;
+    }
+    if (sqrt(scal_f(SLOT)) <= scal_f(I_TARGET)) {
+        atomicStore(&im_scal[I_DONE], 1u);
+        return;
+    }
+    let rz_new = scal_f(SLOT + 1u);
+    set_scal_f(I_BETA, rz_new / scal_f(I_RZ));
+    set_scal_f(I_RZ, rz_new);
+}
+
+@compute @workgroup_size(NODES_PER_BLOCK)
+fn im_cg_direction(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    if (cg_done()) {
+        return;
+    }
+    let i = active_node(wid.x, lid);
+    let n = im_nodes[i];
+    im_nodes[i].d = vec4<f32>(n.z.xyz + n.d.xyz * scal_f(I_BETA), 0.0);
+}
+
+// ---- line search ----
+
+// Sums ∇Φ·step (the slope along the Newton step).
+@compute @workgroup_size(NODES_PER_BLOCK)
+fn im_slope(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let i = active_node(wid.x, lid);
+    let n = im_nodes[i];
+    reduce_to_partials(lid, wid.x, dot(n.grad.xyz, n.step.xyz), 0.0);
+}
+
+// trial = v + α·step, α from the host.
+@compute @workgroup_size(NODES_PER_BLOCK)
+fn im_trial_step(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let i = active_node(wid.x, lid);
+    let n = im_nodes[i];
+    im_nodes[i].trial = vec4<f32>(n.v.xyz + n.step.xyz * scal_f(I_ALPHA), 0.0);
+}
+
+// v = trial.
+@compute @workgroup_size(NODES_PER_BLOCK)
+fn im_accept(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let i = active_node(wid.x, lid);
+    im_nodes[i].v = im_nodes[i].trial;
+}
+
+// ---- the end of the solve ----
+
+// The velocity a node enters the grid update with (cpu `end_velocity`).
+fn end_velocity(free: mat3x3<f32>, normal: vec3<f32>, v: vec3<f32>, unconstrained: vec3<f32>) -> vec3<f32> {
+    if (dot(normal, normal) > 0.0) {
+        return free * v + normal * min(dot(normal, unconstrained), dot(normal, v));
+    }
+    if (free[0][0] + free[1][1] + free[2][2] > 2.5) {
+        return v;
+    }
+    return unconstrained;
+}
+
+// Per node: momentum (v − g dt)m and mass into the P2G accumulators for the grid update,
+// and v − v* along the free components kept for the next substep's warm start.
+@compute @workgroup_size(NODES_PER_BLOCK)
+fn im_finish(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let i = active_node(wid.x, lid);
+    let n = im_nodes[i];
+    let m = n.v_star.w;
+    let epoch = bitcast<f32>(atomicLoad(&im_scal[I_EPOCH]));
+    if (m > 0.0) {
+        let unconstrained = n.v_star.xyz - acc_load3(i, 0u) / m;
+        let v = end_velocity(n.free, n.normal.xyz, n.v.xyz, unconstrained);
+        let p = (v - st.gravity.xyz * st.dt) * m;
+        let at = NODE_WORDS * i;
+        atomicStore(&grid_acc[at], p.x);
+        atomicStore(&grid_acc[at + 1u], p.y);
+        atomicStore(&grid_acc[at + 2u], p.z);
+        im_nodes[i].correction = vec4<f32>(n.free * (n.v.xyz - n.v_star.xyz), epoch);
+    } else {
+        im_nodes[i].correction = vec4<f32>(vec3<f32>(0.0), epoch);
+    }
+}

@@ -1,0 +1,204 @@
+//! The implicit method (backward-Euler Newton–CG) on the GPU against the CPU solver: the
+//! same small scenes stepped on both, positions compared within stated tolerances and the
+//! Newton and CG counts compared (atomics reorder sums and the reductions run in f32, so
+//! neither the iterates nor the counts are bit for bit). Without a GPU adapter the tests
+//! fail when `CI` is set and are skipped (with the reason printed) otherwise; without f32
+//! atomics the GPU refuses implicit and `auto` takes the CPU.
+
+use dvrk_tissue_sim::config::builders::*;
+use dvrk_tissue_sim::config::{Hold, Scene, Table};
+use dvrk_tissue_sim::mpm::backend::BackendChoice;
+use dvrk_tissue_sim::mpm::gpu::adapter;
+use dvrk_tissue_sim::mpm::{Method, SolveCounts};
+use dvrk_tissue_sim::tools::{ContactModel, Shape};
+use dvrk_tissue_sim::world::World;
+
+/// Whether an adapter with f32 atomics exists; panics under CI when there is no adapter.
+fn gpu_ready() -> bool {
+    let adapters = adapter::adapters();
+    let Some(first) = adapters.first() else {
+        let reason = "no GPU adapter (Vulkan/Metal/DX12) found; on Debian/Ubuntu install \
+                      mesa-vulkan-drivers for the llvmpipe software adapter";
+        if std::env::var_os("CI").is_some() {
+            panic!("CI is set and the GPU backend cannot be tested: {reason}");
+        }
+        println!("skipped: {reason}");
+        return false;
+    };
+    if !first
+        .features()
+        .contains(wgpu::Features::SHADER_FLOAT32_ATOMIC)
+    {
+        println!(
+            "skipped: adapter \"{}\" has no f32 atomics, which the implicit GPU path needs",
+            first.get_info().name
+        );
+        return false;
+    }
+    true
+}
+
+fn on(scene: &Scene, backend: BackendChoice) -> World {
+    let mut s = scene.clone();
+    s.solver.method = Method::Implicit;
+    s.solver.backend = backend;
+    let w = World::new(&s);
+    let name = w.backend().name();
+    assert!(
+        (backend == BackendChoice::Cpu) == (name == "cpu"),
+        "asked for {backend:?}, got {name}"
+    );
+    w
+}
+
+/// A 10 × 8 × 6 mm block of `e` Pa, ν 0.45, on a table at z = 2 mm (bonded or resting)
+/// under gravity, dx = 1 mm.
+fn block_scene(e: f64, table: Table, tools: Vec<dvrk_tissue_sim::config::Tool>) -> Scene {
+    let mut s = scene(
+        "implicit-block",
+        60.0,
+        domain(
+            [-0.012, -0.012, 0.0],
+            [0.024, 0.024, 0.02],
+            0.001,
+            [0.0, 0.0, -9.81],
+        ),
+        Some(table),
+        vec![tissue(
+            [0.0, 0.0, 0.005],
+            [0.01, 0.008, 0.006],
+            material(e, 0.45, 1000.0, 0.0),
+        )],
+        tools,
+    );
+    s.solver.method = Method::Implicit;
+    s
+}
+
+/// Steps `scene` `frames` frames on the CPU and the GPU; returns the largest position
+/// difference (m), the largest displacement from the start (m) and the solve counts of
+/// each backend summed over the frames.
+fn run_both(scene: &Scene, frames: usize) -> (f32, f32, SolveCounts, SolveCounts) {
+    let mut cpu = on(scene, BackendChoice::Cpu);
+    let mut gpu = on(scene, BackendChoice::Gpu);
+    let start = cpu.particles().x.clone();
+    let (mut sc, mut sg) = (SolveCounts::default(), SolveCounts::default());
+    for frame in 0..frames {
+        let rc = cpu.step_frame().unwrap();
+        let rg = gpu.step_frame().unwrap();
+        assert_eq!(rc.substeps, rg.substeps, "frame {frame}");
+        assert!(rc.tissue_reset.is_none() && rg.tissue_reset.is_none());
+        println!(
+            "frame {frame}: cpu Newton {} CG {}, gpu Newton {} CG {}",
+            rc.solve.newton, rc.solve.cg, rg.solve.newton, rg.solve.cg
+        );
+        sc.add(rc.solve);
+        sg.add(rg.solve);
+    }
+    let diff = cpu
+        .particles()
+        .x
+        .iter()
+        .zip(&gpu.particles().x)
+        .map(|(p, q)| (p - q).norm())
+        .fold(0.0, f32::max);
+    let moved = cpu
+        .particles()
+        .x
+        .iter()
+        .zip(&start)
+        .map(|(p, q)| (p - q).norm())
+        .fold(0.0, f32::max);
+    (diff, moved, sc, sg)
+}
+
+/// Newton counts within one a frame of each other on average, CG within a factor.
+fn assert_counts_comparable(frames: usize, cpu: SolveCounts, gpu: SolveCounts) {
+    assert!(cpu.newton > 0 && gpu.newton > 0, "cpu {cpu:?} gpu {gpu:?}");
+    assert!(
+        cpu.newton.abs_diff(gpu.newton) as usize <= frames,
+        "Newton cpu {} gpu {}",
+        cpu.newton,
+        gpu.newton
+    );
+    let (a, b) = (cpu.cg.max(1) as f64, gpu.cg.max(1) as f64);
+    assert!(
+        a / b < 1.5 && b / a < 1.5,
+        "CG cpu {} gpu {}",
+        cpu.cg,
+        gpu.cg
+    );
+}
+
+#[test]
+fn gpu_implicit_block_on_a_bonded_table_agrees_with_cpu() {
+    if !gpu_ready() {
+        return;
+    }
+    // A 20 kPa block settling under its own weight at one 60 Hz step a frame: its top
+    // sags by ρgh²/(2E) ≈ 9 µm and rings; both backends solve the same Newton–CG.
+    let scene = block_scene(2.0e4, bonded_table(0.002), vec![]);
+    let frames = 6;
+    let (diff, moved, cpu, gpu) = run_both(&scene, frames);
+    println!(
+        "bonded block: positions differ by {diff:e} m (moved {moved:e} m); cpu {cpu:?} gpu {gpu:?}"
+    );
+    assert!(moved > 1e-6, "the block moved {moved} m");
+    assert!(diff < 0.1 * moved + 1e-7, "positions differ by {diff} m");
+    assert_counts_comparable(frames, cpu, gpu);
+}
+
+#[test]
+fn gpu_implicit_sphere_pressing_on_a_resting_block_agrees_with_cpu() {
+    if !gpu_ready() {
+        return;
+    }
+    // A 3 mm sphere moving down into a 50 kPa block that rests on a table with friction:
+    // contact, the table and the walls all act as constraints in the solve.
+    let sphere = tool(
+        "sphere",
+        Shape::Sphere { radius: 0.003 },
+        ContactModel::Coulomb {
+            friction: 0.3,
+            drag: 0.0,
+        },
+        vec![
+            key(0.0, [0.0, 0.0, 0.0112], [0.0; 3], 0.0),
+            key(0.1, [0.0, 0.0, 0.0092], [0.0; 3], 0.0),
+        ],
+    );
+    let table = Table {
+        height: 0.002,
+        hold: Hold::Resting,
+        friction: 0.5,
+    };
+    let scene = block_scene(5.0e4, table, vec![sphere]);
+    let frames = 6;
+    let (diff, moved, cpu, gpu) = run_both(&scene, frames);
+    println!(
+        "sphere press: positions differ by {diff:e} m (moved {moved:e} m); cpu {cpu:?} gpu {gpu:?}"
+    );
+    assert!(moved > 1e-4, "the sphere pressed the block {moved} m");
+    assert!(diff < 0.05 * moved, "positions differ by {diff} m");
+    assert_counts_comparable(frames, cpu, gpu);
+}
+
+#[test]
+fn the_gpu_backend_builds_implicit_where_it_has_f32_atomics() {
+    let scene = block_scene(2.0e4, bonded_table(0.002), vec![]);
+    let mut s = scene.clone();
+    s.solver.backend = BackendChoice::Gpu;
+    match World::try_new(&s) {
+        Ok(w) => {
+            assert!(gpu_ready(), "implicit built on a GPU without f32 atomics");
+            assert_ne!(w.backend().name(), "cpu");
+        }
+        Err(e) => {
+            let message = e.to_string();
+            assert!(
+                message.contains("f32 atomics") || message.contains("no GPU adapter"),
+                "{message}"
+            );
+        }
+    }
+}
