@@ -377,17 +377,9 @@ impl PlannedFrame {
     }
 }
 
-/// What a scene uses that only the CPU backend steps: the implicit method, tissue toughness
-/// (tearing).
+/// What a scene uses that only the CPU backend steps: the implicit method.
 fn cpu_only_feature(scene: &Scene) -> Option<&'static str> {
-    if scene.solver.method == Method::Implicit {
-        return Some(crate::mpm::gpu::IMPLICIT_METHOD);
-    }
-    scene
-        .tissues
-        .iter()
-        .any(|t| t.material.toughness.is_some())
-        .then_some("tissue toughness (tearing)")
+    (scene.solver.method == Method::Implicit).then_some(crate::mpm::gpu::IMPLICIT_METHOD)
 }
 
 /// Why a world could not be built.
