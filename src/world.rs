@@ -377,16 +377,6 @@ impl PlannedFrame {
     }
 }
 
-/// What a scene uses that only the CPU backend steps: tissue toughness (tearing). (What
-/// depends on the adapter as well, see [`gpu::unsupported`].)
-fn cpu_only_feature(scene: &Scene) -> Option<&'static str> {
-    scene
-        .tissues
-        .iter()
-        .any(|t| t.material.toughness.is_some())
-        .then_some("tissue toughness (tearing)")
-}
-
 /// Why a world could not be built.
 #[derive(Debug, thiserror::Error)]
 pub enum WorldError {
@@ -500,18 +490,10 @@ impl World {
             implicit: scene.solver.implicit_params(),
         };
         // A scene of threads alone has no tissue to step: its (empty) grid stays on the CPU.
-        let gpu_context = match cpu_only_feature(scene) {
-            _ if setup.particles.is_empty() => None,
-            Some(feature) if scene.solver.backend == BackendChoice::Gpu => {
-                return Err(GpuError::Unsupported(feature).into())
-            }
-            Some(feature) => {
-                if scene.solver.backend == BackendChoice::Auto {
-                    tracing::info!("backend: cpu (auto: the GPU backend has no {feature} yet)");
-                }
-                None
-            }
-            None => match gpu::adapter::select(scene.solver.backend)? {
+        let gpu_context = if setup.particles.is_empty() {
+            None
+        } else {
+            match gpu::adapter::select(scene.solver.backend)? {
                 Some(ctx) if scene.solver.backend == BackendChoice::Auto => {
                     match gpu::unsupported(&ctx, &setup) {
                         Some(feature) => {
@@ -522,7 +504,7 @@ impl World {
                     }
                 }
                 other => other,
-            },
+            }
         };
         let backend = match gpu_context {
             Some(ctx) => Backend::Gpu(Box::new(GpuSolver::new(ctx, setup)?)),

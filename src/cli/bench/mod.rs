@@ -68,6 +68,10 @@ pub enum BenchCommand {
         /// Solver backend (`cpu`, `gpu` or `auto`).
         #[arg(long, default_value = "cpu", value_parser = scene_value::<BackendChoice>)]
         backend: BackendChoice,
+        /// Only the cases whose name contains this (and the cases they are compared with),
+        /// e.g. `toughness` or `cutting`.
+        #[arg(long)]
+        only: Option<String>,
     },
     /// Particle-substeps per second against particle count (10k–1M) and on the seed-000
     /// scene, for the CPU backend and each GPU P2G variant the adapter can run.
@@ -119,8 +123,12 @@ pub fn run(args: BenchArgs) -> Result<()> {
         return run_sweep(args.quick, &args.out, args.backends);
     };
     match which {
-        BenchCommand::Skip { frames, backend } => {
-            let rows = skip::run(backend, frames.max(1))?;
+        BenchCommand::Skip {
+            frames,
+            backend,
+            only,
+        } => {
+            let rows = skip::run(backend, frames.max(1), only.as_deref())?;
             print!("{}", skip::table(&rows));
             let over = skip::over_target(&rows);
             if !over.is_empty() {

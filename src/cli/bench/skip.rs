@@ -8,7 +8,7 @@
 //! - a scalpel parked out of reach against no tools, and the cutting scene mid-cut against
 //!   a blunt tool on the blade's path (the cost of cutting when on);
 //! - the resting tissue with a toughness it never reaches against none (the cost of the
-//!   damage model when on, CPU only: tearing has no GPU path).
+//!   damage model when on; off, the CPU compiles it out and the GPU branches past it).
 
 use dvrk_tissue_sim::config::builders::seed000_scene;
 use dvrk_tissue_sim::config::Scene;
@@ -143,22 +143,139 @@ fn time_frames(world: &mut World, warmup: u32, frames: u32) -> f64 {
     start.elapsed().as_secs_f64() / frames as f64
 }
 
-/// Runs every case on `backend`, `frames` timed frames each.
-pub fn run(backend: BackendChoice, frames: u32) -> anyhow::Result<Vec<SkipRow>> {
-    let mut rows = Vec::new();
-    let mut measure = |case: &'static str,
-                       mut scene: Scene,
-                       baseline: Option<(&'static str, f64)>,
-                       settle: bool,
-                       warm_until: Option<f64>|
-     -> anyhow::Result<()> {
+/// One case to time: its scene, the case it is compared with (and the largest ratio
+/// allowed), whether it first steps until the tissue sleeps, and the scene time it is first
+/// stepped to (untimed).
+struct Case {
+    name: &'static str,
+    scene: Scene,
+    baseline: Option<(&'static str, f64)>,
+    settle: bool,
+    warm_until: Option<f64>,
+}
+
+fn case(
+    name: &'static str,
+    scene: Scene,
+    baseline: Option<(&'static str, f64)>,
+    settle: bool,
+    warm_until: Option<f64>,
+) -> Case {
+    Case {
+        name,
+        scene,
+        baseline,
+        settle,
+        warm_until,
+    }
+}
+
+/// Every case, each after the case it is compared with.
+fn cases() -> Vec<Case> {
+    const AWAKE: &str = "at rest, stepped (sleep off)";
+    let mut asleep = resting_scene();
+    asleep.sleep.enabled = true;
+    let mut large = resting_scene();
+    for a in 0..3 {
+        large.domain.origin[a] *= 4.0;
+        large.domain.size[a] *= 4.0;
+    }
+    let mut bare = resting_scene();
+    bare.tools.clear();
+    const BARE: &str = "no tools";
+    let mut tough = resting_scene();
+    // Damage computed every substep, never started: the same motion as the baseline.
+    tough.tissues[0].material.toughness = Some(1e5);
+    // Mid-cut (the edge halfway down the block at 0.35 s): the blade against a blunt tool
+    // on its path; the same substeps, only the cut's marking and tests differ.
+    const BLUNT: &str = "cutting scene (dx 1 mm), blunt tool on the blade's path";
+    // The default scene's keyframes have lifted the liver 10 mm by 1.5 s and hold it to 1.8 s.
+    const CONTACT: &str = "default scene, jaws closed on the liver, contact only";
+    vec![
+        case(AWAKE, resting_scene(), None, false, None),
+        case("at rest, asleep", asleep, Some((AWAKE, 0.05)), true, None),
+        case(
+            "domain 4× per axis (64× nodes)",
+            large,
+            Some((AWAKE, 1.2)),
+            false,
+            None,
+        ),
+        case(BARE, bare, None, false, None),
+        case(
+            "at rest, stepped, toughness on (nothing tears)",
+            tough,
+            Some((AWAKE, 1.1)),
+            false,
+            None,
+        ),
+        case(
+            "gripper, needle, probe parked",
+            parked_tools(resting_scene()),
+            Some((BARE, 1.05)),
+            false,
+            None,
+        ),
+        case(
+            "slicer parked",
+            parked_slicer(resting_scene()),
+            Some((BARE, 1.05)),
+            false,
+            None,
+        ),
+        case(BLUNT, cutting_scene(true), None, false, Some(0.35)),
+        case(
+            "cutting scene (dx 1 mm), blade cutting",
+            cutting_scene(false),
+            Some((BLUNT, 1.1)),
+            false,
+            Some(0.35),
+        ),
+        case(CONTACT, default_grasp(false), None, false, Some(1.5)),
+        case(
+            "default scene, liver held up by the grip",
+            default_grasp(true),
+            Some((CONTACT, 1.1)),
+            false,
+            Some(1.5),
+        ),
+    ]
+}
+
+/// Runs the cases on `backend`, `frames` timed frames each: every case, or with `only` the
+/// cases whose name contains it and the cases they are compared with.
+pub fn run(
+    backend: BackendChoice,
+    frames: u32,
+    only: Option<&str>,
+) -> anyhow::Result<Vec<SkipRow>> {
+    let all = cases();
+    let chosen: Vec<&'static str> = all
+        .iter()
+        .filter(|c| only.is_none_or(|o| c.name.contains(o)))
+        .flat_map(|c| std::iter::once(c.name).chain(c.baseline.map(|(b, _)| b)))
+        .collect();
+    anyhow::ensure!(
+        !chosen.is_empty(),
+        "no bench skip case contains {:?}",
+        only.unwrap_or_default()
+    );
+    let mut rows: Vec<SkipRow> = Vec::new();
+    for c in all.into_iter().filter(|c| chosen.contains(&c.name)) {
+        let Case {
+            name,
+            mut scene,
+            baseline,
+            settle,
+            warm_until,
+        } = c;
         scene.solver.backend = backend;
         let mut world = World::try_new(&scene)?;
         if settle {
             // Step (untimed) until the tissue has come to rest and fallen asleep.
             while !world.is_asleep() {
                 world.step_frame().expect("bench scene is stable");
-                anyhow::ensure!(world.time() < 10.0, "{case}: tissue never came to rest");
+                anyhow::ensure!(world.time() < 10.0, "{name}: tissue never came to rest");
             }
         }
         if let Some(until) = warm_until {
@@ -173,14 +290,14 @@ pub fn run(backend: BackendChoice, frames: u32) -> anyhow::Result<Vec<SkipRow>> 
             frames
         };
         let frame_s = time_frames(&mut world, 1, frames);
-        eprintln!("{case}: {:.3} ms per frame", 1e3 * frame_s);
-        let ratio = baseline.and_then(|(name, _)| {
+        eprintln!("{name}: {:.3} ms per frame", 1e3 * frame_s);
+        let ratio = baseline.and_then(|(base, _)| {
             rows.iter()
-                .find(|r: &&SkipRow| r.case == name)
+                .find(|r| r.case == base)
                 .map(|r| frame_s / r.frame_s)
         });
         rows.push(SkipRow {
-            case,
+            case: name,
             backend: world.backend().name(),
             particles: world.particles().len(),
             grid_nodes: world.layout().node_count(),
@@ -189,76 +306,7 @@ pub fn run(backend: BackendChoice, frames: u32) -> anyhow::Result<Vec<SkipRow>> 
             baseline,
             ratio,
         });
-        Ok(())
-    };
-    const AWAKE: &str = "at rest, stepped (sleep off)";
-    measure(AWAKE, resting_scene(), None, false, None)?;
-    let mut asleep = resting_scene();
-    asleep.sleep.enabled = true;
-    measure("at rest, asleep", asleep, Some((AWAKE, 0.05)), true, None)?;
-    let mut large = resting_scene();
-    for a in 0..3 {
-        large.domain.origin[a] *= 4.0;
-        large.domain.size[a] *= 4.0;
     }
-    measure(
-        "domain 4× per axis (64× nodes)",
-        large,
-        Some((AWAKE, 1.2)),
-        false,
-        None,
-    )?;
-    let mut bare = resting_scene();
-    bare.tools.clear();
-    const BARE: &str = "no tools";
-    measure(BARE, bare, None, false, None)?;
-    if backend != BackendChoice::Gpu {
-        let mut tough = resting_scene();
-        // Damage computed every substep, never started: the same motion as the baseline.
-        tough.tissues[0].material.toughness = Some(1e5);
-        measure(
-            "at rest, stepped, toughness on (nothing tears)",
-            tough,
-            Some((AWAKE, 1.1)),
-            false,
-            None,
-        )?;
-    }
-    measure(
-        "gripper, needle, probe parked",
-        parked_tools(resting_scene()),
-        Some((BARE, 1.05)),
-        false,
-        None,
-    )?;
-    measure(
-        "slicer parked",
-        parked_slicer(resting_scene()),
-        Some((BARE, 1.05)),
-        false,
-        None,
-    )?;
-    // Mid-cut (the edge halfway down the block at 0.35 s): the blade against a blunt tool
-    // on its path; the same substeps, only the cut's marking and tests differ.
-    const BLUNT: &str = "cutting scene (dx 1 mm), blunt tool on the blade's path";
-    measure(BLUNT, cutting_scene(true), None, false, Some(0.35))?;
-    measure(
-        "cutting scene (dx 1 mm), blade cutting",
-        cutting_scene(false),
-        Some((BLUNT, 1.1)),
-        false,
-        Some(0.35),
-    )?;
-    // The default scene's keyframes have lifted the liver 10 mm by 1.5 s and hold it to 1.8 s.
-    const CONTACT: &str = "default scene, jaws closed on the liver, contact only";
-    measure(CONTACT, default_grasp(false), None, false, Some(1.5))?;
-    measure(
-        "default scene, liver held up by the grip",
-        default_grasp(true),
-        Some((CONTACT, 1.1)),
-        false,
-        Some(1.5),
-    )?;
     Ok(rows)
 }
 
@@ -311,6 +359,17 @@ pub fn table(rows: &[SkipRow]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_case_comes_after_its_baseline() {
+        let all = cases();
+        for (i, c) in all.iter().enumerate() {
+            if let Some((base, _)) = c.baseline {
+                let at = all.iter().position(|b| b.name == base);
+                assert!(at.is_some_and(|at| at < i), "{} before {base}", c.name);
+            }
+        }
+    }
 
     #[test]
     fn bench_scenes_are_valid_and_keep_tools_out_of_reach() {

@@ -59,7 +59,8 @@ fn g2p_particle(p: u32) {
         return;
     }
     atomicMax(&wg_max, bitcast<u32>(speed));
-    particles[p].x = vec4<f32>(sim.origin_dx.xyz + g_new * sim.origin_dx.w, 0.0);
+    // w: the damage (damage.wgsl), which P2G advances.
+    particles[p].x = vec4<f32>(sim.origin_dx.xyz + g_new * sim.origin_dx.w, part.x.w);
     particles[p].v = vec4<f32>(v, 0.0);
     particles[p].c = c_new;
     particles[p].f = f_new;

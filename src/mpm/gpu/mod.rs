@@ -15,6 +15,10 @@
 //!   P2G and G2P then skip (read the particle's own velocity at) the nodes across it, and
 //!   G2P turns it with the material (see [`crate::mpm::crack`]). Without a slicer the crack
 //!   buffer is a placeholder, nothing is dispatched and the side tests compile away;
+//! - `damage.wgsl` (no stage of its own): with a material that has toughness, MLS-MPM's
+//!   P2G advances each particle's damage (kept in its position's w) and scatters the
+//!   degraded stress (see [`crate::mpm::damage`]); PB-MPM has no stress to degrade and
+//!   `check` refuses toughness with it;
 //! - `pbmpm`: PB-MPM's elastic constraint on C, momentum-only P2G and the inner
 //!   iterations' G2P; a PB-MPM substep records the stages above once per iteration, each
 //!   iteration with its own parameter entry (gravity in the first only), integrating in
@@ -199,6 +203,12 @@ impl GpuSolver {
         );
         let device = &ctx.device;
         check_limits(device, &setup)?;
+        // A scene with toughness keeps one damage per particle (as the CPU solver), which
+        // the device holds in each position's w.
+        let mut setup = setup;
+        if crate::mpm::damage::onsets(&setup.materials, setup.layout.dx).is_some() {
+            setup.particles.damage = vec![0.0; setup.particles.len()];
+        }
         let max_substeps = setup.max_substeps.max(1);
         // One Step entry per substep, per constraint iteration with PB-MPM.
         let (steps_per_substep, _) = step_entries(setup.method, setup.pb_mpm);

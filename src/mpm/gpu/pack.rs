@@ -1,6 +1,7 @@
 //! The structs Rust and WGSL share, declared once here (std430/uniform layout: vec3 and
 //! mat3x3 columns padded to 16 bytes), and the packing of the host state into them.
 
+use crate::mpm::damage;
 use crate::mpm::material::MaterialModel;
 use crate::mpm::{Mat3, MaterialParams, Particles, Vec3};
 use crate::tools::{ContactModel, Shape, ToolKinematics};
@@ -86,6 +87,7 @@ shared_struct! {
 
 shared_struct! {
     pub struct GpuParticle as "Particle" {
+        /// w: damage (see `damage.wgsl`), 0 in a scene without toughness.
         pub x: [f32; 4],
         /// w: 0, or what tripped the guard (speed, −1 for non-finite).
         pub v: [f32; 4],
@@ -102,7 +104,9 @@ shared_struct! {
         pub lambda: f32,
         pub damping: f32,
         pub density: f32,
-        pub pad0: f32,
+        /// Damage onset energy (J/m³, see [`crate::mpm::damage::onset_energy`]); 0: the
+        /// material does not tear.
+        pub onset: f32,
         pub pad1: f32,
         pub pad2: f32,
     }
@@ -209,7 +213,7 @@ impl From<&ToolKinematics> for GpuTool {
 pub fn particles(p: &Particles) -> Vec<GpuParticle> {
     (0..p.len())
         .map(|i| GpuParticle {
-            x: v4(p.x[i], 0.0),
+            x: v4(p.x[i], p.damage.get(i).copied().unwrap_or(0.0)),
             v: v4(p.v[i], 0.0),
             c: m3(&p.c[i]),
             f: m3(&p.f[i]),
@@ -220,6 +224,9 @@ pub fn particles(p: &Particles) -> Vec<GpuParticle> {
 pub fn unpack_particles(src: &[GpuParticle], p: &mut Particles) {
     for (i, g) in src.iter().enumerate() {
         p.x[i] = Vec3::new(g.x[0], g.x[1], g.x[2]);
+        if let Some(d) = p.damage.get_mut(i) {
+            *d = g.x[3];
+        }
         p.v[i] = Vec3::new(g.v[0], g.v[1], g.v[2]);
         p.c[i] = unm3(&g.c);
         p.f[i] = unm3(&g.f);
@@ -248,8 +255,9 @@ pub fn constants(p: &Particles) -> Vec<[f32; 4]> {
         .collect()
 }
 
-/// Per material: model, μ, λ, damping, density.
-pub fn materials(m: &[MaterialParams]) -> Vec<GpuMaterial> {
+/// Per material: model, μ, λ, damping, density, and the damage onset on a grid of cell
+/// size `dx` (m).
+pub fn materials(m: &[MaterialParams], dx: f32) -> Vec<GpuMaterial> {
     m.iter()
         .map(|m| GpuMaterial {
             model: match m.model {
@@ -260,7 +268,11 @@ pub fn materials(m: &[MaterialParams]) -> Vec<GpuMaterial> {
             lambda: m.lame.lambda,
             damping: m.damping,
             density: m.density,
-            pad0: 0.0,
+            onset: if m.toughness > 0.0 {
+                damage::onset_energy(m.toughness, dx)
+            } else {
+                0.0
+            },
             pad1: 0.0,
             pad2: 0.0,
         })

@@ -21,6 +21,7 @@ use super::readback::word;
 use super::resources::{Binding, ARGS_GROUP};
 use super::WG;
 use crate::mpm::crack::MIN_OFFSET_CELLS;
+use crate::mpm::damage::TORN;
 use crate::mpm::grid::{Node, BLOCK, NODES_PER_BLOCK, WALL_NODES};
 use crate::mpm::material::{J_MIN, ROTATION_ITERATIONS};
 use crate::mpm::MAX_TOOLS;
@@ -44,6 +45,7 @@ fn prelude(float_p2g: bool, cutting: bool) -> String {
         writeln!(out, "const {name}: u32 = {value}u;").unwrap();
     }
     writeln!(out, "const J_MIN: f32 = {J_MIN:?};").unwrap();
+    writeln!(out, "const TORN: f32 = {TORN:?};").unwrap();
     // Cutting: whether particles carry cracks, and the constants of crack.rs / slicer.rs.
     writeln!(out, "const CUTTING: bool = {cutting};").unwrap();
     writeln!(out, "const SLICER_KIND: u32 = {SLICER_KIND}u;").unwrap();
@@ -88,8 +90,8 @@ fn prelude(float_p2g: bool, cutting: bool) -> String {
     out
 }
 
-/// Full source of one stage: the prelude, the shared functions, the P2G accumulation
-/// variant, and the stage itself.
+/// Full source of one stage: the prelude, the shared functions, the damage model, the P2G
+/// accumulation variant, and the stage itself.
 fn shader_source(stage: &str, float_p2g: bool, cutting: bool) -> String {
     let acc = if float_p2g {
         include_str!("acc_float.wgsl")
@@ -97,9 +99,10 @@ fn shader_source(stage: &str, float_p2g: bool, cutting: bool) -> String {
         include_str!("acc_fixed.wgsl")
     };
     format!(
-        "{}\n{}\n{acc}\n{stage}",
+        "{}\n{}\n{}\n{acc}\n{stage}",
         prelude(float_p2g, cutting),
-        include_str!("common.wgsl")
+        include_str!("common.wgsl"),
+        include_str!("damage.wgsl")
     )
 }
 

@@ -190,6 +190,10 @@ impl Readback {
         for (x, p) in host.x.iter_mut().zip(positions) {
             *x = Vec3::new(p[0], p[1], p[2]);
         }
+        // A scene with toughness: each position's w is the particle's damage.
+        for (d, p) in host.damage.iter_mut().zip(positions) {
+            *d = p[3];
+        }
         let gradients = if self.cutting {
             let (cracks, gradients) = rest.split_at(n.min(rest.len()));
             unpack_cracks(cracks, host);

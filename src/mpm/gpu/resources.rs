@@ -322,7 +322,7 @@ impl Resources {
         queue.write_buffer(
             &materials,
             0,
-            bytemuck::cast_slice(&pack::materials(&setup.materials)),
+            bytemuck::cast_slice(&pack::materials(&setup.materials, setup.layout.dx)),
         );
         let packed = pack::particles(&setup.particles);
         queue.write_buffer(&particles, 0, bytemuck::cast_slice(&packed));
