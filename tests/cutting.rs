@@ -273,14 +273,16 @@ fn a_recorded_cut_carries_the_piece_count_and_damage() {
     use dvrk_tissue_sim::ros::msgs::{from_cdr, PointCloud2, UInt32};
     let dir = std::env::temp_dir().join(format!("dvrk-cutting-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let text =
-        std::fs::read_to_string(format!("{}/config/cutting_psm.toml", env!("CARGO_MANIFEST_DIR")))
-            .unwrap()
-            .replace("damping = 5.0", "damping = 5.0\ntoughness = 50.0")
-            .replace(
-                "pieces_rate_hz = 10.0",
-                "pieces_rate_hz = 10.0\npoints_scalar = \"damage\"",
-            );
+    let text = std::fs::read_to_string(format!(
+        "{}/config/cutting_psm.toml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap()
+    .replace("damping = 5.0", "damping = 5.0\ntoughness = 50.0")
+    .replace(
+        "pieces_rate_hz = 10.0",
+        "pieces_rate_hz = 10.0\npoints_scalar = \"damage\"",
+    );
     let scene = dir.join("cutting_damage.toml");
     std::fs::write(&scene, text).unwrap();
     let bag = dir.join("cut.mcap");
