@@ -218,3 +218,123 @@ fn a_scene_that_cuts_gets_the_isosurface_instead_of_the_fixed_mesh() {
     scene.tools[0].shape = Shape::Sphere { radius: 0.004 };
     assert_eq!(surface_kind(&scene), SurfaceKind::Mesh);
 }
+
+/// `config/cutting_psm.toml`: PSM1 at home holds the scalpel (`tool_rpy_deg` turning it half
+/// a turn about the instrument's x) exactly where the tool's first keyframe puts it, the
+/// blade hanging down with its edge 2 mm above the block; 15 mm more insertion lowers it
+/// 15 mm, the edge 1 mm below the table.
+#[test]
+fn a_psm_holds_the_scalpel_blade_down_along_its_instrument() {
+    let scene = shipped("cutting_psm.toml");
+    let setup = dvrk_tissue_sim::sim::build_setup(&scene).unwrap();
+    let held = setup.arms[0].tool_pose();
+    let keyframe = setup.world.tools()[setup.arm_tools[0]].pose_at(0.0);
+    let dp = (held.position - keyframe.position).norm();
+    let angle = held.rotation.angle_to(&keyframe.rotation);
+    assert!(dp < 1e-9, "arm {held:?} keyframe {keyframe:?}");
+    assert!(angle < 1e-9, "arm {held:?} keyframe {keyframe:?}");
+    // The blade's −z (down its height, to the edge) is the world's −z.
+    let down = held.rotation * nalgebra::Vector3::new(0.0, 0.0, -1.0);
+    assert!((down.z + 1.0).abs() < 1e-12, "blade points {down:?}");
+    let Shape::Slicer { height, .. } = scene.tools[0].shape else {
+        panic!("the scalpel is a slicer");
+    };
+    let edge = held.position.z - height as f64;
+    let block_top = scene.tissues[0].center[2] + 0.5 * scene.tissues[0].size[2];
+    assert!((edge - block_top - 0.002).abs() < 1e-9, "edge at {edge} m");
+    let mut q = scene.arms[0].home_joints;
+    q[2] += 0.015;
+    let lowered = setup.arms[0].psm().forward(&q).unwrap();
+    let world = dvrk_tissue_sim::sim::setup::arm_base(&scene.arms[0]) * lowered;
+    let edge_down = world.translation.vector.z - height as f64;
+    assert!(
+        (edge_down - (scene.table.as_ref().unwrap().height - 0.001)).abs() < 1e-6,
+        "edge at {edge_down} m after the insertion"
+    );
+}
+
+/// Messages of an MCAP bag on `topic`: (log time, payload).
+fn bag_messages(path: &std::path::Path, topic: &str) -> Vec<(u64, Vec<u8>)> {
+    let bytes = std::fs::read(path).unwrap();
+    mcap::MessageStream::new(&bytes)
+        .unwrap()
+        .map(|m| m.unwrap())
+        .filter(|m| m.channel.topic == topic)
+        .map(|m| (m.log_time, m.data.into_owned()))
+        .collect()
+}
+
+/// A headless run of `config/cutting_psm.toml` recorded to a bag, the cloud's scalar set to
+/// damage (and the block given a toughness so that it has one): the bag's `tissue/pieces`
+/// counts one piece before the edge reaches the table and two after, at the scene's
+/// `pieces_rate_hz`; its clouds carry the damage field, every value within [0, 1].
+#[test]
+fn a_recorded_cut_carries_the_piece_count_and_damage() {
+    use dvrk_tissue_sim::ros::msgs::{from_cdr, PointCloud2, UInt32};
+    let dir = std::env::temp_dir().join(format!("dvrk-cutting-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let text = std::fs::read_to_string(format!(
+        "{}/config/cutting_psm.toml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap()
+    .replace("damping = 5.0", "damping = 5.0\ntoughness = 50.0")
+    .replace(
+        "pieces_rate_hz = 10.0",
+        "pieces_rate_hz = 10.0\npoints_scalar = \"damage\"",
+    );
+    let scene = dir.join("cutting_damage.toml");
+    std::fs::write(&scene, text).unwrap();
+    let bag = dir.join("cut.mcap");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_dvrk-tissue-sim"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(["run", "--headless", "--backend", "cpu", "--seconds", "0.6"])
+        .arg("--scene")
+        .arg(&scene)
+        .arg("--record")
+        .arg(&bag)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("summary: pieces 2"), "{stdout}");
+    let counts: Vec<(f64, u32)> = bag_messages(&bag, "/tissue/pieces")
+        .iter()
+        .map(|(t, m)| (*t as f64 * 1e-9, from_cdr::<UInt32>(m).unwrap().data))
+        .collect();
+    println!("pieces in the bag: {counts:?}");
+    // 10 Hz over 0.6 s.
+    assert!((5..=7).contains(&counts.len()), "{counts:?}");
+    // The edge reaches the block's top at 0.067 s and the table at 0.467 s (keyframes: 2 mm
+    // above the block at t = 0, 1 mm below the table at 0.5 s, 30 mm/s).
+    for &(t, n) in &counts {
+        if t < 0.42 {
+            assert_eq!(n, 1, "{counts:?}");
+        } else if t > 0.499 {
+            assert_eq!(n, 2, "{counts:?}");
+        }
+    }
+    assert_eq!(counts.last().unwrap().1, 2, "{counts:?}");
+    let clouds = bag_messages(&bag, "/tissue/points");
+    assert!(!clouds.is_empty());
+    let cloud = from_cdr::<PointCloud2>(&clouds.last().unwrap().1).unwrap();
+    let names: Vec<&str> = cloud.fields.iter().map(|f| f.name.as_str()).collect();
+    assert_eq!(names, ["x", "y", "z", "damage"]);
+    let step = cloud.point_step as usize;
+    let damage: Vec<f32> = (0..cloud.width as usize)
+        .map(|i| {
+            let o = i * step + cloud.fields[3].offset as usize;
+            f32::from_le_bytes(cloud.data[o..o + 4].try_into().unwrap())
+        })
+        .collect();
+    assert_eq!(damage.len(), 4800);
+    assert!(
+        damage.iter().all(|d| (0.0..=1.0).contains(d)),
+        "damage outside [0, 1]"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

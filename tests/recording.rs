@@ -524,9 +524,11 @@ fn a_scripted_headless_run_records_its_outputs() {
     for m in &messages {
         *counts.entry(m.0.as_str()).or_default() += 1;
     }
-    // 60 frames of 1/60 s; points and tf at 30 Hz, wrench at 60 Hz, surface at 10 Hz.
+    // 60 frames of 1/60 s; points and tf at 30 Hz, wrench at 60 Hz, surface at 10 Hz, the
+    // piece count at 5 Hz.
     let expected = [
         ("/tf", 30),
+        ("/tissue/pieces", 5),
         ("/tissue/points", 30),
         ("/tissue/surface", 10),
         ("/tools/probe/wrench", 60),

@@ -87,6 +87,11 @@ fn rclpy_psm1_picks_up_the_thread_and_opening_drops_it() {
 }
 
 #[test]
+fn rclpy_psm1_holding_a_scalpel_cuts_the_block_into_two_pieces() {
+    rclpy_test("test_scalpel_cut.py", "config/cutting_psm.toml", 71);
+}
+
+#[test]
 fn teleop_demo_grasps_lifts_and_releases_the_liver() {
     // The demo exits non-zero when nothing was lifted; it prints what it lifted.
     if let Some(out) = rclpy_test(

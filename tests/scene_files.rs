@@ -608,3 +608,32 @@ fn a_thread_outside_the_domain_is_refused() {
         "{e}"
     );
 }
+
+#[test]
+fn an_arm_held_tools_mount_and_the_pieces_rate_are_validated() {
+    let arm = "\n[[arm]]\nname = \"PSM1\"\nbase_xyz = [0.0, 0.0, 0.14]\n\
+               home_joints = [0.0, 0.0, 0.12, 0.0, 0.0, 0.0]\ntool = \"probe\"\n";
+    let scene = config::from_str(&format!("{GOOD}{arm}"), Path::new("arm.toml")).unwrap();
+    assert_eq!(scene.arms[0].tool_rpy_deg, [0.0; 3]);
+    assert_eq!(scene.outputs.pieces_rate_hz, 5.0);
+    let turned = format!("{GOOD}{arm}tool_rpy_deg = [180.0, 0.0, 0.0]\n");
+    let scene = config::from_str(&turned, Path::new("arm.toml")).unwrap();
+    assert_eq!(scene.arms[0].tool_rpy_deg, [180.0, 0.0, 0.0]);
+
+    let bad = format!(
+        "{GOOD}{arm}tool_rpy_deg = [0.0, 1.0e9, 0.0]\n[outputs]\npieces_rate_hz = -1.0\n"
+    );
+    let problems = problems_of(&bad);
+    assert_eq!(problems.len(), 2, "{problems:#?}");
+    let mount = problems
+        .iter()
+        .find(|p| p.key == "arm[0] (PSM1).tool_rpy_deg")
+        .unwrap_or_else(|| panic!("{problems:#?}"));
+    assert!(mount.allowed.contains("angles of at most"), "{mount:?}");
+    assert!(mount.value.contains("1000000000"), "{mount:?}");
+    let rate = problems
+        .iter()
+        .find(|p| p.key == "outputs.pieces_rate_hz")
+        .unwrap_or_else(|| panic!("{problems:#?}"));
+    assert!(rate.allowed.contains("0 (off) to 1000 Hz"), "{rate:?}");
+}

@@ -344,6 +344,11 @@ pub struct Arm {
     pub home_jaw_deg: f64,
     /// Name of the `[[tool]]` this arm holds.
     pub tool: String,
+    /// The held tool's orientation in the arm's tool frame, as roll, pitch, yaw about fixed
+    /// x, y, z (degrees). The tool frame's +z is the instrument's axis, out of its tip; a
+    /// slicer's blade hangs along its own −z, so a PSM holding a scalpel uses [180, 0, 0].
+    #[serde(default)]
+    pub tool_rpy_deg: [f64; 3],
     #[serde(default)]
     pub mode: ArmMode,
     /// Mirror mode: namespace of the real arm whose `measured_js` and `jaw/measured_js` are
@@ -447,6 +452,14 @@ pub struct Outputs {
     /// `threads/<thread>/tension` (sensor_msgs/PointCloud2).
     #[serde(default = "default_thread_rate")]
     pub thread_rate_hz: f64,
+    /// `tissue/pieces` (std_msgs/UInt32): how many separate pieces the tissue is in, counted
+    /// at this rate in simulated time while someone subscribes (and when recording).
+    #[serde(default = "default_pieces_rate")]
+    pub pieces_rate_hz: f64,
+}
+
+fn default_pieces_rate() -> f64 {
+    5.0
 }
 
 fn default_points_rate() -> f64 {
@@ -487,6 +500,7 @@ impl Default for Outputs {
             tf_rate_hz: default_tf_rate(),
             arm_rate_hz: default_arm_rate(),
             thread_rate_hz: default_thread_rate(),
+            pieces_rate_hz: default_pieces_rate(),
         }
     }
 }

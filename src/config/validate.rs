@@ -553,6 +553,12 @@ fn validate_arms(c: &mut Checker, scene: &Scene) {
             arm.base_rpy_deg,
             format!("angles of at most ±{MAX_DEGREES}°"),
         );
+        c.require(
+            arm.tool_rpy_deg.iter().all(|v| v.abs() <= MAX_DEGREES),
+            key("tool_rpy_deg"),
+            arm.tool_rpy_deg,
+            format!("angles of at most ±{MAX_DEGREES}°"),
+        );
         // The URDF's limits are checked when the arm is built; no PSM joint turns more than a
         // turn either way, nor inserts more than a metre.
         c.require(
@@ -644,6 +650,7 @@ fn validate_outputs(c: &mut Checker, scene: &Scene) {
         ("outputs.tf_rate_hz", o.tf_rate_hz),
         ("outputs.arm_rate_hz", o.arm_rate_hz),
         ("outputs.thread_rate_hz", o.thread_rate_hz),
+        ("outputs.pieces_rate_hz", o.pieces_rate_hz),
     ] {
         c.require(
             v.is_finite() && (0.0..=1000.0).contains(&v),

@@ -132,6 +132,12 @@ pub struct Bool {
 }
 ros_message!(Bool, "std_msgs", "Bool");
 
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct UInt32 {
+    pub data: u32,
+}
+ros_message!(UInt32, "std_msgs", "UInt32");
+
 /// std_msgs/Empty. Other ROS 2 implementations put one padding byte on the wire; reading none
 /// accepts both.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]

@@ -329,6 +329,7 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
     };
     let points: Publisher<PointCloud2> = topics.publisher("tissue/points", periodic_qos())?;
     let surface: Publisher<Marker> = topics.publisher("tissue/surface", periodic_qos())?;
+    let pieces: Publisher<UInt32> = topics.publisher(outputs::PIECES_TOPIC, periodic_qos())?;
     let mut wrenches: Vec<Publisher<WrenchStamped>> = Vec::new();
     for tool in &scene.tools {
         wrenches.push(topics.publisher(&format!("tools/{}/wrench", tool.name), periodic_qos())?);
@@ -374,6 +375,8 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
         arms,
         points_topic: resolve(&settings.namespace, "tissue/points"),
         surface_topic: resolve(&settings.namespace, "tissue/surface"),
+        pieces_topic: resolve(&settings.namespace, outputs::PIECES_TOPIC),
+        pieces_published: 0,
         wrench_topics: scene
             .tools
             .iter()
@@ -387,6 +390,7 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
         force,
         points,
         surface,
+        pieces,
         wrenches,
         threads,
         tf,
@@ -489,6 +493,7 @@ struct ThreadIo {
 struct Demand {
     points: bool,
     surface: bool,
+    pieces: bool,
     tf: bool,
     wrenches: Vec<bool>,
 }
@@ -498,6 +503,9 @@ struct Io {
     /// Absolute names of the output topics, for subscriber counts.
     points_topic: String,
     surface_topic: String,
+    pieces_topic: String,
+    /// Index of the last frame whose piece count was published.
+    pieces_published: u64,
     wrench_topics: Vec<String>,
     demand: Demand,
     arm_outputs: Vec<ArmOutput>,
@@ -509,6 +517,7 @@ struct Io {
     force: Option<(Publisher<WrenchStamped>, f64, usize)>,
     points: Publisher<PointCloud2>,
     surface: Publisher<Marker>,
+    pieces: Publisher<UInt32>,
     wrenches: Vec<Publisher<WrenchStamped>>,
     threads: Vec<ThreadIo>,
     tf: Publisher<TFMessage>,
@@ -605,6 +614,7 @@ impl Io {
             self.demand = Demand {
                 points: node.subscription_count(&self.points_topic) > 0,
                 surface: node.subscription_count(&self.surface_topic) > 0,
+                pieces: node.subscription_count(&self.pieces_topic) > 0,
                 tf: node.subscription_count("/tf") > 0,
                 wrenches: self
                     .wrench_topics
@@ -622,6 +632,8 @@ impl Io {
                 .store(self.demand.points, Ordering::Relaxed);
             sim.surface_wanted
                 .store(self.demand.surface, Ordering::Relaxed);
+            sim.pieces_wanted
+                .store(self.demand.pieces, Ordering::Relaxed);
         }
         if self.rates.arm.due(now) {
             self.publish_arms(frame, stamp);
@@ -650,6 +662,14 @@ impl Io {
         if self.rates.surface.due(now) && self.demand.surface {
             if let Some(t) = &frame.surface {
                 let _ = self.surface.publish(outputs::surface_message(t, stamp));
+            }
+        }
+        // Counted by the simulation at the scene's rate (simulated time) while subscribed:
+        // each count is published once.
+        if let (Some(pieces), true) = (frame.pieces, self.demand.pieces) {
+            if frame.index > self.pieces_published {
+                self.pieces_published = frame.index;
+                let _ = self.pieces.publish(outputs::pieces_message(pieces));
             }
         }
         if self.rates.thread.due(now) {

@@ -43,6 +43,7 @@ pub struct OutputRates {
     pub wrench: f64,
     pub tf: f64,
     pub thread: f64,
+    pub pieces: f64,
 }
 
 /// Every output topic of a scene (absolute names) and what builds its messages.
@@ -95,6 +96,7 @@ impl OutputLayout {
                 wrench: o.wrench_rate_hz,
                 tf: o.tf_rate_hz,
                 thread: o.thread_rate_hz,
+                pieces: o.pieces_rate_hz,
             },
         }
     }
@@ -154,6 +156,7 @@ impl OutputLayout {
                 PointCloud2::type_name(),
             ));
         }
+        out.push((self.topic(PIECES_TOPIC), UInt32::type_name()));
         out.push(("/tf".to_owned(), TFMessage::type_name()));
         if let Some(f) = &self.force_feedback {
             out.push((f.topic.clone(), WrenchStamped::type_name()));
@@ -283,6 +286,14 @@ pub fn surface_message(t: &SurfaceTriangles, stamp: Time) -> Marker {
             .collect(),
         ..Default::default()
     }
+}
+
+/// Topic of the tissue's piece count, relative to the namespace.
+pub const PIECES_TOPIC: &str = "tissue/pieces";
+
+/// How many separate pieces the tissue is in.
+pub fn pieces_message(pieces: u32) -> UInt32 {
+    UInt32 { data: pieces }
 }
 
 /// Topic of a thread's centreline marker, relative to the namespace.
@@ -485,6 +496,7 @@ pub struct SimSchedule {
     wrench: SimRate,
     tf: SimRate,
     thread: SimRate,
+    pieces: SimRate,
 }
 
 impl SimSchedule {
@@ -496,6 +508,7 @@ impl SimSchedule {
             wrench: SimRate::new(rates.wrench),
             tf: SimRate::new(rates.tf),
             thread: SimRate::new(rates.thread),
+            pieces: SimRate::new(rates.pieces),
         }
     }
 
@@ -508,6 +521,7 @@ impl SimSchedule {
             wrench: self.wrench.due(t),
             tf: self.tf.due(t),
             thread: self.thread.due(t),
+            pieces: self.pieces.due(t),
         }
     }
 }
@@ -525,6 +539,7 @@ mod tests {
             wrench: 0.0,
             tf: 60.0,
             thread: 30.0,
+            pieces: 5.0,
         });
         let (mut arm, mut points, mut surface, mut wrench, mut tf) = (0, 0, 0, 0, 0);
         for k in 1..=60 {

@@ -552,6 +552,12 @@ impl Bag {
                 )?;
             }
         }
+        if due.pieces {
+            if let Some(pieces) = frame.pieces {
+                let m = outputs::pieces_message(pieces);
+                self.write(outputs::PIECES_TOPIC, Qos::Periodic, end, &m)?;
+            }
+        }
         self.close_chunk_if_due(frame.time)
     }
 }
@@ -676,6 +682,7 @@ mod tests {
             wrench: 60.0,
             tf: 50.0,
             thread: 30.0,
+            pieces: 5.0,
         };
         let mut tap = RecordTap {
             tx,

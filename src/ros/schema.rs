@@ -38,6 +38,11 @@ const DEFINITIONS: &[Definition] = &[
         uses: &[],
     },
     Definition {
+        name: "std_msgs/msg/UInt32",
+        text: "uint32 data\n",
+        uses: &[],
+    },
+    Definition {
         name: "std_msgs/msg/Empty",
         text: "",
         uses: &[],
@@ -235,6 +240,7 @@ mod tests {
             StringStamped::type_name(),
             Empty::type_name(),
             Bool::type_name(),
+            UInt32::type_name(),
             Joy::type_name(),
         ] {
             assert!(ros2msg(&name).is_some(), "{name}");

@@ -5,7 +5,7 @@
 //! them in at frame boundaries ([`ArmSim::apply`]) and advances the arm in simulated time
 //! ([`ArmSim::advance`]). Kinematic simulation, as dVRK's `KIN_SIMULATED`: measured = setpoint.
 
-use nalgebra::{Isometry3, Vector3};
+use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 
 use crate::config::ArmMode;
 use crate::robot::{JointCommandError, Psm, PsmError, RcmPolicy, Trajectory};
@@ -179,6 +179,9 @@ pub struct ArmSim {
     mode: ArmMode,
     /// World from `<name>_base`.
     base: Isometry3<f64>,
+    /// The held tool's orientation in the arm's tool frame (`[[arm]] tool_rpy_deg`): a
+    /// slicer's blade hangs along its own −z, the instrument's axis is the tool frame's +z.
+    mount: UnitQuaternion<f64>,
     home: Vec<f64>,
     state: OperatingState,
     homed: bool,
@@ -223,6 +226,7 @@ impl ArmSim {
             psm,
             mode,
             base,
+            mount: UnitQuaternion::identity(),
             home: q.clone(),
             state: OperatingState::Enabled,
             homed: true,
@@ -260,6 +264,16 @@ impl ArmSim {
 
     pub fn base(&self) -> &Isometry3<f64> {
         &self.base
+    }
+
+    /// Holds the tool turned by `mount` in the arm's tool frame (`[[arm]] tool_rpy_deg`).
+    pub fn set_tool_mount(&mut self, mount: UnitQuaternion<f64>) {
+        self.mount = mount;
+    }
+
+    /// The held tool's orientation in the arm's tool frame.
+    pub fn tool_mount(&self) -> &UnitQuaternion<f64> {
+        &self.mount
     }
 
     pub fn operating_state(&self) -> OperatingState {
@@ -315,7 +329,7 @@ impl ArmSim {
         let world = self.base * self.cp();
         ToolPose {
             position: world.translation.vector,
-            rotation: world.rotation,
+            rotation: world.rotation * self.mount,
             jaw: self.jaw,
         }
     }

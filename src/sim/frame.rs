@@ -37,6 +37,8 @@ pub struct Frame {
     /// Every suture thread, scene order (a few dozen points each: always carried).
     pub threads: Vec<Arc<ThreadState>>,
     pub teleop: Option<TeleopState>,
+    /// Separate tissue pieces, in the frames where they were counted (`tissue/pieces`).
+    pub pieces: Option<u32>,
 }
 
 /// Which outputs a frame carries.
@@ -48,10 +50,17 @@ pub struct Due {
     pub wrench: bool,
     pub tf: bool,
     pub thread: bool,
+    pub pieces: bool,
 }
 
 impl Due {
     pub fn any(&self) -> bool {
-        self.arm || self.points || self.surface || self.wrench || self.tf || self.thread
+        self.arm
+            || self.points
+            || self.surface
+            || self.wrench
+            || self.tf
+            || self.thread
+            || self.pieces
     }
 }

@@ -33,6 +33,8 @@ use crate::world::{FrameReport, StepError, World};
 pub struct Wanted {
     pub points: bool,
     pub surface: bool,
+    /// The piece count, at `outputs.pieces_rate_hz` in simulated time.
+    pub pieces: bool,
 }
 
 /// What one frame did.
@@ -55,6 +57,7 @@ pub struct Finished {
     frame: Frame,
     points: bool,
     surface: bool,
+    pieces: bool,
     record: Option<(f64, FrameShare, Due)>,
 }
 
@@ -70,6 +73,8 @@ pub struct FrameLoop {
     /// This frame's applied inputs and events, while recording.
     recording: Option<FrameShare>,
     index: u64,
+    /// Simulated time from which the piece count is next due for [`Wanted::pieces`].
+    pieces_next: f64,
 }
 
 impl FrameLoop {
@@ -93,6 +98,7 @@ impl FrameLoop {
             mtm_fresh: false,
             recording: None,
             index: 0,
+            pieces_next: 0.0,
         }
     }
 
@@ -172,6 +178,7 @@ impl FrameLoop {
         };
         let points = wanted.points || due.points;
         let surface = wanted.surface || due.surface;
+        let pieces = due.pieces || (wanted.pieces && self.pieces_due(t_next));
         let needs_deformation = self
             .setup
             .surface
@@ -219,6 +226,7 @@ impl FrameLoop {
             frame,
             points,
             surface,
+            pieces,
             record,
         };
         let stepped = Stepped {
@@ -227,6 +235,18 @@ impl FrameLoop {
             wall,
         };
         (finished, stepped)
+    }
+
+    /// Whether the frame ending at `t` counts the pieces for a subscriber: once per period
+    /// of `outputs.pieces_rate_hz` in simulated time (a count walks every particle's
+    /// neighbours, too much for every frame of a large scene).
+    fn pieces_due(&mut self, t: f64) -> bool {
+        let rate = self.setup.world.scene().outputs.pieces_rate_hz;
+        if rate <= 0.0 || t + 1e-9 < self.pieces_next {
+            return false;
+        }
+        self.pieces_next = t + 1.0 / rate;
+        true
     }
 
     /// Logs a snapshot taken by [`FrameLoop::step`]; after a failure, takes no more.
@@ -252,8 +272,12 @@ impl FrameLoop {
             mut frame,
             points,
             surface,
+            pieces,
             record,
         } = finished;
+        if pieces {
+            frame.pieces = Some(setup.world.pieces() as u32);
+        }
         if points {
             frame.cloud = Some(Arc::new(TissueCloud::from_particles(
                 setup.world.particles(),
@@ -401,15 +425,18 @@ fn frame_of(setup: &SimSetup, report: Option<&FrameReport>) -> Frame {
         .enumerate()
         .map(|(i, t)| {
             let pose = t.pose_at(world.time());
-            let frame_id = setup
-                .arm_tools
-                .iter()
-                .position(|&k| k == i)
+            let arm = setup.arm_tools.iter().position(|&k| k == i);
+            let frame_id = arm
                 .map(|a| setup.arms[a].name().to_owned())
                 .unwrap_or_else(|| t.name.clone());
+            // An arm's tool reports in the arm's tool frame, the held tool's mount undone.
+            let frame_rotation = match arm {
+                Some(a) => pose.rotation * setup.arms[a].tool_mount().inverse(),
+                None => pose.rotation,
+            };
             let wrench = report
                 .and_then(|r| r.wrenches.get(i))
-                .map(|w| w.in_tool_frame(&pose.rotation))
+                .map(|w| w.in_tool_frame(&frame_rotation))
                 .unwrap_or_default();
             ToolState {
                 name: t.name.clone(),
@@ -432,5 +459,6 @@ fn frame_of(setup: &SimSetup, report: Option<&FrameReport>) -> Frame {
             .map(|t| Arc::new(ThreadState::of(t)))
             .collect(),
         teleop: setup.teleop.as_ref().map(|t| t.teleop.state()),
+        pieces: None,
     }
 }

@@ -238,6 +238,8 @@ pub fn build_setup(scene: &Scene) -> Result<SimSetup, SetupError> {
                 tool: arm.tool.clone(),
             })?;
         sim.set_jaw_effort_limit(scene.tools[tool].jaw.effort_max);
+        let [r, p, y] = arm.tool_rpy_deg.map(f64::to_radians);
+        sim.set_tool_mount(UnitQuaternion::from_euler_angles(r, p, y));
         arms.push(sim);
         arm_tools.push(tool);
     }

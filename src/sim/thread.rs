@@ -32,6 +32,8 @@ pub struct SimHandle {
     pub points_wanted: Arc<AtomicBool>,
     /// Set while someone subscribes to the surface.
     pub surface_wanted: Arc<AtomicBool>,
+    /// Set while someone subscribes to the piece count.
+    pub pieces_wanted: Arc<AtomicBool>,
     /// Substeps taken so far (for the node's status).
     pub substeps: Arc<AtomicU64>,
     stop: Arc<AtomicBool>,
@@ -73,6 +75,7 @@ impl Drop for SimHandle {
 struct WantedFlags {
     points: Arc<AtomicBool>,
     surface: Arc<AtomicBool>,
+    pieces: Arc<AtomicBool>,
 }
 
 impl WantedFlags {
@@ -80,6 +83,7 @@ impl WantedFlags {
         Wanted {
             points: self.points.load(Ordering::Relaxed),
             surface: self.surface.load(Ordering::Relaxed),
+            pieces: self.pieces.load(Ordering::Relaxed),
         }
     }
 }
@@ -91,6 +95,7 @@ pub fn spawn(setup: SimSetup) -> SimHandle {
     let wanted = WantedFlags {
         points: Arc::new(AtomicBool::new(false)),
         surface: Arc::new(AtomicBool::new(false)),
+        pieces: Arc::new(AtomicBool::new(false)),
     };
     let stop = Arc::new(AtomicBool::new(false));
     let substeps = Arc::new(AtomicU64::new(0));
@@ -112,6 +117,7 @@ pub fn spawn(setup: SimSetup) -> SimHandle {
         events: event_rx,
         points_wanted: wanted.points,
         surface_wanted: wanted.surface,
+        pieces_wanted: wanted.pieces,
         substeps,
         stop,
         thread: Some(thread),

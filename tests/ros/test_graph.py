@@ -36,6 +36,7 @@ EXPECTED = {
     "/console/operator_present": "sensor_msgs/msg/Joy",
     "/tissue/points": "sensor_msgs/msg/PointCloud2",
     "/tissue/surface": "visualization_msgs/msg/Marker",
+    "/tissue/pieces": "std_msgs/msg/UInt32",
     "/tools/probe/wrench": "geometry_msgs/msg/WrenchStamped",
     "/tf": "tf2_msgs/msg/TFMessage",
 }
