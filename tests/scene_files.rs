@@ -620,9 +620,8 @@ fn an_arm_held_tools_mount_and_the_pieces_rate_are_validated() {
     let scene = config::from_str(&turned, Path::new("arm.toml")).unwrap();
     assert_eq!(scene.arms[0].tool_rpy_deg, [180.0, 0.0, 0.0]);
 
-    let bad = format!(
-        "{GOOD}{arm}tool_rpy_deg = [0.0, 1.0e9, 0.0]\n[outputs]\npieces_rate_hz = -1.0\n"
-    );
+    let bad =
+        format!("{GOOD}{arm}tool_rpy_deg = [0.0, 1.0e9, 0.0]\n[outputs]\npieces_rate_hz = -1.0\n");
     let problems = problems_of(&bad);
     assert_eq!(problems.len(), 2, "{problems:#?}");
     let mount = problems
