@@ -12,6 +12,7 @@ use dvrk_tissue_sim::mpm::gpu::adapter;
 use dvrk_tissue_sim::mpm::{Method, SolveCounts};
 use dvrk_tissue_sim::tools::{ContactModel, Shape};
 use dvrk_tissue_sim::world::World;
+use std::time::Instant;
 
 /// Whether an adapter with f32 atomics exists; panics under CI when there is no adapter.
 fn gpu_ready() -> bool {
@@ -83,9 +84,14 @@ fn run_both(scene: &Scene, frames: usize) -> (f32, f32, SolveCounts, SolveCounts
     let mut gpu = on(scene, BackendChoice::Gpu);
     let start = cpu.particles().x.clone();
     let (mut sc, mut sg) = (SolveCounts::default(), SolveCounts::default());
+    let (mut wall_cpu, mut wall_gpu) = (0.0, 0.0);
     for frame in 0..frames {
+        let t = Instant::now();
         let rc = cpu.step_frame().unwrap();
+        wall_cpu += t.elapsed().as_secs_f64();
+        let t = Instant::now();
         let rg = gpu.step_frame().unwrap();
+        wall_gpu += t.elapsed().as_secs_f64();
         assert_eq!(rc.substeps, rg.substeps, "frame {frame}");
         assert!(rc.tissue_reset.is_none() && rg.tissue_reset.is_none());
         println!(
@@ -95,6 +101,12 @@ fn run_both(scene: &Scene, frames: usize) -> (f32, f32, SolveCounts, SolveCounts
         sc.add(rc.solve);
         sg.add(rg.solve);
     }
+    println!(
+        "wall per frame: cpu {:.3} s, gpu {:.3} s ({})",
+        wall_cpu / frames as f64,
+        wall_gpu / frames as f64,
+        gpu.backend().name()
+    );
     let diff = cpu
         .particles()
         .x
