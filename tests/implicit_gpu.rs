@@ -214,3 +214,36 @@ fn the_gpu_backend_builds_implicit_where_it_has_f32_atomics() {
         }
     }
 }
+
+#[test]
+fn implicit_scenes_that_cut_stay_on_the_cpu() {
+    // The GPU's implicit P2G has no crack side test: `gpu` refuses such a scene, naming
+    // why, and `auto` builds it on the CPU.
+    let slicer = tool(
+        "slicer",
+        Shape::Slicer {
+            length: 0.01,
+            height: 0.004,
+            thickness: 0.0005,
+        },
+        ContactModel::Coulomb {
+            friction: 0.0,
+            drag: 0.0,
+        },
+        vec![key(0.0, [0.0, 0.0, 0.012], [0.0; 3], 0.0)],
+    );
+    let mut scene = block_scene(2.0e4, bonded_table(0.002), vec![slicer]);
+    scene.solver.backend = BackendChoice::Auto;
+    assert_eq!(World::try_new(&scene).unwrap().backend().name(), "cpu");
+    scene.solver.backend = BackendChoice::Gpu;
+    match World::try_new(&scene) {
+        Ok(w) => panic!("implicit with a slicer built on {}", w.backend().name()),
+        Err(e) => {
+            let message = e.to_string();
+            assert!(
+                message.contains("a scene that cuts") || message.contains("no GPU adapter"),
+                "{message}"
+            );
+        }
+    }
+}
