@@ -12,6 +12,7 @@ use dvrk_tissue_sim::mpm::gpu::adapter;
 use dvrk_tissue_sim::mpm::{Method, SolveCounts};
 use dvrk_tissue_sim::tools::{ContactModel, Shape};
 use dvrk_tissue_sim::world::World;
+use std::time::Instant;
 
 /// Whether an adapter with f32 atomics exists; panics under CI when there is no adapter.
 fn gpu_ready() -> bool {
@@ -83,9 +84,14 @@ fn run_both(scene: &Scene, frames: usize) -> (f32, f32, SolveCounts, SolveCounts
     let mut gpu = on(scene, BackendChoice::Gpu);
     let start = cpu.particles().x.clone();
     let (mut sc, mut sg) = (SolveCounts::default(), SolveCounts::default());
+    let (mut wall_cpu, mut wall_gpu) = (0.0, 0.0);
     for frame in 0..frames {
+        let t = Instant::now();
         let rc = cpu.step_frame().unwrap();
+        wall_cpu += t.elapsed().as_secs_f64();
+        let t = Instant::now();
         let rg = gpu.step_frame().unwrap();
+        wall_gpu += t.elapsed().as_secs_f64();
         assert_eq!(rc.substeps, rg.substeps, "frame {frame}");
         assert!(rc.tissue_reset.is_none() && rg.tissue_reset.is_none());
         println!(
@@ -95,6 +101,12 @@ fn run_both(scene: &Scene, frames: usize) -> (f32, f32, SolveCounts, SolveCounts
         sc.add(rc.solve);
         sg.add(rg.solve);
     }
+    println!(
+        "wall per frame: cpu {:.3} s, gpu {:.3} s ({})",
+        wall_cpu / frames as f64,
+        wall_gpu / frames as f64,
+        gpu.backend().name()
+    );
     let diff = cpu
         .particles()
         .x
@@ -197,6 +209,39 @@ fn the_gpu_backend_builds_implicit_where_it_has_f32_atomics() {
             let message = e.to_string();
             assert!(
                 message.contains("f32 atomics") || message.contains("no GPU adapter"),
+                "{message}"
+            );
+        }
+    }
+}
+
+#[test]
+fn implicit_scenes_that_cut_stay_on_the_cpu() {
+    // The GPU's implicit P2G has no crack side test: `gpu` refuses such a scene, naming
+    // why, and `auto` builds it on the CPU.
+    let slicer = tool(
+        "slicer",
+        Shape::Slicer {
+            length: 0.01,
+            height: 0.004,
+            thickness: 0.0005,
+        },
+        ContactModel::Coulomb {
+            friction: 0.0,
+            drag: 0.0,
+        },
+        vec![key(0.0, [0.0, 0.0, 0.012], [0.0; 3], 0.0)],
+    );
+    let mut scene = block_scene(2.0e4, bonded_table(0.002), vec![slicer]);
+    scene.solver.backend = BackendChoice::Auto;
+    assert_eq!(World::try_new(&scene).unwrap().backend().name(), "cpu");
+    scene.solver.backend = BackendChoice::Gpu;
+    match World::try_new(&scene) {
+        Ok(w) => panic!("implicit with a slicer built on {}", w.backend().name()),
+        Err(e) => {
+            let message = e.to_string();
+            assert!(
+                message.contains("a scene that cuts") || message.contains("no GPU adapter"),
                 "{message}"
             );
         }

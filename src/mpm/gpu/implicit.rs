@@ -17,15 +17,26 @@
 //! CPU solver, because each decision (forcing term, Armijo test, stopping) needs Φ or ‖∇Φ‖:
 //! each evaluation is one submission and one 128-byte readback.
 //!
-//! Cost per substep, with N Newton iterations, L line-search trials in all and C CG
-//! iterations: submissions and 128-byte readbacks ≈ 4 (start and warm start) + 2N (CG start
-//! with the slope, evaluation) + L + ⌈C/CG_CHUNK⌉ + 1 (end); dispatches ≈ 20 + 9C + 6L +
-//! 8N. On a discrete GPU a readback round trip costs some 20–50 µs of latency and a
-//! dispatch a few µs, so a substep of N = 2, L = 2, C = 40 (~12 readbacks, ~400 dispatches)
-//! is latency bound at about 1–2 ms before any arithmetic; the arithmetic per CG iteration
-//! is one pass over the particles' stiffness (324 B each) and a few over the active nodes,
-//! memory bound like an explicit substep. The frame's readback of positions and
-//! statistics is the explicit solver's (see `super`).
+//! Cost per substep, with Newton iterations k = 1..N, Cₖ CG iterations and Lₖ line-search
+//! trials in iteration k (counted from the code below):
+//! - readbacks (128 bytes each, one submission and one wait each): 4 (P2G with the
+//!   carried Φ, the rest Φ, the corrected Φ, the first evaluation) + Σₖ (⌈Cₖ/CG_CHUNK⌉ +
+//!   Lₖ + 2) (CG chunks, trials, the slope, the evaluation);
+//! - submissions without a readback: about 4 + 3N (warm-start choices, CG start, trial
+//!   steps, acceptance, the end);
+//! - dispatches: about 30 + Σₖ (72·⌈Cₖ/CG_CHUNK⌉ + 5Lₖ + 11); a chunk always records its 8
+//!   iterations, those past CG's stop return at once.
+//!
+//! For a substep of 9 Newton iterations with ~19 CG iterations and ~1 trial each (the
+//! sphere-press agreement scene's) that is about 58 readbacks, 30 other submissions and
+//! 2,100 dispatches. On a
+//! discrete GPU a submit-and-wait round trip costs some 20–50 µs and a dispatch a few µs,
+//! so such a substep is latency bound at a few milliseconds before any arithmetic; the
+//! arithmetic per CG iteration is one pass over the particles' stiffness (324 B each) and a
+//! few over the active nodes, memory bound like an explicit substep. The frame's readback
+//! of positions and statistics is the explicit solver's (see `super`). Fewer round trips
+//! (the slope and the line search's first trial folded into the last CG chunk, Newton's
+//! stopping test on the device) are the next step where latency dominates.
 //!
 //! Requires f32 atomics (`SHADER_FLOAT32_ATOMIC`): the Hessian product's scatter spans
 //! more than the fixed-point accumulators' range on stiff tissue (a product of

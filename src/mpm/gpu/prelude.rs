@@ -160,7 +160,8 @@ mod tests {
     use wgpu::naga;
 
     /// Every stage's full source parses and validates, with either P2G variant, cutting or
-    /// not (no device needed: a mismatch between the prelude and a stage shows here first).
+    /// not, and the implicit solve's with f32 atomics (no device needed: a mismatch between
+    /// the prelude and a stage shows here first).
     #[test]
     fn every_stage_source_validates() {
         let stages = [
@@ -186,5 +187,15 @@ mod tests {
                 });
             }
         }
+        // The implicit solve runs only with f32 atomics and without cuts.
+        let source = shader_source(super::super::implicit::SOURCE, true, false);
+        let module = naga::front::wgsl::parse_str(&source)
+            .unwrap_or_else(|e| panic!("implicit: {}", e.emit_to_string(&source)));
+        naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::all(),
+        )
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("implicit: {e:?}"));
     }
 }
