@@ -163,6 +163,16 @@ impl Grasps {
         self.held.iter().map(|g| g.points.len()).sum()
     }
 
+    /// The lowest and highest point tool `tool` holds, or `None` when it holds none.
+    pub fn held_range(&self, tool: usize) -> Option<(usize, usize)> {
+        let held = self.held.iter().filter(|g| g.tool == tool);
+        let indices = held.flat_map(|g| g.points.iter().map(|(i, _)| *i));
+        indices.fold(None, |range, i| match range {
+            None => Some((i, i)),
+            Some((lo, hi)) => Some((lo.min(i), hi.max(i))),
+        })
+    }
+
     /// Whether tool `tool` holds any point.
     pub fn holds_with(&self, tool: usize) -> bool {
         self.held
