@@ -227,7 +227,11 @@ pub fn lay_along(polyline: &[[f64; 3]], step: f64, segments: usize) -> Option<Ve
         // |a + u (b − a) − p| = step for the largest u, if it lies in [t, 1]: the sphere of
         // radius `step` about p leaves the piece there.
         let (d, f) = (b - a, a - p);
-        let (qa, qb, qc) = (d.norm_squared(), 2.0 * d.dot(&f), f.norm_squared() - step * step);
+        let (qa, qb, qc) = (
+            d.norm_squared(),
+            2.0 * d.dot(&f),
+            f.norm_squared() - step * step,
+        );
         let disc = qb * qb - 4.0 * qa * qc;
         let u = (disc >= 0.0 && qa > 0.0).then(|| (-qb + disc.sqrt()) / (2.0 * qa));
         match u.filter(|&u| u >= t && u <= 1.0) {
@@ -342,9 +346,7 @@ pub(super) fn validate(
                 "missing".into(),
                 "a point in the domain, or `points` (give one of `start`, `points`)".into(),
             ),
-            (None, Some(start)) => {
-                validate_straight(t, start, inside, region, &key, &mut require)
-            }
+            (None, Some(start)) => validate_straight(t, start, inside, region, &key, &mut require),
             (Some(polyline), None) => {
                 validate_polyline(t, polyline, inside, region, &key, &mut require)
             }
@@ -438,7 +440,10 @@ fn validate_polyline(
         );
     }
     for (i, w) in polyline.windows(2).enumerate() {
-        let piece = (0..3).map(|a| (w[1][a] - w[0][a]).powi(2)).sum::<f64>().sqrt();
+        let piece = (0..3)
+            .map(|a| (w[1][a] - w[0][a]).powi(2))
+            .sum::<f64>()
+            .sqrt();
         require(
             piece > MIN_PIECE,
             key(&format!("points[{}]", i + 1)),
@@ -448,7 +453,12 @@ fn validate_polyline(
     }
     let arc: f64 = polyline
         .windows(2)
-        .map(|w| (0..3).map(|a| (w[1][a] - w[0][a]).powi(2)).sum::<f64>().sqrt())
+        .map(|w| {
+            (0..3)
+                .map(|a| (w[1][a] - w[0][a]).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        })
         .sum();
     if t.length.is_finite() && t.length > 0.0 && (1..=MAX_SEGMENTS).contains(&t.segments) {
         require(

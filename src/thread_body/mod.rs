@@ -137,12 +137,14 @@ impl ThreadBody {
         let last = self.rod.points.len() - 1;
         self.colliders.clear();
         self.colliders
-            .extend(colliders.iter().enumerate().map(|(tool, c)| RodCollider {
-                spared: self
-                    .grasps
-                    .held_range(tool)
-                    .map(|(lo, hi)| (lo.saturating_sub(reach), (hi + reach).min(last))),
-                ..*c
+            .extend(colliders.iter().enumerate().map(|(tool, c)| {
+                RodCollider {
+                    spared: self
+                        .grasps
+                        .held_range(tool)
+                        .map(|(lo, hi)| (lo.saturating_sub(reach), (hi + reach).min(last))),
+                    ..*c
+                }
             }));
         let env = RodEnvironment {
             table_height: self.table.map(|(z, _)| z),
@@ -161,7 +163,12 @@ impl ThreadBody {
     /// neighbour whose segment leaves the jaws).
     fn spared_neighbours(&self, grippers: &[GripperView]) -> usize {
         let thickness = grippers.iter().map(|g| g.jaw_thickness).fold(0.0, f32::max);
-        let segment = self.rod.rest_lengths.iter().copied().fold(f32::MAX, f32::min);
+        let segment = self
+            .rod
+            .rest_lengths
+            .iter()
+            .copied()
+            .fold(f32::MAX, f32::min);
         ((thickness / segment).ceil() as usize).max(1)
     }
 
