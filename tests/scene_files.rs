@@ -617,17 +617,25 @@ fn a_thread_laid_along_points_is_valid_and_bad_polylines_are_refused() {
         )
     };
     // An L on the table, 8 cm of polyline for 6 cm of thread: laid out, one segment apart.
-    let good = laid("[[-0.03, 0.0, 0.006], [0.01, 0.0, 0.006], [0.01, 0.02, 0.006], [0.01, 0.04, 0.006]]");
+    let good =
+        laid("[[-0.03, 0.0, 0.006], [0.01, 0.0, 0.006], [0.01, 0.02, 0.006], [0.01, 0.04, 0.006]]");
     let scene = config::from_str(&good, Path::new("laid.toml")).unwrap_or_else(|e| panic!("{e}"));
     let line = scene.threads[0].centreline().unwrap();
     assert_eq!(line.len(), 25);
     assert_eq!(line[0], [-0.03, 0.0, 0.006]);
     for w in line.windows(2) {
-        let d = (0..3).map(|a| (w[1][a] - w[0][a]).powi(2)).sum::<f64>().sqrt();
+        let d = (0..3)
+            .map(|a| (w[1][a] - w[0][a]).powi(2))
+            .sum::<f64>()
+            .sqrt();
         assert!((d - 0.0025).abs() < 1e-12, "segment {d}");
     }
     // Past the corner it runs along +y.
-    assert!((line[24][0] - 0.01).abs() < 1e-12 && line[24][1] > 0.015, "{:?}", line[24]);
+    assert!(
+        (line[24][0] - 0.01).abs() < 1e-12 && line[24][1] > 0.015,
+        "{:?}",
+        line[24]
+    );
     let key = |k: &str| format!("thread[0] (suture).{k}");
     for (points, k, fragment) in [
         ("[[0.0, 0.0, 0.006]]", "points", "at least 2 points"),
@@ -653,7 +661,15 @@ fn a_thread_laid_along_points_is_valid_and_bad_polylines_are_refused() {
     // `start` and `points` together, or neither.
     let both = laid("[[-0.03, 0.0, 0.006], [0.04, 0.0, 0.006]]")
         .replace("points =", "start = [-0.03, 0.0, 0.006]\npoints =");
-    assert_single(&problems_of(&both), &key("start"), "one of `start`, `points`");
+    assert_single(
+        &problems_of(&both),
+        &key("start"),
+        "one of `start`, `points`",
+    );
     let neither = with_thread("").replace("start = [-0.03, 0.0, 0.006]\n", "");
-    assert_single(&problems_of(&neither), &key("start"), "one of `start`, `points`");
+    assert_single(
+        &problems_of(&neither),
+        &key("start"),
+        "one of `start`, `points`",
+    );
 }

@@ -379,7 +379,10 @@ jaw_deg = -20.0
     let points = &thread.rod.points;
     // The held arm went with the jaws to y = 30 mm.
     let first_arm = points[24];
-    assert!((first_arm.y - 0.03).abs() < 1e-3, "first arm at {first_arm:?}");
+    assert!(
+        (first_arm.y - 0.03).abs() < 1e-3,
+        "first arm at {first_arm:?}"
+    );
     // The second arm's points within the jaws' width (|x| ≤ 3 mm + r) lie ahead of the
     // jaws (4 mm thick), not between or behind them.
     let second_arm: Vec<_> = points[50..]
