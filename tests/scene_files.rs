@@ -636,3 +636,68 @@ fn an_arm_held_tools_mount_and_the_pieces_rate_are_validated() {
         .unwrap_or_else(|| panic!("{problems:#?}"));
     assert!(rate.allowed.contains("0 (off) to 1000 Hz"), "{rate:?}");
 }
+
+#[test]
+fn a_thread_laid_along_points_is_valid_and_bad_polylines_are_refused() {
+    let laid = |points: &str| {
+        format!(
+            "{GOOD}\n[[thread]]\nname = \"suture\"\npoints = {points}\nlength = 0.06\nsegments = 24\n"
+        )
+    };
+    // An L on the table, 8 cm of polyline for 6 cm of thread: laid out, one segment apart.
+    let good =
+        laid("[[-0.03, 0.0, 0.006], [0.01, 0.0, 0.006], [0.01, 0.02, 0.006], [0.01, 0.04, 0.006]]");
+    let scene = config::from_str(&good, Path::new("laid.toml")).unwrap_or_else(|e| panic!("{e}"));
+    let line = scene.threads[0].centreline().unwrap();
+    assert_eq!(line.len(), 25);
+    assert_eq!(line[0], [-0.03, 0.0, 0.006]);
+    for w in line.windows(2) {
+        let d = (0..3)
+            .map(|a| (w[1][a] - w[0][a]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        assert!((d - 0.0025).abs() < 1e-12, "segment {d}");
+    }
+    // Past the corner it runs along +y.
+    assert!(
+        (line[24][0] - 0.01).abs() < 1e-12 && line[24][1] > 0.015,
+        "{:?}",
+        line[24]
+    );
+    let key = |k: &str| format!("thread[0] (suture).{k}");
+    for (points, k, fragment) in [
+        ("[[0.0, 0.0, 0.006]]", "points", "at least 2 points"),
+        (
+            "[[0.0, 0.0, 0.006], [0.5, 0.0, 0.006]]",
+            "points[1]",
+            "outside the domain",
+        ),
+        (
+            "[[-0.03, 0.0, 0.006], [-0.03, 0.0, 0.006], [0.04, 0.0, 0.006]]",
+            "points[1]",
+            "zero length",
+        ),
+        // 4 cm of polyline cannot hold 6 cm of thread.
+        (
+            "[[-0.02, 0.0, 0.006], [0.02, 0.0, 0.006]]",
+            "length",
+            "0.0400 m long",
+        ),
+    ] {
+        assert_single(&problems_of(&laid(points)), &key(k), fragment);
+    }
+    // `start` and `points` together, or neither.
+    let both = laid("[[-0.03, 0.0, 0.006], [0.04, 0.0, 0.006]]")
+        .replace("points =", "start = [-0.03, 0.0, 0.006]\npoints =");
+    assert_single(
+        &problems_of(&both),
+        &key("start"),
+        "one of `start`, `points`",
+    );
+    let neither = with_thread("").replace("start = [-0.03, 0.0, 0.006]\n", "");
+    assert_single(
+        &problems_of(&neither),
+        &key("start"),
+        "one of `start`, `points`",
+    );
+}

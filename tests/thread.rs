@@ -363,6 +363,7 @@ fn needle_wire_pushes_the_middle_of_a_segment() {
                 ..pose(next)
             },
             friction: 0.0,
+            spared: None,
         };
         step_past(&mut solver, &mut rod, collider);
         centre = next;
@@ -413,6 +414,7 @@ fn tool_friction_carries_the_thread_with_a_moving_plate() {
                 pose_start: pose(centre),
                 pose_end: pose(next),
                 friction: mu,
+                spared: None,
             };
             step_past(&mut solver, &mut rod, collider);
             centre = next;

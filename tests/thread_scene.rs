@@ -319,3 +319,82 @@ position = [0.0, 0.02, 0.012]
     );
     elongation_within(&world, 1e-3);
 }
+
+/// A thread laid in a U on the table (`points`): arms along x at y = 0 and y = 15 mm.
+/// A gripper closes on the first arm and drags it 30 mm along +y across the table, through
+/// where the second arm lies. The gripper holds only the points between its jaws: the
+/// rest of the thread still collides with it, so the second arm is pushed ahead of the
+/// jaws rather than passing through them.
+#[test]
+fn a_gripper_holding_the_thread_still_pushes_the_rest_of_it() {
+    let r: f32 = 1.125e-4;
+    let z = r;
+    let text = format!(
+        r#"
+[domain]
+origin = [-0.08, -0.04, -0.008]
+size = [0.16, 0.12, 0.06]
+dx = 0.002
+[table]
+height = 0.0
+[[thread]]
+points = [[-0.06, 0.0, {z}], [0.03, 0.0, {z}], [0.03, 0.015, {z}], [-0.06, 0.015, {z}]]
+length = 0.19
+segments = 76
+rest_shape = "as_laid"
+[[tool]]
+name = "gripper"
+shape = {{ type = "gripper", jaw_length = 0.01, jaw_width = 0.006, jaw_thickness = 0.004 }}
+contact = {{ model = "coulomb", friction = 1.0 }}
+[[tool.keyframe]]
+t = 0.0
+position = [0.0, 0.0, 0.0095]
+rpy_deg = [180.0, 0.0, 0.0]
+jaw_deg = 0.0
+[[tool.keyframe]]
+t = 0.05
+position = [0.0, 0.0, 0.0095]
+rpy_deg = [180.0, 0.0, 0.0]
+jaw_deg = -20.0
+[[tool.keyframe]]
+t = 0.3
+position = [0.0, 0.0, 0.0095]
+rpy_deg = [180.0, 0.0, 0.0]
+jaw_deg = -20.0
+[[tool.keyframe]]
+t = 1.3
+position = [0.0, 0.03, 0.0095]
+rpy_deg = [180.0, 0.0, 0.0]
+jaw_deg = -20.0
+"#
+    );
+    let scene = scene(&text, "u.toml");
+    let mut world = World::new(&scene);
+    run_until(&mut world, 0.3);
+    let held = world.threads()[0].grasped_points();
+    assert!(held >= 2, "grasped {held} points");
+    run_until(&mut world, 1.4);
+    let thread = &world.threads()[0];
+    assert_eq!(thread.grasped_points(), held, "the grasp slipped");
+    let points = &thread.rod.points;
+    // The held arm went with the jaws to y = 30 mm.
+    let first_arm = points[24];
+    assert!(
+        (first_arm.y - 0.03).abs() < 1e-3,
+        "first arm at {first_arm:?}"
+    );
+    // The second arm's points within the jaws' width (|x| ≤ 3 mm + r) lie ahead of the
+    // jaws (4 mm thick), not between or behind them.
+    let second_arm: Vec<_> = points[50..]
+        .iter()
+        .filter(|p| p.x.abs() <= 0.003 + r)
+        .collect();
+    assert!(!second_arm.is_empty());
+    for p in &second_arm {
+        assert!(
+            p.y >= 0.03 + 0.004 - r,
+            "second-arm point {p:?} inside or behind the jaws at y = 0.03 m"
+        );
+    }
+    elongation_within(&world, 2e-3);
+}

@@ -17,8 +17,20 @@ use serde::{Deserialize, Serialize};
 pub struct Thread {
     #[serde(default = "default_name")]
     pub name: String,
-    /// World position of the first point (m).
-    pub start: [f64; 3],
+    /// World position of the first point (m): the thread lies straight from it along
+    /// `direction`. Give either `start` or `points`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start: Option<[f64; 3]>,
+    /// A polyline (m) the thread is laid along instead, from its first point: `segments`
+    /// points each a segment's length (`length / segments`) from the last, so that the
+    /// thread covers `length` of chord along the polyline.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub points: Option<Vec<[f64; 3]>>,
+    /// The shape the thread has at rest: `straight` (a thread laid along `points` springs
+    /// back as far as the table's friction lets it) or `as_laid` (its starting shape, a
+    /// thread with the memory of a coil).
+    #[serde(default)]
+    pub rest_shape: RestShape,
     /// Direction from the first point to the last (any length but zero).
     #[serde(default = "default_direction")]
     pub direction: [f64; 3],
@@ -59,6 +71,14 @@ pub struct Thread {
     /// Direct-solve iterations per substep.
     #[serde(default = "default_iterations")]
     pub iterations: u32,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RestShape {
+    #[default]
+    Straight,
+    AsLaid,
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -125,7 +145,9 @@ impl Thread {
     pub fn nylon_3_0(start: [f64; 3]) -> Thread {
         Thread {
             name: default_name(),
-            start,
+            start: Some(start),
+            points: None,
+            rest_shape: RestShape::Straight,
             direction: default_direction(),
             length: default_length(),
             segments: default_segments(),
@@ -158,13 +180,72 @@ impl Thread {
         }
     }
 
-    /// World position of the last point, or `None` when the direction has no length.
+    /// World position of the last point of a straight thread (`start`, `direction`), or
+    /// `None` when it has no start or the direction has no length.
     pub fn end(&self) -> Option<[f64; 3]> {
+        let start = self.start?;
         let [x, y, z] = self.direction;
         let n = (x * x + y * y + z * z).sqrt();
         (n.is_finite() && n > 0.0)
-            .then(|| [0, 1, 2].map(|a| self.start[a] + self.direction[a] / n * self.length))
+            .then(|| [0, 1, 2].map(|a| start[a] + self.direction[a] / n * self.length))
     }
+
+    /// The thread's starting centreline, `segments + 1` points: straight from `start`, or
+    /// laid along `points`. `None` when neither fits (see [`lay_along`]).
+    pub fn centreline(&self) -> Option<Vec<[f64; 3]>> {
+        let n = self.segments as usize;
+        match (&self.points, self.start) {
+            (Some(polyline), _) => lay_along(polyline, self.length / n as f64, n),
+            (None, Some(start)) => {
+                let end = self.end()?;
+                Some(
+                    (0..=n)
+                        .map(|i| {
+                            let s = i as f64 / n as f64;
+                            [0, 1, 2].map(|a| start[a] + (end[a] - start[a]) * s)
+                        })
+                        .collect(),
+                )
+            }
+            (None, None) => None,
+        }
+    }
+}
+
+/// `segments + 1` points along `polyline`, from its first point, each `step` (m, straight
+/// line) from the one before and further along: a thread of `segments` pieces of rest
+/// length `step` laid along it. `None` when the polyline ends before the thread does.
+pub fn lay_along(polyline: &[[f64; 3]], step: f64, segments: usize) -> Option<Vec<[f64; 3]>> {
+    use nalgebra::Vector3;
+    let corners: Vec<Vector3<f64>> = polyline.iter().map(|&p| Vector3::from(p)).collect();
+    let mut laid = vec![*corners.first()?];
+    // The walk: on piece `k` (corners k, k+1) at parameter `t`.
+    let (mut k, mut t) = (0, 0.0);
+    while laid.len() <= segments {
+        let p = *laid.last()?;
+        let (a, b) = (*corners.get(k)?, *corners.get(k + 1)?);
+        // |a + u (b − a) − p| = step for the largest u, if it lies in [t, 1]: the sphere of
+        // radius `step` about p leaves the piece there.
+        let (d, f) = (b - a, a - p);
+        let (qa, qb, qc) = (
+            d.norm_squared(),
+            2.0 * d.dot(&f),
+            f.norm_squared() - step * step,
+        );
+        let disc = qb * qb - 4.0 * qa * qc;
+        let u = (disc >= 0.0 && qa > 0.0).then(|| (-qb + disc.sqrt()) / (2.0 * qa));
+        match u.filter(|&u| u >= t && u <= 1.0) {
+            Some(u) => {
+                laid.push(a + d * u);
+                t = u;
+            }
+            None => {
+                k += 1;
+                t = 0.0;
+            }
+        }
+    }
+    Some(laid.iter().map(|p| [p.x, p.y, p.z]).collect())
 }
 
 /// Thinnest and thickest thread: USP 11-0 (10 µm diameter) to a 1 cm cord.
@@ -175,6 +256,8 @@ const MODULUS_RANGE: (f64, f64) = (1e6, 1e12);
 const DENSITY_RANGE: (f64, f64) = (10.0, 20_000.0);
 /// Most segments per thread: the direct solve is linear in segments, 10 000 a few ms.
 const MAX_SEGMENTS: u32 = 10_000;
+/// Shortest piece of a `points` polyline (m): shorter ones are repeated points.
+const MIN_PIECE: f64 = 1e-9;
 /// The longest thread (m).
 const MAX_THREAD_LENGTH: f64 = 10.0;
 
@@ -250,28 +333,23 @@ pub(super) fn validate(
                 ),
             );
         }
-        require(
-            t.start.iter().all(|v| v.is_finite()) && inside(t.start),
-            key("start"),
-            format!("{:?}", t.start),
-            format!("thread outside the domain: must be {region}"),
-        );
-        match t.end() {
-            None => require(
+        match (&t.points, t.start) {
+            (Some(_), Some(start)) => require(
                 false,
-                key("direction"),
-                format!("{:?}", t.direction),
-                "a finite, non-zero vector".into(),
+                key("start"),
+                format!("{start:?}"),
+                "absent when `points` lays the thread out (give one of `start`, `points`)".into(),
             ),
-            Some(end) => require(
-                !t.length.is_finite() || inside(end),
-                key("length"),
-                format!("{:?}", t.length),
-                format!(
-                    "thread outside the domain: its end ({:.4}, {:.4}, {:.4}) m must be {region}",
-                    end[0], end[1], end[2]
-                ),
+            (None, None) => require(
+                false,
+                key("start"),
+                "missing".into(),
+                "a point in the domain, or `points` (give one of `start`, `points`)".into(),
             ),
+            (None, Some(start)) => validate_straight(t, start, inside, region, &key, &mut require),
+            (Some(polyline), None) => {
+                validate_polyline(t, polyline, inside, region, &key, &mut require)
+            }
         }
         for (k, v) in [("friction", t.friction), ("self_friction", t.self_friction)] {
             require(
@@ -295,4 +373,103 @@ pub(super) fn validate(
         );
     }
     problems
+}
+
+type Require<'a> = dyn FnMut(bool, String, String, String) + 'a;
+
+/// A straight thread: from `start` along `direction`, both ends in the domain.
+fn validate_straight(
+    t: &Thread,
+    start: [f64; 3],
+    inside: &dyn Fn([f64; 3]) -> bool,
+    region: &str,
+    key: &dyn Fn(&str) -> String,
+    require: &mut Require,
+) {
+    require(
+        start.iter().all(|v| v.is_finite()) && inside(start),
+        key("start"),
+        format!("{start:?}"),
+        format!("thread outside the domain: must be {region}"),
+    );
+    match t.end() {
+        None => require(
+            false,
+            key("direction"),
+            format!("{:?}", t.direction),
+            "a finite, non-zero vector".into(),
+        ),
+        Some(end) => require(
+            !t.length.is_finite() || inside(end),
+            key("length"),
+            format!("{:?}", t.length),
+            format!(
+                "thread outside the domain: its end ({:.4}, {:.4}, {:.4}) m must be {region}",
+                end[0], end[1], end[2]
+            ),
+        ),
+    }
+}
+
+/// A thread laid along `polyline`: at least two corners, all in the domain (the domain is
+/// a box, so the pieces between them are too), no piece of zero length, and long enough to
+/// lay the whole thread along.
+fn validate_polyline(
+    t: &Thread,
+    polyline: &[[f64; 3]],
+    inside: &dyn Fn([f64; 3]) -> bool,
+    region: &str,
+    key: &dyn Fn(&str) -> String,
+    require: &mut Require,
+) {
+    if polyline.len() < 2 {
+        require(
+            false,
+            key("points"),
+            format!("{} point(s)", polyline.len()),
+            "at least 2 points (a polyline the thread is laid along)".into(),
+        );
+        return;
+    }
+    for (i, p) in polyline.iter().enumerate() {
+        require(
+            p.iter().all(|v| v.is_finite()) && inside(*p),
+            key(&format!("points[{i}]")),
+            format!("{p:?}"),
+            format!("thread outside the domain: must be {region}"),
+        );
+    }
+    for (i, w) in polyline.windows(2).enumerate() {
+        let piece = (0..3)
+            .map(|a| (w[1][a] - w[0][a]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        require(
+            piece > MIN_PIECE,
+            key(&format!("points[{}]", i + 1)),
+            format!("{:?}", w[1]),
+            format!("more than {MIN_PIECE} m from points[{i}] (no piece of zero length)"),
+        );
+    }
+    let arc: f64 = polyline
+        .windows(2)
+        .map(|w| {
+            (0..3)
+                .map(|a| (w[1][a] - w[0][a]).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        })
+        .sum();
+    if t.length.is_finite() && t.length > 0.0 && (1..=MAX_SEGMENTS).contains(&t.segments) {
+        require(
+            t.centreline().is_some(),
+            key("length"),
+            format!("{:?}", t.length),
+            format!(
+                "a thread the polyline `points` can hold: it is {arc:.4} m long, and {} segments of {:.3e} m must fit along it one after another",
+                t.segments,
+                t.length / t.segments as f64
+            ),
+        );
+    }
 }

@@ -39,6 +39,16 @@ pub struct RodCollider {
     pub pose_end: ToolPose,
     /// Coulomb coefficient between thread and tool.
     pub friction: f32,
+    /// Points `lo..=hi` the tool leaves alone (the points a gripper holds and their
+    /// neighbours, which sit between or against its closed jaws), and the segments between
+    /// them; every other point and segment collides with it.
+    pub spared: Option<(usize, usize)>,
+}
+
+impl RodCollider {
+    fn spares_point(spared: Option<(usize, usize)>, i: usize) -> bool {
+        spared.is_some_and(|(lo, hi)| (lo..=hi).contains(&i))
+    }
 }
 
 /// Point `point` of the rod held and moved linearly from `from` to `to` over the frame.
@@ -77,6 +87,7 @@ pub struct RodFrameReport {
 pub(crate) struct PlacedCollider {
     shape: Shape,
     friction: f32,
+    spared: Option<(usize, usize)>,
     rotation: Mat3,
     translation: Vec3,
     jaw: f32,
@@ -106,6 +117,7 @@ impl PlacedCollider {
         PlacedCollider {
             shape: c.shape,
             friction: c.friction,
+            spared: c.spared,
             rotation,
             translation,
             jaw,
@@ -195,7 +207,10 @@ pub(crate) fn project_contacts(
         // interior where it dips deeper than both its ends (an edge, a wire, a jaw's corner).
         for (i, &x0) in start.iter().enumerate().take(rod.points.len()) {
             let x = rod.points[i];
-            if rod.inv_mass[i] <= 0.0 || !c.overlaps(x0.inf(&x), x0.sup(&x)) {
+            if rod.inv_mass[i] <= 0.0
+                || RodCollider::spares_point(c.spared, i)
+                || !c.overlaps(x0.inf(&x), x0.sup(&x))
+            {
                 continue;
             }
             if let Some(hit) = c.swept_contact(x0, x, r) {
@@ -208,7 +223,9 @@ pub(crate) fn project_contacts(
         }
         for j in 0..rod.segments() {
             let (a0, b0, a, b) = (start[j], start[j + 1], rod.points[j], rod.points[j + 1]);
-            if !c.overlaps(a0.inf(&b0).inf(&a).inf(&b), a0.sup(&b0).sup(&a).sup(&b)) {
+            let spared = RodCollider::spares_point(c.spared, j)
+                && RodCollider::spares_point(c.spared, j + 1);
+            if spared || !c.overlaps(a0.inf(&b0).inf(&a).inf(&b), a0.sup(&b0).sup(&a).sup(&b)) {
                 continue;
             }
             let samples =

@@ -67,6 +67,13 @@ impl GripperView {
         self.pressing && tip_gap <= 2.0 * radius as f64
     }
 
+    /// Whether the jaws are open past a thread of `radius`: their tips further apart than
+    /// the jaws are thick, so that the points they held lie in the gap between the faces.
+    fn open_past(&self, radius: f32) -> bool {
+        let tip_gap = 2.0 * self.jaw_length as f64 * (0.5 * self.opening).sin();
+        tip_gap > (self.jaw_thickness + 2.0 * radius) as f64
+    }
+
     /// Whether `local` (tool frame) lies inside the closed jaws, for a thread of `radius`.
     fn between_jaws(&self, local: &Vector3<f64>, radius: f32) -> bool {
         let r = radius as f64;
@@ -81,6 +88,14 @@ impl GripperView {
     }
 }
 
+/// The lowest and highest of `indices`, or `None` when there are none.
+fn span(indices: impl Iterator<Item = usize>) -> Option<(usize, usize)> {
+    indices.fold(None, |range, i| match range {
+        None => Some((i, i)),
+        Some((lo, hi)) => Some((lo.min(i), hi.max(i))),
+    })
+}
+
 /// One gripper's hold on a thread: the points caught and where they sit in the tool frame.
 #[derive(Clone, Debug)]
 struct Grasp {
@@ -92,6 +107,11 @@ struct Grasp {
 #[derive(Clone, Debug, Default)]
 pub struct Grasps {
     held: Vec<Grasp>,
+    /// Points just let go, by tool: the lowest and highest. Jaws pressed shut past the
+    /// thread overlap it when they start to open; until they are open wider than the
+    /// thread (see [`GripperView::open_past`]) they leave those points alone, which would
+    /// otherwise be pushed out of the jaws' solid in one step.
+    released: Vec<(usize, (usize, usize))>,
 }
 
 impl Grasps {
@@ -104,6 +124,16 @@ impl Grasps {
                 .iter()
                 .any(|v| v.tool == g.tool && v.closed_on(radius))
         };
+        self.released.retain(|(tool, _)| {
+            grippers
+                .iter()
+                .any(|v| v.tool == *tool && !v.open_past(radius))
+        });
+        for grasp in self.held.iter().filter(|g| !still_closed(g)) {
+            if let Some(range) = span(grasp.points.iter().map(|(i, _)| *i)) {
+                self.released.push((grasp.tool, range));
+            }
+        }
         self.held.retain(still_closed);
         for view in grippers {
             if !view.closed_on(radius) || self.held.iter().any(|g| g.tool == view.tool) {
@@ -161,6 +191,17 @@ impl Grasps {
 
     pub fn held_points(&self) -> usize {
         self.held.iter().map(|g| g.points.len()).sum()
+    }
+
+    /// The lowest and highest point tool `tool` holds or has just let go of (its jaws not
+    /// yet open past the thread), or `None` when there are none.
+    pub fn held_range(&self, tool: usize) -> Option<(usize, usize)> {
+        let held = self.held.iter().filter(|g| g.tool == tool);
+        let released = self.released.iter().filter(|(t, _)| *t == tool);
+        span(
+            held.flat_map(|g| g.points.iter().map(|(i, _)| *i))
+                .chain(released.flat_map(|(_, (lo, hi))| [*lo, *hi])),
+        )
     }
 
     /// Whether tool `tool` holds any point.

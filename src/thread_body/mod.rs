@@ -8,6 +8,7 @@
 pub mod grasp;
 pub mod knot;
 
+use crate::config::thread::RestShape;
 use crate::config::{Scene, Thread};
 use crate::mpm::grid::WALL_NODES;
 use crate::mpm::Vec3;
@@ -15,6 +16,7 @@ use crate::rod::{Rod, RodAttachment, RodCollider, RodEnvironment, RodSolver};
 use crate::tools::ContactModel;
 use crate::world::WorldTool;
 use grasp::{Grasps, GripperView};
+use nalgebra::Quaternion;
 
 /// Coulomb coefficient of a `sticky` tool against the thread: sticky contact holds the
 /// tissue's nodes to the tool; for the thread it becomes a grip this strong, the rod's
@@ -32,6 +34,7 @@ pub fn tool_collider(tool: &WorldTool, t0: f64, t1: f64) -> RodCollider {
             ContactModel::Coulomb { friction, .. } => friction,
             ContactModel::Sticky => STICKY_TOOL_FRICTION,
         },
+        spared: None,
     }
 }
 
@@ -53,22 +56,25 @@ pub struct ThreadBody {
     grasps: Grasps,
     /// This frame's attachments (grasped and pinned points); reused.
     attachments: Vec<RodAttachment>,
-    /// This frame's colliders: the tools not holding the thread; reused.
+    /// This frame's colliders: every tool, a holding gripper sparing the points it holds;
+    /// reused.
     colliders: Vec<RodCollider>,
 }
 
 impl ThreadBody {
     /// The thread `config` of a validated `scene`.
     pub fn new(scene: &Scene, config: &Thread) -> ThreadBody {
-        let start = nalgebra::Vector3::from(config.start).cast::<f32>();
-        let direction = nalgebra::Vector3::from(config.direction).cast::<f32>();
-        let rod = Rod::straight(
-            config.material(),
-            start,
-            direction,
-            config.length as f32,
-            config.segments as usize,
-        );
+        let laid = config
+            .centreline()
+            .expect("a validated thread has a centreline")
+            .into_iter()
+            .map(|p| nalgebra::Vector3::from(p).cast::<f32>())
+            .collect();
+        let mut rod = Rod::from_polyline(config.material(), laid);
+        if config.rest_shape == RestShape::Straight {
+            // Straight and untwisted at rest: the frames along a straight rod are all one.
+            rod.rest_darboux.fill(Quaternion::identity());
+        }
         let gravity = nalgebra::Vector3::from(scene.domain.gravity).cast::<f32>();
         let mut pinned = vec![false; rod.points.len()];
         let mut anchors = Vec::new();
@@ -122,16 +128,24 @@ impl ThreadBody {
                 from: at,
                 to: at,
             }));
-        // A gripper holding the thread is its grasp: the points between its jaws move with
-        // it, and its jaws (pressed shut past the thread) would push them out again.
+        // A gripper holding the thread holds the points between its jaws: those and their
+        // neighbours (pressed against the jaws' sides and faces, within a jaw thickness along
+        // the thread) move with it and are spared its collision, which would push them out
+        // of the jaws shut past them. The rest of the thread still collides with it, so that
+        // the thread cannot slide through the holding gripper.
+        let reach = self.spared_neighbours(grippers);
+        let last = self.rod.points.len() - 1;
         self.colliders.clear();
-        self.colliders.extend(
-            colliders
-                .iter()
-                .enumerate()
-                .filter(|(tool, _)| !self.grasps.holds_with(*tool))
-                .map(|(_, c)| *c),
-        );
+        self.colliders
+            .extend(colliders.iter().enumerate().map(|(tool, c)| {
+                RodCollider {
+                    spared: self
+                        .grasps
+                        .held_range(tool)
+                        .map(|(lo, hi)| (lo.saturating_sub(reach), (hi + reach).min(last))),
+                    ..*c
+                }
+            }));
         let env = RodEnvironment {
             table_height: self.table.map(|(z, _)| z),
             table_friction: self.table.map_or(0.0, |(_, mu)| mu),
@@ -142,6 +156,20 @@ impl ThreadBody {
             self_friction: self.self_friction,
         };
         self.solver.step_frame_in(&mut self.rod, dt as f32, &env);
+    }
+
+    /// How many neighbours on each side of a grasp are spared its gripper's collision: the
+    /// points within the thickest jaw's thickness along the thread (at least one, the
+    /// neighbour whose segment leaves the jaws).
+    fn spared_neighbours(&self, grippers: &[GripperView]) -> usize {
+        let thickness = grippers.iter().map(|g| g.jaw_thickness).fold(0.0, f32::max);
+        let segment = self
+            .rod
+            .rest_lengths
+            .iter()
+            .copied()
+            .fold(f32::MAX, f32::min);
+        ((thickness / segment).ceil() as usize).max(1)
     }
 
     /// Current length over rest length, minus one.
