@@ -27,6 +27,9 @@
 //! mechanics, where a cell at the tip of a crack with energy release rate G holds an
 //! energy density of about G/h, and it begins to fail when that reaches Y₀ (G ≈ G_c/2) and
 //! is through when G reaches G_c.
+//!
+//! **GPU.** `gpu/damage.wgsl` is this module line for line; MLS-MPM's P2G calls it for a
+//! material with toughness and keeps the damage in each particle's position w.
 
 use super::material::{rotation_of, J_MIN};
 use super::{Mat3, MaterialModel, MaterialParams};
