@@ -705,8 +705,8 @@ fn attached_point_moves_while_another_is_pinned() {
 
 /// A thread hung on the catenary of its length between two pins (`validation::thread`) stays
 /// on it: the largest distance of the middle point from the analytic sag over 1 s must shrink
-/// with every doubling of the segments (measured 7.3e-3, 3.0e-3, 1.9e-3 at 10, 20, 40 with
-/// four substeps per frame).
+/// with every doubling of the segments (measured 6.0e-3, 1.9e-3, 8.9e-4 at 10, 20, 40 with the
+/// default one substep per frame).
 #[test]
 fn thread_hanging_between_two_pins_follows_the_catenary() {
     let errors = study("catenary", validation::catenary_sag);
