@@ -19,6 +19,9 @@
 //! a step costs a fifth of a factorisation. The 6×6 algebra is written out on row-major
 //! arrays: the generic small-matrix Cholesky solves cost three quarters of the step.
 
+// The 6×6 algebra below indexes rows and columns as the formulas do.
+#![allow(clippy::needless_range_loop)]
+
 use super::constraints::{bend_twist, stretch_shear, Compliance, M3, V3};
 use super::state::{add_rotation, Rod};
 use crate::mpm::Vec3;

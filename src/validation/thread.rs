@@ -28,8 +28,11 @@ pub struct RodCheck {
     pub error: f64,
 }
 
-/// The cases, by name, as functions of the segment count.
-pub const CASES: [(&str, fn(usize) -> RodCheck); 4] = [
+/// A case as a function of the segment count.
+pub type RodCase = fn(usize) -> RodCheck;
+
+/// The cases, by name.
+pub const CASES: [(&str, RodCase); 4] = [
     ("cantilever tip vs qL⁴/8EI", cantilever_under_own_weight),
     ("end moment tip vs circular arc", end_moment_arc),
     ("beam-column tip at P_cr/2 (Euler)", euler_beam_column),
