@@ -419,8 +419,8 @@ mod tests {
         }
     }
 
-    /// A bent, swinging-like state far from rest: chord steps (the first factorisation
-    /// reused) must reach the same constraint state as fresh solves each iteration.
+    /// A bent state far from rest: chord steps (the first factorisation reused) must bring
+    /// the segments to their lengths as fresh solves do, and to nearly the same points.
     #[test]
     fn chord_steps_reach_the_answer_of_fresh_solves() {
         let mut rod = Rod::straight(
@@ -459,10 +459,14 @@ mod tests {
             .zip(&chord.points)
             .map(|(a, b)| (a - b).norm())
             .fold(0.0f32, f32::max);
-        // The points moved ~1 mm; rounding of f32 positions is ~1e-8 m.
-        assert!(worst < 1e-6, "chord steps differ by {worst} m");
-        let worst_strain = (0..20).map(|j| chord.strain(j).abs()).fold(0.0, f32::max);
-        assert!(worst_strain < 1e-5, "strain {worst_strain}");
+        // Both end on the constraints; the paths differ in second order (XPBD moves the
+        // points along the Jacobians of the iterations it took, and the chord's are those of
+        // the first): the points moved ~1 mm and end within 1 % of that (measured 2.7 µm).
+        assert!(worst < 1e-5, "chord steps differ by {worst} m");
+        for (name, rod) in [("fresh", &fresh), ("chord", &chord)] {
+            let worst_strain = (0..20).map(|j| rod.strain(j).abs()).fold(0.0, f32::max);
+            assert!(worst_strain < 1e-5, "{name}: strain {worst_strain}");
+        }
         // Without a factorisation there is nothing to reuse.
         let mut lambda = vec![V6::zeros(); 20];
         assert!(!resolve(
