@@ -1,9 +1,11 @@
 //! The suture thread (a position-based Cosserat rod) against analytic answers: length true to
-//! F/(EA) hanging, swinging and pulled; iteration-count independence; the rest Darboux sign.
+//! F/(EA) hanging, swinging and pulled; iteration-count independence; the rest Darboux sign;
+//! the beam cases of `validation::thread` (cantilever, end moment, Euler, catenary).
 
 use dvrk_tissue_sim::mpm::Vec3;
 use dvrk_tissue_sim::rod::solver::RodSolverSettings;
 use dvrk_tissue_sim::rod::{Rod, RodSolver, ThreadMaterial};
+use dvrk_tissue_sim::validation::thread::{self as validation, RodCheck};
 
 const FRAME: f32 = 1.0 / 60.0;
 const GRAVITY: Vec3 = Vec3::new(0.0, 0.0, -9.81);
@@ -190,19 +192,20 @@ fn negated_frames_leave_a_curved_rest_shape_at_rest() {
     assert!(drift < 1e-5, "drift {drift} m");
 }
 
-/// A rod along +x from the origin, built in at the origin: the first point held and the first
-/// frame clamped (a cantilever's clamp fixes the slope as well as the position).
-fn cantilever(length: f32, segments: usize) -> Rod {
-    let mut rod = Rod::straight(
-        ThreadMaterial::nylon_3_0(),
-        Vec3::zeros(),
-        Vec3::x(),
-        length,
-        segments,
-    );
-    rod.pin_point(0);
-    rod.clamp_frame(0);
-    rod
+/// The analytic beam cases of `validation::thread` at 10, 20 and 40 segments, printed, their
+/// errors returned for `assert_converges`.
+fn study(name: &str, case: fn(usize) -> RodCheck) -> Vec<(usize, f32)> {
+    [10, 20, 40]
+        .into_iter()
+        .map(|segments| {
+            let c = case(segments);
+            println!(
+                "{name}, {segments} segments: rod {:.4e} m, analytic {:.4e} m, error {:.2e}",
+                c.measured, c.expected, c.error
+            );
+            (segments, c.error as f32)
+        })
+        .collect()
 }
 
 /// Small-deflection tip of a cantilever under its own weight against δ = qL⁴/(8EI): a 2 cm 3-0
@@ -211,23 +214,7 @@ fn cantilever(length: f32, segments: usize) -> Rod {
 /// every doubling of the segments.
 #[test]
 fn cantilever_tip_deflection_converges_to_ql4_over_8ei() {
-    let length = 0.02;
-    let mut errors = Vec::new();
-    for segments in [10, 20, 40] {
-        let mut rod = cantilever(length, segments);
-        let mut solver = default_solver(&rod, GRAVITY);
-        // The first mode (~130 Hz) is damped by the implicit steps well within 1 s.
-        run(&mut rod, &mut solver, 60, |_| {});
-        let m = rod.material;
-        let q = m.linear_density() * GRAVITY.norm();
-        let expected = q * length.powi(4) / (8.0 * m.bending_stiffness());
-        let tip = -rod.points[segments].z;
-        let error = (tip - expected).abs() / expected;
-        println!(
-            "{segments} segments: tip {tip:.4e} m, qL⁴/8EI {expected:.4e} m, error {error:.3}"
-        );
-        errors.push((segments, error));
-    }
+    let errors = study("cantilever", validation::cantilever_under_own_weight);
     assert_converges(&errors, 2.5);
 }
 
@@ -718,133 +705,32 @@ fn attached_point_moves_while_another_is_pinned() {
     }
 }
 
-/// Catenary: the analytic hanging curve z = a·(cosh(x/a) − cosh(s/(2a))) between pins `s`
-/// apart, with a from the length L = 2a·sinh(s/(2a)) (bisection, f64).
-fn catenary_parameter(span: f64, length: f64) -> f64 {
-    let (mut lo, mut hi) = (1e-4 * span, 1e4 * span);
-    for _ in 0..200 {
-        let a = 0.5 * (lo + hi);
-        // Longer for smaller a.
-        if 2.0 * a * (span / (2.0 * a)).sinh() > length {
-            lo = a;
-        } else {
-            hi = a;
-        }
-    }
-    0.5 * (lo + hi)
-}
-
-/// A thread hung on the catenary of its length between two pins 12 cm apart (15 cm long),
-/// points at equal arc lengths, rest shape straight, stays on it: the largest distance of the
-/// middle point from the analytic sag over 1 s (the discrete chain's own equilibrium differs
-/// from the curve, and it swings about it) must shrink with every doubling of the segments
-/// (measured 7.3e-3, 3.0e-3, 1.9e-3 at 10, 20, 40). A catenary has no bending
-/// stiffness: 3-0 nylon's bending length √(EI/q) is 29 mm, a quarter of the span, so the
-/// thread here is 100 times denser (2.9 mm, 1/17 of the catenary's a ≈ 5 cm).
+/// A thread hung on the catenary of its length between two pins (`validation::thread`) stays
+/// on it: the largest distance of the middle point from the analytic sag over 1 s must shrink
+/// with every doubling of the segments (measured 6.0e-3, 1.9e-3, 8.9e-4 at 10, 20, 40 with the
+/// default one substep per frame).
 #[test]
 fn thread_hanging_between_two_pins_follows_the_catenary() {
-    let (span, length) = (0.12f64, 0.15f64);
-    let a = catenary_parameter(span, length);
-    let mut errors = Vec::new();
-    for segments in [10, 20, 40] {
-        let points: Vec<Vec3> = (0..=segments)
-            .map(|i| {
-                let s = length * (i as f64 / segments as f64 - 0.5);
-                let x = a * (s / a).asinh();
-                let z = a * ((x / a).cosh() - (span / (2.0 * a)).cosh());
-                Vec3::new((x + 0.5 * span) as f32, 0.0, z as f32)
-            })
-            .collect();
-        let mut material = ThreadMaterial::nylon_3_0();
-        material.density *= 100.0;
-        let mut rod = Rod::from_polyline(material, points);
-        for d in &mut rod.rest_darboux {
-            *d = nalgebra::Quaternion::identity();
-        }
-        rod.pin_point(0);
-        rod.pin_point(segments);
-        // The analytic curve of the chain as built (its chords' length).
-        let a = catenary_parameter(span, rod.rest_length() as f64);
-        let sag = a * ((span / (2.0 * a)).cosh() - 1.0);
-        let mut solver = default_solver(&rod, GRAVITY);
-        let mut worst = 0.0f32;
-        run(&mut rod, &mut solver, 60, |r| {
-            let middle = -r.points[segments / 2].z as f64;
-            worst = worst.max(((middle - sag) / sag).abs() as f32);
-        });
-        println!("{segments} segments: sag {sag:.5} m, largest middle error {worst:.2e}");
-        errors.push((segments, worst));
-    }
+    let errors = study("catenary", validation::catenary_sag);
     assert_converges(&errors, 0.12);
 }
 
-/// End moment: a 2 cm cantilever (first point pinned, first frame clamped) with a moment M at
-/// its free end bends into a circular arc of radius EI/M; at M = 0.3·EI/L the tip turns
-/// 0.3 rad and sits at (R·sin θ, 0, R·(1 − cos θ)). The moment is a couple of follower forces
-/// ±M/l normal to the last segment (renewed each frame, so that it stays a pure moment as the
-/// end turns), without gravity. The discrete rod bends at its n − 1 joints only, a first-order
+/// End moment: a 2 cm cantilever with a moment M = 0.3·EI/L at its free end bends into a
+/// circular arc of radius EI/M. The discrete rod bends at its n − 1 joints only, a first-order
 /// error that must shrink with every doubling of the segments (measured 1.49e-2, 7.46e-3,
 /// 3.73e-3 of L at 10, 20, 40).
 #[test]
 fn end_moment_bends_a_cantilever_into_a_circular_arc() {
-    let length = 0.02f32;
-    let mut errors = Vec::new();
-    for segments in [10, 20, 40] {
-        let mut rod = cantilever(length, segments);
-        let ei = rod.material.bending_stiffness();
-        let moment = 0.3 * ei / length;
-        let mut solver = default_solver(&rod, Vec3::zeros());
-        let l = rod.rest_lengths[segments - 1];
-        run(&mut rod, &mut solver, 1, |_| {});
-        for _ in 0..60 {
-            let t = (rod.points[segments] - rod.points[segments - 1]).normalize();
-            // t × n = −y: a moment about −y, turning the tip towards +z.
-            let force = Vec3::new(-t.z, 0.0, t.x) * (moment / l);
-            rod.external_forces[segments] = force;
-            rod.external_forces[segments - 1] = -force;
-            run(&mut rod, &mut solver, 1, |_| {});
-        }
-        let radius = ei / moment;
-        let theta = length / radius;
-        let expected = Vec3::new(radius * theta.sin(), 0.0, radius * (1.0 - theta.cos()));
-        let error = (rod.points[segments] - expected).norm() / length;
-        println!(
-            "{segments} segments: tip {:?}, arc {:?}, error {error:.2e} of L",
-            rod.points[segments], expected
-        );
-        errors.push((segments, error));
-    }
+    let errors = study("end moment", validation::end_moment_arc);
     assert_converges(&errors, 0.2);
 }
 
-/// Euler buckling, through the beam-column it bounds: a 2 cm cantilever under an axial tip
-/// load P = ½·P_cr, P_cr = π²EI/(4L²) (clamped-free), and a small lateral tip load H deflects
-/// by δ = H·(tan kL − kL)/(P·k), k = √(P/EI) (Timoshenko & Gere §1.11), twice its P = 0
-/// value, diverging as P → P_cr. The rod's tip against it must converge with the segments:
-/// first order, like the cantilever (measured errors 0.22, 0.12, 0.060 at 10, 20, 40).
+/// Euler buckling, through the beam-column it bounds: at P = ½·P_cr a lateral tip load
+/// deflects the cantilever twice as far as without P. The rod's tip against it must converge
+/// with the segments: first order, like the cantilever (measured errors 0.22, 0.12, 0.060 at
+/// 10, 20, 40).
 #[test]
 fn axial_load_amplifies_a_cantilever_deflection_as_the_euler_load_predicts() {
-    let length = 0.02f32;
-    let mut errors = Vec::new();
-    for segments in [10, 20, 40] {
-        let mut rod = cantilever(length, segments);
-        let ei = rod.material.bending_stiffness() as f64;
-        let critical = std::f64::consts::PI.powi(2) * ei / (4.0 * (length as f64).powi(2));
-        let p = 0.5 * critical;
-        // δ/L ≈ 1e-3 without the axial load: small deflection.
-        let h = 3.0 * ei * 1e-3 / (length as f64).powi(2);
-        let k = (p / ei).sqrt();
-        let kl = k * length as f64;
-        let expected = (h * (kl.tan() - kl) / (p * k)) as f32;
-        rod.external_forces[segments] = Vec3::new(-p as f32, 0.0, h as f32);
-        let mut solver = default_solver(&rod, Vec3::zeros());
-        run(&mut rod, &mut solver, 60, |_| {});
-        let tip = rod.points[segments].z;
-        let error = (tip - expected).abs() / expected;
-        println!(
-            "{segments} segments: P_cr {critical:.3e} N, tip {tip:.4e} m, beam-column {expected:.4e} m, error {error:.2e}"
-        );
-        errors.push((segments, error));
-    }
+    let errors = study("beam-column", validation::euler_beam_column);
     assert_converges(&errors, 3.0);
 }

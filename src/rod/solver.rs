@@ -21,13 +21,17 @@ pub struct RodSolverSettings {
 }
 
 impl Default for RodSolverSettings {
-    /// Small steps beat many iterations (Macklin 2019). Measured with `bench thread`: a
-    /// swinging 1000-segment thread stretches 0.15 % at one substep, 0.11 % at two (120
-    /// frames), 0.02 % at four;
-    /// the second iteration corrects the f32 rounding of the first (see tests/thread.rs).
+    /// One substep of two direct solves. The direct solve holds the length whatever the
+    /// step (Macklin 2019's case for small steps is Gauss–Seidel's slow convergence, which
+    /// the direct solve does not have): measured with `bench thread`, a swinging
+    /// 1000-segment thread stretches 1.3e-5 at one substep, 6.3e-6 at two and 6.1e-6 at
+    /// four (120 frames), against a 0.1 % budget, for a quarter of the cost of four.
+    /// Scenes with fast tools or piles of thread may ask for more (`substeps` in a scene's
+    /// `[[thread]]`). The second iteration corrects the f32 rounding of the first (see
+    /// tests/thread.rs).
     fn default() -> Self {
         RodSolverSettings {
-            substeps: 4,
+            substeps: 1,
             iterations: 2,
         }
     }
@@ -35,6 +39,26 @@ impl Default for RodSolverSettings {
 
 /// Most contact projection passes per iteration.
 const CONTACT_PASSES: usize = 4;
+
+/// Least substeps per frame while the thread can touch something (a table, a tool, itself).
+/// The elastic solve is direct and needs no small steps, but contacts are projected one after
+/// another, with friction measured from the substep's start and self-contact normals taken
+/// there: at one substep a strand dragged at 1 m/s moves 17 mm (75 diameters of 3-0) between
+/// those normals and was measured to pass through another (tests/thread.rs); four substeps
+/// hold it.
+pub const CONTACT_SUBSTEPS: u32 = 4;
+
+/// Largest |C + α̃·λ| of any stretch-shear constraint (a strain) that ends a substep's
+/// iterations out of contact once the set number is done; above it, more full solves follow (Newton), up to
+/// `MAX_ITERATIONS`. A thread held at both ends and swinging through its sag was measured
+/// to stretch 1.4 % after two iterations of one substep (the linearisation of a nearly taut
+/// chord is poor far from the solution); a free thread stays far below the bound and pays
+/// one residual evaluation. Half the 0.1 % length budget, and above the f32 rounding of a
+/// segment's length (a 0.15 mm segment at 0.3 m from the origin: ~2e-4).
+const RESIDUAL_TOLERANCE: f64 = 5e-4;
+
+/// Most iterations per substep, the extra ones included.
+const MAX_ITERATIONS: u32 = 8;
 
 /// The solver for one rod: its compliances, multipliers and the previous substep's state.
 #[derive(Clone, Debug)]
@@ -88,7 +112,12 @@ impl RodSolver {
         dt: f32,
         env: &RodEnvironment,
     ) -> RodFrameReport {
-        let substeps = self.settings.substeps.max(1);
+        let touches = env.table_height.is_some() || !env.colliders.is_empty() || env.self_collision;
+        let substeps = if touches {
+            self.settings.substeps.max(CONTACT_SUBSTEPS)
+        } else {
+            self.settings.substeps.max(1)
+        };
         let iterations = self.settings.iterations.max(1);
         let h = dt / substeps as f32;
         let inv_h2 = 1.0 / (h as f64 * h as f64);
@@ -120,14 +149,32 @@ impl RodSolver {
                 self.self_contacts.detect(rod, &self.prev_points);
             }
             self.lambda.fill(Vector6::zeros());
-            for iteration in 0..iterations {
-                direct::solve(
-                    rod,
-                    &self.compliance,
-                    &mut self.lambda,
-                    inv_h2,
-                    &mut self.scratch,
-                );
+            // In contact, every iteration factorises afresh and there are no extra ones: the
+            // contacts projected after each solve move points far from the last
+            // linearisation, and the residual then measures contact against elasticity, not
+            // the solve's convergence (extra solves let a strand dragged at 1 m/s be pulled
+            // back through the one it pushed: tests/thread.rs).
+            let most = if touches {
+                iterations
+            } else {
+                iterations.max(MAX_ITERATIONS)
+            };
+            for iteration in 0..most {
+                let (compliance, lambda, scratch) =
+                    (&self.compliance, &mut self.lambda, &mut self.scratch);
+                if iteration >= iterations
+                    && direct::stretch_residual(rod, compliance, lambda, inv_h2)
+                        <= RESIDUAL_TOLERANCE
+                {
+                    break;
+                }
+                // Out of contact the first iteration factorises and the set ones after it
+                // reuse that (a chord step, see `direct`); extra ones, for a residual still
+                // too large, factorise afresh (Newton).
+                let chord = !touches && iteration > 0 && iteration < iterations;
+                if !(chord && direct::resolve(rod, compliance, lambda, inv_h2, scratch)) {
+                    direct::solve(rod, compliance, lambda, inv_h2, scratch);
+                }
                 // Contacts in a pile (thread on thread on table) push each other back in:
                 // a few Gauss–Seidel passes, until one finds nothing to correct.
                 let mut found = (0, 0, 0);

@@ -177,6 +177,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
                 thread::table(&thread::run(&thread::SEGMENTS, frames), frames)
             );
             print!("{}", thread::substep_table(frames));
+            print!("{}", thread::analytic_table());
             Ok(())
         }
         BenchCommand::Stiff => {

@@ -2,11 +2,15 @@
 //! end under gravity (seed 001's length test), at 40, 100, 400 and 1000 segments on one core:
 //! ms per 60 Hz frame with the solver's default settings, and the largest elongation of the
 //! centreline over the run (the material's own strain here is ≈ 1e-6, tension of a few
-//! thread weights over EA, so the figure is the solver's error).
+//! thread weights over EA, so the figure is the solver's error). The rod solver runs on the
+//! calling thread alone (no rayon), so the rows are one core's; besides wall time the table
+//! gives the thread's own CPU time, which other processes on a loaded machine do not inflate.
+//! A second table: the analytic beam cases of `validation::thread` against segment count.
 
 use dvrk_tissue_sim::mpm::Vec3;
 use dvrk_tissue_sim::rod::solver::RodSolverSettings;
 use dvrk_tissue_sim::rod::{Rod, RodSolver, ThreadMaterial};
+use dvrk_tissue_sim::validation::thread as analytic;
 use std::time::Instant;
 
 pub const SEGMENTS: [usize; 4] = [40, 100, 400, 1000];
@@ -15,6 +19,8 @@ const FRAME_DT: f32 = 1.0 / 60.0;
 pub struct ThreadRow {
     pub segments: usize,
     pub ms_per_frame: f64,
+    /// This thread's CPU time per frame (ms), where the system reports it.
+    pub cpu_ms_per_frame: Option<f64>,
     pub elongation: f32,
 }
 
@@ -38,15 +44,21 @@ fn run_with(segments: &[usize], frames: u32, settings: RodSolverSettings) -> Vec
             let mut solver = RodSolver::new(&rod, settings, Vec3::new(0.0, 0.0, -9.81));
             let mut elongation = 0.0f32;
             let mut wall = 0.0;
+            let cpu_start = thread_cpu_seconds();
             for _ in 0..frames {
                 let start = Instant::now();
                 solver.step_frame(&mut rod, FRAME_DT);
                 wall += start.elapsed().as_secs_f64();
                 elongation = elongation.max((rod.length() / rest - 1.0).abs());
             }
+            let cpu = thread_cpu_seconds()
+                .zip(cpu_start)
+                .map(|(end, start)| end - start);
             ThreadRow {
                 segments: n,
                 ms_per_frame: 1e3 * wall / frames as f64,
+                // The elongation measure between frames is a small part of it.
+                cpu_ms_per_frame: cpu.map(|c| 1e3 * c / frames as f64),
                 elongation,
             }
         })
@@ -58,12 +70,15 @@ pub fn table(rows: &[ThreadRow], frames: u32) -> String {
     let mut out = format!(
         "thread swinging from one fixed end, 15 cm 3-0 nylon, {frames} frames at 60 Hz, \
          {} substeps x {} iterations, one core\n\
-         | segments | ms/frame | elongation |\n|---|---|---|\n",
+         | segments | ms/frame | cpu ms/frame | elongation |\n|---|---|---|---|\n",
         s.substeps, s.iterations
     );
     for r in rows {
+        let cpu = r
+            .cpu_ms_per_frame
+            .map_or_else(|| "n/a".to_string(), |c| format!("{c:.3}"));
         out += &format!(
-            "| {} | {:.3} | {:.2e} |\n",
+            "| {} | {:.3} | {cpu} | {:.2e} |\n",
             r.segments, r.ms_per_frame, r.elongation
         );
     }
@@ -75,7 +90,7 @@ pub fn table(rows: &[ThreadRow], frames: u32) -> String {
 pub fn substep_table(frames: u32) -> String {
     let mut out = format!(
         "\nsubsteps per frame, same swing, 2 iterations, {frames} frames\n\
-         | substeps | segments | ms/frame | elongation |\n|---|---|---|---|\n"
+         | substeps | segments | ms/frame | cpu ms/frame | elongation |\n|---|---|---|---|---|\n"
     );
     for substeps in [1, 2, 4] {
         let settings = RodSolverSettings {
@@ -83,11 +98,46 @@ pub fn substep_table(frames: u32) -> String {
             iterations: 2,
         };
         for r in run_with(&[SEGMENTS[0], SEGMENTS[3]], frames, settings) {
+            let cpu = r.cpu_ms_per_frame.unwrap_or(f64::NAN);
             out += &format!(
-                "| {substeps} | {} | {:.3} | {:.2e} |\n",
+                "| {substeps} | {} | {:.3} | {cpu:.3} | {:.2e} |\n",
                 r.segments, r.ms_per_frame, r.elongation
             );
         }
     }
     out
+}
+
+/// Segment counts of the analytic table: each case's error must shrink as they double.
+pub const ANALYTIC_SEGMENTS: [usize; 3] = [10, 20, 40];
+
+/// The analytic beam cases (validation::thread) at 10, 20 and 40 segments, default solver.
+pub fn analytic_table() -> String {
+    let mut out = String::from(
+        "\nthread against beam theory (2 cm cantilevers of 3-0 nylon; catenary: 15 cm between \
+         pins 12 cm apart), default solver\n\
+         | case | segments | rod (m) | analytic (m) | error |\n|---|---|---|---|---|\n",
+    );
+    for (name, case) in analytic::CASES {
+        for segments in ANALYTIC_SEGMENTS {
+            let c = case(segments);
+            out += &format!(
+                "| {name} | {segments} | {:.4e} | {:.4e} | {:.2e} |\n",
+                c.measured, c.expected, c.error
+            );
+        }
+    }
+    out
+}
+
+/// CPU time this thread has run (s), from CLOCK_THREAD_CPUTIME_ID (brought up to date when
+/// read, unlike /proc's per-tick accounting). None where the clock is not available.
+fn thread_cpu_seconds() -> Option<f64> {
+    let mut t = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: clock_gettime writes one timespec through a valid pointer.
+    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut t) };
+    (rc == 0).then_some(t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9)
 }
