@@ -247,9 +247,11 @@ fn implicit_cases(full: bool) -> Vec<StressCase> {
             drags.push((v, 1e6));
         }
     } else {
-        // The soft corner and the stiff, nearly incompressible one (which gained energy
-        // until the solve's active set took in the nodes it moves into a tool).
-        materials = vec![(1e3, 0.3), (1e6, 0.499)];
+        // The soft corner and the stiff one (the 1 MPa, ν 0.499 indentation, which gained
+        // energy until the solve's active set took in the nodes it moves into a tool, takes
+        // 38 s here: full matrix only; `a_tool_slower_than_gravity_pays_for_the_energy_it_stores`
+        // in `mpm::cpu::implicit` guards the same mechanism in a few seconds).
+        materials = vec![(1e3, 0.3), (1e6, 0.49)];
     }
     // Every sphere indentation is measured stable with no energy gained (README, "Implicit
     // method"). The capsule dragged with friction still gains energy (friction acts in the
