@@ -1,22 +1,15 @@
 //! `bench --quick` as CI runs it: every analytic run within its error bound, and the CSV,
 //! Markdown and PNG written. No timing is asserted.
 
-use std::process::Command;
+mod support;
 
 #[test]
 fn quick_bench_meets_error_bounds_and_writes_its_files() {
     let out_dir = std::env::temp_dir().join(format!("dvrk-bench-quick-{}", std::process::id()));
-    let out = Command::new(env!("CARGO_BIN_EXE_dvrk-tissue-sim"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(["bench", "--quick", "--backends", "cpu", "--out"])
-        .arg(&out_dir)
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&out.stderr)
+    support::stdout_of_success(
+        support::binary()
+            .args(["bench", "--quick", "--backends", "cpu", "--out"])
+            .arg(&out_dir),
     );
     let csv = std::fs::read_to_string(out_dir.join("bench.csv")).unwrap();
     let mut lines = csv.lines();

@@ -1,32 +1,17 @@
 //! The command line as a user runs it.
 
-use std::process::Command;
-
-fn bin() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_dvrk-tissue-sim"));
-    c.current_dir(env!("CARGO_MANIFEST_DIR"));
-    c
-}
+mod support;
 
 #[test]
 fn headless_run_prints_frame_lines_and_a_summary() {
-    let out = bin()
-        .args([
-            "run",
-            "--scene",
-            "config/default.toml",
-            "--headless",
-            "--seconds",
-            "0.05",
-        ])
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let stdout = support::stdout_of_success(support::binary().args([
+        "run",
+        "--scene",
+        "config/default.toml",
+        "--headless",
+        "--seconds",
+        "0.05",
+    ]));
     let frames: Vec<&str> = stdout.lines().filter(|l| l.starts_with("t=")).collect();
     assert_eq!(frames.len(), 3, "{stdout}");
     for line in &frames {
@@ -47,7 +32,7 @@ fn check_reports_bad_scene_with_key_value_and_range() {
         .unwrap()
         .replace("poisson_ratio = 0.45", "poisson_ratio = 0.55");
     std::fs::write(&bad, text).unwrap();
-    let out = bin()
+    let out = support::binary()
         .args(["check", "config/default.toml"])
         .arg(&bad)
         .output()
@@ -65,7 +50,7 @@ fn check_reports_bad_scene_with_key_value_and_range() {
 
 #[test]
 fn node_with_a_bad_namespace_fails_before_touching_the_network() {
-    let out = bin()
+    let out = support::binary()
         .args([
             "run",
             "--scene",
@@ -83,7 +68,7 @@ fn node_with_a_bad_namespace_fails_before_touching_the_network() {
 #[test]
 fn snapshot_writes_a_png_of_the_scene() {
     let path = std::env::temp_dir().join(format!("dts-snapshot-{}.png", std::process::id()));
-    let out = bin()
+    let out = support::binary()
         .args([
             "snapshot",
             "--scene",
@@ -129,26 +114,20 @@ fn snapshot_writes_a_png_of_the_scene() {
 #[test]
 fn headless_run_writes_snapshots_at_the_asked_interval() {
     let dir = std::env::temp_dir().join(format!("dts-snapshots-{}", std::process::id()));
-    let out = bin()
-        .args([
-            "run",
-            "--scene",
-            "config/default.toml",
-            "--headless",
-            "--seconds",
-            "0.1",
-            "--snapshot-every",
-            "0.05",
-            "--snapshot-dir",
-        ])
-        .arg(&dir)
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&out.stderr)
+    let stdout = support::stdout_of_success(
+        support::binary()
+            .args([
+                "run",
+                "--scene",
+                "config/default.toml",
+                "--headless",
+                "--seconds",
+                "0.1",
+                "--snapshot-every",
+                "0.05",
+                "--snapshot-dir",
+            ])
+            .arg(&dir),
     );
     let mut names: Vec<String> = std::fs::read_dir(&dir)
         .unwrap()
@@ -166,7 +145,7 @@ fn headless_run_writes_snapshots_at_the_asked_interval() {
     }
     std::fs::remove_dir_all(&dir).ok();
 
-    let bad = bin()
+    let bad = support::binary()
         .args(["run", "--headless", "--snapshot-every", "0"])
         .output()
         .unwrap();
@@ -176,16 +155,8 @@ fn headless_run_writes_snapshots_at_the_asked_interval() {
 
 #[test]
 fn bench_frame_prints_a_row_per_backend_with_both_timings() {
-    let out = bin()
-        .args(["bench", "frame", "--frames", "2"])
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let stdout =
+        support::stdout_of_success(support::binary().args(["bench", "frame", "--frames", "2"]));
     let rows: Vec<Vec<&str>> = stdout
         .lines()
         .filter(|l| l.starts_with("| cpu") || l.starts_with("| gpu"))

@@ -1,23 +1,16 @@
 //! `stress --reduced` as CI runs it: every case of the reduced matrix (all inside the safe
 //! envelope) stays stable, and the table reports each of them. No timing is asserted.
 
-use std::process::Command;
+mod support;
 
 #[test]
 fn reduced_stress_matrix_is_stable() {
     let table_path =
         std::env::temp_dir().join(format!("dvrk-stress-reduced-{}.md", std::process::id()));
-    let out = Command::new(env!("CARGO_BIN_EXE_dvrk-tissue-sim"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(["stress", "--reduced", "--backend", "cpu", "--out"])
-        .arg(&table_path)
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&out.stderr)
+    support::stdout_of_success(
+        support::binary()
+            .args(["stress", "--reduced", "--backend", "cpu", "--out"])
+            .arg(&table_path),
     );
     let table = std::fs::read_to_string(&table_path).unwrap();
     let _ = std::fs::remove_file(&table_path);
