@@ -241,7 +241,7 @@ fn remembered_planes(world: &World, start_y: &[f32]) -> [(f32, f32); 2] {
 /// [−0.00, +0.06] mm at 0.2 s, [−0.25, +0.17] mm at 0.3 s, [−0.07, +0.87] mm at 0.4 s and
 /// [−0.15, +2.62] mm at 0.5 s, the +y half's to [+0.03, +1.87] mm at 0.5 s (MLS-MPM: within
 /// ±0.02 mm throughout), so particles of one half sit inside the other within a cell and
-/// link it. The suspected cause (not yet checked by a fix) is PB-MPM's large affine
+/// link it. The cause (checked on the CPU, see README) is PB-MPM's large affine
 /// velocity C (the constraint's (R·F⁻¹ − I)/dt at 1/240 s) meeting the side test's
 /// truncated P2G stencil: APIC's affine momentum m·C·(xᵢ − xₚ) sums to zero only over the
 /// whole stencil, so skipping the nodes across the crack adds m·C·Σ_kept wᵢ(xᵢ − xₚ), a
