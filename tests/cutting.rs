@@ -338,3 +338,66 @@ fn a_recorded_cut_carries_the_piece_count_and_damage() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The blade plane's position (m, along world y) as each cut particle remembers it: its y
+/// less its crack's y component; `(least, greatest)` for the particles that started at
+/// y < 0 and y > 0.
+fn remembered_planes(world: &World, start_y: &[f32]) -> [(f32, f32); 2] {
+    let p = world.particles();
+    let mut planes = [(f32::MAX, f32::MIN); 2];
+    for (i, (x, crack)) in p.x.iter().zip(&p.crack).enumerate() {
+        if *crack != dvrk_tissue_sim::mpm::Vec3::zeros() {
+            let side = &mut planes[(start_y[i] > 0.0) as usize];
+            let plane = x.y - crack.y;
+            *side = (side.0.min(plane), side.1.max(plane));
+        }
+    }
+    planes
+}
+
+/// The block-cut test's first part with PB-MPM: cut through (0.5 s), the block must be two
+/// pieces. It is one (measured), because the faces of the cut slide through each other as
+/// the edge goes down: the blade plane as the −y half's particles remember it spreads to
+/// [−0.00, +0.06] mm at 0.2 s, [−0.25, +0.17] mm at 0.3 s, [−0.07, +0.87] mm at 0.4 s and
+/// [−0.15, +2.62] mm at 0.5 s, the +y half's to [+0.03, +1.87] mm at 0.5 s (MLS-MPM: within
+/// ±0.02 mm throughout), so particles of one half sit inside the other within a cell and
+/// link it. The cause (checked on the CPU, see README) is PB-MPM's large affine
+/// velocity C (the constraint's (R·F⁻¹ − I)/dt at 1/240 s) meeting the side test's
+/// truncated P2G stencil: APIC's affine momentum m·C·(xᵢ − xₚ) sums to zero only over the
+/// whole stencil, so skipping the nodes across the crack adds m·C·Σ_kept wᵢ(xᵢ − xₚ), a
+/// push along the crack normal. Ignored until it is fixed.
+#[test]
+#[ignore = "PB-MPM's cut faces slide through each other: one piece (see the docs)"]
+fn a_pb_mpm_cut_block_ends_in_two_pieces() {
+    let mut scene = shipped("cutting.toml");
+    scene.solver.method = dvrk_tissue_sim::mpm::Method::PbMpm;
+    let times = cut_times(&scene);
+    let dx = scene.domain.dx as f32;
+    let mut world = World::new(&scene);
+    let start_y: Vec<f32> = world.particles().x.iter().map(|x| x.y).collect();
+    for k in 1..=5 {
+        run_until(&mut world, times.through * k as f64 / 5.0);
+        if world.particles().crack.is_empty() {
+            continue;
+        }
+        let [minus, plus] = remembered_planes(&world, &start_y);
+        println!(
+            "t {:.2} s: {} pieces; remembered blade plane −y half [{:.5}, {:.5}] m, +y half \
+             [{:.5}, {:.5}] m",
+            world.time(),
+            world.pieces(),
+            minus.0,
+            minus.1,
+            plus.0,
+            plus.1
+        );
+    }
+    let [minus, plus] = remembered_planes(&world, &start_y);
+    // The cut's faces stay where the blade passed, within a cell: no face slides through
+    // the other.
+    assert!(
+        minus.1 - minus.0 < dx && plus.1 - plus.0 < dx,
+        "{minus:?} {plus:?}"
+    );
+    assert_eq!(world.pieces(), 2, "two pieces after the cut");
+}
