@@ -10,6 +10,8 @@ use dvrk_tissue_sim::mpm::pieces;
 use dvrk_tissue_sim::tools::Shape;
 use dvrk_tissue_sim::world::World;
 
+mod support;
+
 fn shipped(name: &str) -> Scene {
     let path = format!("{}/config/{name}", env!("CARGO_MANIFEST_DIR"));
     let mut scene = config::load(std::path::Path::new(&path)).unwrap();
@@ -286,20 +288,13 @@ fn a_recorded_cut_carries_the_piece_count_and_damage() {
     let scene = dir.join("cutting_damage.toml");
     std::fs::write(&scene, text).unwrap();
     let bag = dir.join("cut.mcap");
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_dvrk-tissue-sim"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(["run", "--headless", "--backend", "cpu", "--seconds", "0.6"])
-        .arg("--scene")
-        .arg(&scene)
-        .arg("--record")
-        .arg(&bag)
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&out.stderr)
+    let stdout = support::stdout_of_success(
+        support::binary()
+            .args(["run", "--headless", "--backend", "cpu", "--seconds", "0.6"])
+            .arg("--scene")
+            .arg(&scene)
+            .arg("--record")
+            .arg(&bag),
     );
     assert!(stdout.contains("summary: pieces 2"), "{stdout}");
     let counts: Vec<(f64, u32)> = bag_messages(&bag, "/tissue/pieces")

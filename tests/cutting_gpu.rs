@@ -9,35 +9,10 @@
 
 use dvrk_tissue_sim::config::{self, Scene};
 use dvrk_tissue_sim::mpm::backend::{BackendChoice, P2gAtomics};
-use dvrk_tissue_sim::mpm::gpu::adapter;
 use dvrk_tissue_sim::mpm::{pieces, Method, Vec3};
 use dvrk_tissue_sim::world::World;
 
-/// Whether the P2G variant can run here; panics under CI when there is no adapter at all.
-fn gpu_ready(p2g: P2gAtomics) -> bool {
-    let adapters = adapter::adapters();
-    let Some(first) = adapters.first() else {
-        let reason = "no GPU adapter (Vulkan/Metal/DX12) found; on Debian/Ubuntu install \
-                      mesa-vulkan-drivers for the llvmpipe software adapter";
-        if std::env::var_os("CI").is_some() {
-            panic!("CI is set and the GPU backend cannot be tested: {reason}");
-        }
-        println!("skipped: {reason}");
-        return false;
-    };
-    if p2g == P2gAtomics::Float
-        && !first
-            .features()
-            .contains(wgpu::Features::SHADER_FLOAT32_ATOMIC)
-    {
-        println!(
-            "skipped: adapter \"{}\" has no f32 atomics (the fixed-point test covers it)",
-            first.get_info().name
-        );
-        return false;
-    }
-    true
-}
+mod support;
 
 /// The shipped cutting scene made quick enough for llvmpipe: a 12 × 12 × 8 mm block (1152
 /// particles) on the table, the blade's edge from 2 mm above it to 1 mm below the table in
@@ -62,7 +37,7 @@ fn cutting_scene(backend: BackendChoice, method: Method, p2g: P2gAtomics) -> Sce
 const CUT_THROUGH: f64 = 0.2;
 
 fn cut_agrees(method: Method, p2g: P2gAtomics, position_tolerance: f32) {
-    if !gpu_ready(p2g) {
+    if !support::gpu_ready(p2g) {
         return;
     }
     let mut cpu = World::new(&cutting_scene(BackendChoice::Cpu, method, p2g));

@@ -39,6 +39,8 @@ use dvrk_tissue_sim::mpm::{
 use dvrk_tissue_sim::tools::{ContactModel, Shape, ToolKinematics, ToolPose, ToolVelocity};
 use nalgebra::{UnitQuaternion, Vector3};
 
+mod support;
+
 /// Sheet thickness t, leg width w (half the sheet's width), tail length, initial leg length
 /// (m); toughness G_c (J/m²), Young's modulus (Pa), pulling speed (m/s), pull per leg (m).
 const THICKNESS: f32 = 0.002;
@@ -391,24 +393,14 @@ fn the_shipped_scene_tears_the_flap_off() {
 
 #[test]
 fn the_headless_summary_reports_the_pieces() {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_dvrk-tissue-sim"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args([
-            "run",
-            "--scene",
-            "config/tearing.toml",
-            "--headless",
-            "--print-every",
-            "1000",
-        ])
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let stdout = support::stdout_of_success(support::binary().args([
+        "run",
+        "--scene",
+        "config/tearing.toml",
+        "--headless",
+        "--print-every",
+        "1000",
+    ]));
     let pieces: usize = stdout
         .lines()
         .find_map(|l| l.strip_prefix("summary: pieces "))
@@ -447,30 +439,6 @@ fn check_refuses_a_toughness_that_is_not_positive_and_the_implicit_method() {
     }
 }
 
-/// Whether the GPU P2G variant `p2g` can run here; panics under CI when there is no adapter
-/// at all (as tests/cutting_gpu.rs).
-fn gpu_ready(p2g: P2gAtomics) -> bool {
-    let adapters = dvrk_tissue_sim::mpm::gpu::adapter::adapters();
-    let Some(first) = adapters.first() else {
-        let reason = "no GPU adapter (Vulkan/Metal/DX12) found; on Debian/Ubuntu install \
-                      mesa-vulkan-drivers for the llvmpipe software adapter";
-        if std::env::var_os("CI").is_some() {
-            panic!("CI is set and the GPU backend cannot be tested: {reason}");
-        }
-        println!("skipped: {reason}");
-        return false;
-    };
-    if p2g == P2gAtomics::Float
-        && !first
-            .features()
-            .contains(wgpu::Features::SHADER_FLOAT32_ATOMIC)
-    {
-        println!("skipped: adapter has no f32 atomics (the fixed-point test covers it)");
-        return false;
-    }
-    true
-}
-
 /// The shipped scene made quick enough for llvmpipe: the sheet half as wide (8 mm, 1280
 /// particles), the pull to the same end point in 0.25 s instead of 1.3 s (it tears at about 0.2 s).
 fn quick_tearing(backend: BackendChoice, p2g: P2gAtomics) -> Scene {
@@ -491,7 +459,7 @@ const GPU_TEAR_END: f64 = 0.3;
 /// Tearing on the GPU against the CPU: the damage fields, the torn particles and the
 /// positions agree while the flap is torn off.
 fn gpu_tear_agrees(p2g: P2gAtomics, damage_tolerance: f32, position_tolerance: f32) {
-    if !gpu_ready(p2g) {
+    if !support::gpu_ready(p2g) {
         return;
     }
     let mut cpu = dvrk_tissue_sim::world::World::new(&quick_tearing(BackendChoice::Cpu, p2g));
