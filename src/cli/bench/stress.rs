@@ -247,12 +247,16 @@ fn implicit_cases(full: bool) -> Vec<StressCase> {
             drags.push((v, 1e6));
         }
     } else {
-        materials = vec![(1e3, 0.3)];
+        // The soft corner and the stiff one (the 1 MPa, ν 0.499 indentation, which gained
+        // energy until the solve's active set took in the nodes it moves into a tool, takes
+        // 38 s here: full matrix only; `a_tool_slower_than_gravity_pays_for_the_energy_it_stores`
+        // in `mpm::cpu::implicit` guards the same mechanism in a few seconds).
+        materials = vec![(1e3, 0.3), (1e6, 0.49)];
     }
-    // Measured stable: the 1 kPa, ν 0.3 indentation. The 1 MPa, ν 0.499 indentation and
-    // the capsule dragged through 1 MPa tissue gain energy (README, "Implicit method"), so
-    // the implicit cases are outside the envelope until they pass, and only the full matrix
-    // runs them (the reduced one is the envelope CI holds the solvers to).
+    // Every sphere indentation is measured stable with no energy gained (README, "Implicit
+    // method"). The capsule dragged with friction still gains energy (friction acts in the
+    // grid update after the solve): outside the envelope, and only in the full matrix
+    // (the reduced one is the envelope CI holds the solvers to).
     let implicit = |mut case: StressCase, name: String, in_envelope: bool| {
         case.scene.solver.method = Method::Implicit;
         case.group = "implicit";
@@ -264,12 +268,7 @@ fn implicit_cases(full: bool) -> Vec<StressCase> {
     let mut out = Vec::new();
     for (e, nu) in materials {
         let name = format!("sphere, E {} ν {nu}", si(e, "Pa"));
-        let measured_stable = e <= 1e3 && nu <= 0.3;
-        out.push(implicit(
-            indentation_case(e, nu, true),
-            name,
-            measured_stable,
-        ));
+        out.push(implicit(indentation_case(e, nu, true), name, true));
     }
     for (v, e) in drags {
         let mut case = tool_speed_case(v, true);
