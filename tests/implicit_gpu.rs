@@ -95,8 +95,13 @@ fn run_both(scene: &Scene, frames: usize) -> (f32, f32, SolveCounts, SolveCounts
         assert_eq!(rc.substeps, rg.substeps, "frame {frame}");
         assert!(rc.tissue_reset.is_none() && rg.tissue_reset.is_none());
         println!(
-            "frame {frame}: cpu Newton {} CG {}, gpu Newton {} CG {}",
-            rc.solve.newton, rc.solve.cg, rg.solve.newton, rg.solve.cg
+            "frame {frame}: cpu Newton {} CG {} activated {}, gpu Newton {} CG {} activated {}",
+            rc.solve.newton,
+            rc.solve.cg,
+            rc.solve.activated,
+            rg.solve.newton,
+            rg.solve.cg,
+            rg.solve.activated
         );
         sc.add(rc.solve);
         sg.add(rg.solve);
@@ -166,7 +171,10 @@ fn gpu_implicit_sphere_pressing_on_a_resting_block_agrees_with_cpu() {
         return;
     }
     // A 3 mm sphere moving down into a 50 kPa block that rests on a table with friction:
-    // contact, the table and the walls all act as constraints in the solve.
+    // contact, the table and the walls all act as constraints in the solve. The sphere
+    // descends at 2 cm/s, slower than the g·dt = 16 cm/s a frame-long step gives v*, so the
+    // nodes under it enter the solve leaving it and the solution moves them into it: both
+    // backends must grow the active set with them.
     let sphere = tool(
         "sphere",
         Shape::Sphere { radius: 0.003 },
@@ -193,6 +201,19 @@ fn gpu_implicit_sphere_pressing_on_a_resting_block_agrees_with_cpu() {
     assert!(moved > 1e-4, "the sphere pressed the block {moved} m");
     assert!(diff < 0.05 * moved, "positions differ by {diff} m");
     assert_counts_comparable(frames, cpu, gpu);
+    assert!(
+        cpu.activated > 0 && gpu.activated > 0,
+        "no node joined the active set: cpu {} gpu {}",
+        cpu.activated,
+        gpu.activated
+    );
+    let (a, b) = (cpu.activated as f64, gpu.activated as f64);
+    assert!(
+        a / b < 1.5 && b / a < 1.5,
+        "activated nodes cpu {} gpu {}",
+        cpu.activated,
+        gpu.activated
+    );
 }
 
 #[test]

@@ -109,12 +109,16 @@ pub enum Preconditioner {
 pub struct SolveCounts {
     pub newton: u32,
     pub cg: u32,
+    /// Nodes that joined the active set of constraints after a Newton solve (the solution
+    /// moved them into a tool, the table or a wall).
+    pub activated: u32,
 }
 
 impl SolveCounts {
     pub fn add(&mut self, other: SolveCounts) {
         self.newton += other.newton;
         self.cg += other.cg;
+        self.activated += other.activated;
     }
 }
 

@@ -17,11 +17,20 @@
 //! CPU solver, because each decision (forcing term, Armijo test, stopping) needs Φ or ‖∇Φ‖:
 //! each evaluation is one submission and one 128-byte readback.
 //!
+//! Active-set rounds (cpu `activate_constraints`). After Newton converges, `im_activate`
+//! re-evaluates each node's constraint at the iterate v (the `node_constraint` that chose
+//! them from v*); a node the solution moves into a tool, the table or a wall gets the
+//! constraint (only more prescribed components: the set grows), its iterate is projected
+//! and an atomic counter in the scalar block counts it. The host reads the count back (one
+//! readback per round) and, where nodes grew, re-evaluates and resumes Newton, at most
+//! `CONTACT_ROUNDS` rounds.
+//!
 //! Cost per substep, with Newton iterations k = 1..N, Cₖ CG iterations and Lₖ line-search
 //! trials in iteration k (counted from the code below):
 //! - readbacks (128 bytes each, one submission and one wait each): 4 (P2G with the
 //!   carried Φ, the rest Φ, the corrected Φ, the first evaluation) + Σₖ (⌈Cₖ/CG_CHUNK⌉ +
-//!   Lₖ + 2) (CG chunks, trials, the slope, the evaluation);
+//!   Lₖ + 2) (CG chunks, trials, the slope, the evaluation) + 2 per active-set round
+//!   that grew (the count, the evaluation) + 1 for the round that grew none;
 //! - submissions without a readback: about 4 + 3N (warm-start choices, CG start, trial
 //!   steps, acceptance, the end);
 //! - dispatches: about 30 + Σₖ (72·⌈Cₖ/CG_CHUNK⌉ + 5Lₖ + 11); a chunk always records its 8
@@ -46,7 +55,7 @@
 use super::resources::Resources;
 use super::{GpuSolver, Groups};
 use crate::mpm::backend::FramePlan;
-use crate::mpm::cpu::implicit::forcing_term;
+use crate::mpm::cpu::implicit::{forcing_term, CONTACT_ROUNDS};
 use crate::mpm::{ImplicitParams, Preconditioner, SolveCounts};
 use std::sync::mpsc;
 
@@ -69,6 +78,7 @@ const I_EPOCH: usize = 6;
 const I_CAP: usize = 7;
 const I_ITER: usize = 2;
 const I_DONE: usize = 1;
+const I_ACTIVATED: usize = 11;
 const SLOT_ELASTIC: u32 = 12;
 const SLOT_KINETIC: u32 = 14;
 const SLOT_RZ0: u32 = 16;
@@ -101,6 +111,7 @@ struct Pipelines {
     trial_step: wgpu::ComputePipeline,
     accept: wgpu::ComputePipeline,
     finish: wgpu::ComputePipeline,
+    activate: wgpu::ComputePipeline,
     sum_elastic: wgpu::ComputePipeline,
     sum_kinetic: wgpu::ComputePipeline,
     sum_rz0: wgpu::ComputePipeline,
@@ -268,6 +279,7 @@ impl ImplicitStages {
             trial_step: make("im_trial_step", &[]),
             accept: make("im_accept", &[]),
             finish: make("im_finish", &[]),
+            activate: make("im_activate", &[]),
             sum_elastic: sum(SLOT_ELASTIC, false),
             sum_kinetic: sum(SLOT_KINETIC, true),
             sum_rz0: sum(SLOT_RZ0, true),
@@ -481,39 +493,65 @@ impl GpuSolver {
         counts
     }
 
-    /// Newton's method on the grid velocities (cpu `solve_velocities`).
+    /// Newton's method on the grid velocities (cpu `solve_velocities`): Newton on the
+    /// active set, then the nodes the solution moves into a tool, the table or a wall join
+    /// it and Newton resumes, at most `CONTACT_ROUNDS` times.
     fn implicit_newton(&mut self, s: u32, params: &ImplicitParams, scales: Scales) -> SolveCounts {
         let mut counts = SolveCounts::default();
         let mut first_norm = None;
-        let mut previous: Option<(f64, f64)> = None;
         let mut residuals = Vec::new();
         let (mut energy, mut norm) = self.implicit_evaluate(s, true);
-        loop {
-            residuals.push(norm);
-            let reference = first_norm.get_or_insert(norm).max(scales.gravity);
-            let goal = (params.newton_tolerance as f64 * reference).max(scales.floor);
-            if norm <= goal || counts.newton >= params.newton_iterations {
-                break;
-            }
-            let eta = forcing_term(norm, previous, goal, params.cg_tolerance as f64);
-            previous = Some((norm, eta));
-            counts.cg += self.implicit_cg(s, eta * norm);
-            counts.newton += 1;
-            let at_rounding = match self.implicit_line_search(s, energy) {
-                Some((e, at_rounding)) if e.is_finite() => at_rounding,
-                _ => break,
-            };
-            let more = !at_rounding && counts.newton < params.newton_iterations;
-            (energy, norm) = self.implicit_evaluate(s, more);
-            if at_rounding {
+        for round in 0..=CONTACT_ROUNDS {
+            let mut newton = 0;
+            let mut previous: Option<(f64, f64)> = None;
+            loop {
                 residuals.push(norm);
+                let reference = first_norm.get_or_insert(norm).max(scales.gravity);
+                let goal = (params.newton_tolerance as f64 * reference).max(scales.floor);
+                if norm <= goal || newton >= params.newton_iterations {
+                    break;
+                }
+                let eta = forcing_term(norm, previous, goal, params.cg_tolerance as f64);
+                previous = Some((norm, eta));
+                counts.cg += self.implicit_cg(s, eta * norm);
+                newton += 1;
+                let at_rounding = match self.implicit_line_search(s, energy) {
+                    Some((e, at_rounding)) if e.is_finite() => at_rounding,
+                    _ => break,
+                };
+                let more = !at_rounding && newton < params.newton_iterations;
+                (energy, norm) = self.implicit_evaluate(s, more);
+                if at_rounding {
+                    residuals.push(norm);
+                    break;
+                }
+            }
+            counts.newton += newton;
+            if round == CONTACT_ROUNDS {
                 break;
             }
+            let activated = self.implicit_activate(s);
+            counts.activated += activated;
+            if activated == 0 {
+                break;
+            }
+            (energy, norm) = self.implicit_evaluate(s, true);
         }
         if let Some(im) = self.implicit.as_mut() {
             im.residuals = residuals;
         }
         counts
+    }
+
+    /// Grows the active set at the iterate (cpu `activate_constraints`); returns how many
+    /// nodes gained a constraint.
+    fn implicit_activate(&self, s: u32) -> u32 {
+        self.write_scalar(I_ACTIVATED, 0);
+        self.implicit_pass(s, true, |pass, im, g| {
+            nodes(pass, &im.pipelines.activate, g)
+        })
+        .expect("read back")
+        .0[I_ACTIVATED]
     }
 
     /// Preconditioned CG until ‖r‖ ≤ `target` or the cap; returns its iterations.

@@ -46,6 +46,7 @@ const I_CAP: u32 = 7u;
 const I_RZ: u32 = 8u;
 const I_CG_ALPHA: u32 = 9u;
 const I_BETA: u32 = 10u;
+const I_ACTIVATED: u32 = 11u;
 
 // Which sum `im_sum` writes (its two regions to SLOT and SLOT + 1), over node or particle
 // workgroups; which velocity the energy kernels read; whether `im_eval*` build the Hessian
@@ -674,6 +675,33 @@ fn im_prepare(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_i
     }
     im_nodes[i] = node;
     reduce_to_partials(lid, wid.x, m * m, 0.0);
+}
+
+// Grows the active set (cpu `activate_constraints`): a node with a free component that the
+// iterate v moves into a tool, the table or a wall gets that constraint, as the grid update
+// would set it, and v is projected onto it; only more prescribed components than now, so
+// the set only grows and the host's rounds end. Counts the grown nodes in I_ACTIVATED.
+@compute @workgroup_size(NODES_PER_BLOCK)
+fn im_activate(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let b = active_blocks[wid.x];
+    let i = b * NODES_PER_BLOCK + lid;
+    let n = im_nodes[i];
+    let free_now = n.free[0][0] + n.free[1][1] + n.free[2][2];
+    // Fully prescribed nodes have nothing left to constrain.
+    if (n.v_star.w <= 0.0 || free_now < 0.5) {
+        return;
+    }
+    let ijk = node_coords(b, lid);
+    let x = sim.origin_dx.xyz + vec3<f32>(ijk) * sim.origin_dx.w;
+    let c = node_constraint(ijk, x, n.v.xyz);
+    if (c.free[0][0] + c.free[1][1] + c.free[2][2] > free_now - 0.5) {
+        return;
+    }
+    im_nodes[i].free = c.free;
+    im_nodes[i].prescribed = vec4<f32>(c.prescribed, 0.0);
+    im_nodes[i].normal = vec4<f32>(c.normal, 0.0);
+    im_nodes[i].v = vec4<f32>(c.free * n.v.xyz + c.prescribed, 0.0);
+    atomicAdd(&im_scal[I_ACTIVATED], 1u);
 }
 
 // The warm-start candidate v* plus the last substep's elastic velocity change (zero where
