@@ -7,37 +7,13 @@
 
 use dvrk_tissue_sim::config::builders::*;
 use dvrk_tissue_sim::config::{Hold, Scene, Table};
-use dvrk_tissue_sim::mpm::backend::BackendChoice;
-use dvrk_tissue_sim::mpm::gpu::adapter;
+use dvrk_tissue_sim::mpm::backend::{BackendChoice, P2gAtomics};
 use dvrk_tissue_sim::mpm::{Method, SolveCounts};
 use dvrk_tissue_sim::tools::{ContactModel, Shape};
 use dvrk_tissue_sim::world::World;
 use std::time::Instant;
 
-/// Whether an adapter with f32 atomics exists; panics under CI when there is no adapter.
-fn gpu_ready() -> bool {
-    let adapters = adapter::adapters();
-    let Some(first) = adapters.first() else {
-        let reason = "no GPU adapter (Vulkan/Metal/DX12) found; on Debian/Ubuntu install \
-                      mesa-vulkan-drivers for the llvmpipe software adapter";
-        if std::env::var_os("CI").is_some() {
-            panic!("CI is set and the GPU backend cannot be tested: {reason}");
-        }
-        println!("skipped: {reason}");
-        return false;
-    };
-    if !first
-        .features()
-        .contains(wgpu::Features::SHADER_FLOAT32_ATOMIC)
-    {
-        println!(
-            "skipped: adapter \"{}\" has no f32 atomics, which the implicit GPU path needs",
-            first.get_info().name
-        );
-        return false;
-    }
-    true
-}
+mod support;
 
 fn on(scene: &Scene, backend: BackendChoice) -> World {
     let mut s = scene.clone();
@@ -149,7 +125,7 @@ fn assert_counts_comparable(frames: usize, cpu: SolveCounts, gpu: SolveCounts) {
 
 #[test]
 fn gpu_implicit_block_on_a_bonded_table_agrees_with_cpu() {
-    if !gpu_ready() {
+    if !support::gpu_ready(P2gAtomics::Float) {
         return;
     }
     // A 20 kPa block settling under its own weight at one 60 Hz step a frame: its top
@@ -167,7 +143,7 @@ fn gpu_implicit_block_on_a_bonded_table_agrees_with_cpu() {
 
 #[test]
 fn gpu_implicit_sphere_pressing_on_a_resting_block_agrees_with_cpu() {
-    if !gpu_ready() {
+    if !support::gpu_ready(P2gAtomics::Float) {
         return;
     }
     // A 3 mm sphere moving down into a 50 kPa block that rests on a table with friction:
@@ -223,7 +199,10 @@ fn the_gpu_backend_builds_implicit_where_it_has_f32_atomics() {
     s.solver.backend = BackendChoice::Gpu;
     match World::try_new(&s) {
         Ok(w) => {
-            assert!(gpu_ready(), "implicit built on a GPU without f32 atomics");
+            assert!(
+                support::gpu_ready(P2gAtomics::Float),
+                "implicit built on a GPU without f32 atomics"
+            );
             assert_ne!(w.backend().name(), "cpu");
         }
         Err(e) => {
