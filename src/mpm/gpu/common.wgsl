@@ -215,8 +215,9 @@ fn quat_to_mat(q: vec4<f32>) -> mat3x3<f32> {
     );
 }
 
-// Rotation closest to `a` (Müller et al. 2016), as `rotation_of` in material.rs.
-fn rotation_of(a: mat3x3<f32>) -> mat3x3<f32> {
+// Rotation closest to `a` (Müller et al. 2016) as a quaternion, as `rotation_of` in
+// material.rs.
+fn rotation_quat(a: mat3x3<f32>) -> vec4<f32> {
     var q = vec4<f32>(0.0, 0.0, 0.0, 1.0);
     for (var i = 0; i < ROTATION_ITERATIONS; i++) {
         let r = quat_to_mat(q);
@@ -232,7 +233,12 @@ fn rotation_of(a: mat3x3<f32>) -> mat3x3<f32> {
         q = quat_mul(vec4<f32>(axis * sin(h), cos(h)), q);
         q = q / length(q);
     }
-    return quat_to_mat(q);
+    return q;
+}
+
+// The same rotation as a matrix.
+fn rotation_of(a: mat3x3<f32>) -> mat3x3<f32> {
+    return quat_to_mat(rotation_quat(a));
 }
 
 fn kirchhoff_stress(mat: Material, f: mat3x3<f32>) -> mat3x3<f32> {

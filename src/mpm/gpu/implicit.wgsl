@@ -206,26 +206,6 @@ fn frob2(m: mat3x3<f32>) -> f32 {
     return dot(m[0], m[0]) + dot(m[1], m[1]) + dot(m[2], m[2]);
 }
 
-// Rotation closest to `a` as a quaternion (common.wgsl `rotation_of`).
-fn rotation_quat(a: mat3x3<f32>) -> vec4<f32> {
-    var q = vec4<f32>(0.0, 0.0, 0.0, 1.0);
-    for (var i = 0; i < ROTATION_ITERATIONS; i++) {
-        let r = quat_to_mat(q);
-        let num = cross(r[0], a[0]) + cross(r[1], a[1]) + cross(r[2], a[2]);
-        let den = abs(dot(r[0], a[0]) + dot(r[1], a[1]) + dot(r[2], a[2])) + 1e-9;
-        let omega = num / den;
-        let angle = length(omega);
-        if (angle < 1e-9) {
-            break;
-        }
-        let axis = omega / angle;
-        let h = 0.5 * angle;
-        q = quat_mul(vec4<f32>(axis * sin(h), cos(h)), q);
-        q = q / length(q);
-    }
-    return q;
-}
-
 // I − R(q), entry by entry without subtracting from one.
 fn identity_minus_rotation(q: vec4<f32>) -> mat3x3<f32> {
     let x = q.x;
