@@ -362,7 +362,6 @@ fn remembered_planes(world: &World, start_y: &[f32]) -> [(f32, f32); 2] {
 /// whole stencil, so skipping the nodes across the crack adds m·C·Σ_kept wᵢ(xᵢ − xₚ), a
 /// push along the crack normal. Ignored until it is fixed.
 #[test]
-#[ignore = "PB-MPM's cut faces slide through each other: one piece (see the docs)"]
 fn a_pb_mpm_cut_block_ends_in_two_pieces() {
     let mut scene = shipped("cutting.toml");
     scene.solver.method = dvrk_tissue_sim::mpm::Method::PbMpm;

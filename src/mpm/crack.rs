@@ -14,6 +14,7 @@
 //! the zero vector is "not cut". The plane turns and stretches with the material (its normal
 //! is a covector: ṅ = −Cᵀn), so that a cut spread open or carried away stays a cut.
 
+use super::kernel::Stencil;
 use super::{Mat3, Vec3};
 use crate::tools::{slicer, Shape, ToolKinematics};
 use rayon::prelude::*;
@@ -66,6 +67,35 @@ impl StencilCut {
     #[inline(always)]
     pub fn across(&self, a: usize, b: usize, c: usize) -> bool {
         self.along[0][a] + self.along[1][b] + self.along[2][c] < self.limit
+    }
+
+    /// The weighted centre of the stencil nodes on the particle's side, in stencil units:
+    /// Σ_kept wᵢ·(a, b, c) / Σ_kept wᵢ (for the whole stencil it would be `s.fx`). PB-MPM's
+    /// P2G takes a cut particle's affine momentum about it (`CpuSolver::transfer_to_grid`).
+    /// Some node on the particle's side always has weight (the stencil spans the particle
+    /// on every axis); `s.fx` is returned were none to.
+    #[inline(always)]
+    pub fn kept_centre(&self, s: &Stencil) -> Vec3 {
+        let mut weight = 0.0f32;
+        let mut moment = Vec3::zeros();
+        for a in 0..3 {
+            for b in 0..3 {
+                let wab = s.w[a].x * s.w[b].y;
+                for c in 0..3 {
+                    if self.across(a, b, c) {
+                        continue;
+                    }
+                    let w = wab * s.w[c].z;
+                    weight += w;
+                    moment += Vec3::new(a as f32, b as f32, c as f32) * w;
+                }
+            }
+        }
+        if weight > 0.0 {
+            moment / weight
+        } else {
+            s.fx
+        }
     }
 }
 
@@ -223,6 +253,44 @@ mod tests {
         // Both paths are exercised: within the marking band, many planes miss the stencil.
         assert!(fast > 200 && slow > 200, "fast {fast}, slow {slow}");
         assert!(StencilCut::new(Vec3::zeros(), Vec3::repeat(1.0), dx).is_none());
+    }
+
+    #[test]
+    fn the_affine_momentum_about_the_kept_centre_sums_to_zero_over_the_kept_nodes() {
+        let dx = 0.002;
+        let mut state = 777u32;
+        let mut uniform = || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (state >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let mut cut_stencils = 0;
+        for _ in 0..2000 {
+            let normal = Vec3::new(uniform() - 0.5, uniform() - 0.5, uniform() - 0.5).normalize();
+            let crack = normal * (uniform() * slicer::STENCIL_REACH_CELLS * dx);
+            let s = Stencil::new(Vec3::new(uniform(), uniform(), uniform()).add_scalar(3.0));
+            let Some(cut) = StencilCut::new(crack, s.fx, dx) else {
+                continue;
+            };
+            cut_stencils += 1;
+            let centre = cut.kept_centre(&s);
+            // Σ_kept wᵢ(i − centre) = 0 (that is what the centre is for), while about the
+            // particle the kept nodes' moment points along the normal, away from the cut.
+            let (mut about_centre, mut about_particle, mut kept) = (Vec3::zeros(), Vec3::zeros(), 0.0);
+            for (a, b, c) in (0..27).map(|k| (k / 9, (k / 3) % 3, k % 3)) {
+                let i = Vec3::new(a as f32, b as f32, c as f32);
+                if separates(crack, (i - s.fx) * dx) {
+                    continue;
+                }
+                let w = s.w[a].x * s.w[b].y * s.w[c].z;
+                kept += w;
+                about_centre += (i - centre) * w;
+                about_particle += (i - s.fx) * w;
+            }
+            assert!(kept > 0.0);
+            assert!(about_centre.norm() < 1e-5, "{about_centre:?} {crack:?} {:?}", s.fx);
+            assert!(about_particle.dot(&normal) > 0.0, "{about_particle:?} {crack:?}");
+        }
+        assert!(cut_stencils > 200, "{cut_stencils} cut stencils");
     }
 
     #[test]

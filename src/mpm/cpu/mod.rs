@@ -242,6 +242,8 @@ impl CpuSolver {
         let materials = &self.materials[..];
         let order = &self.bins.order[..];
         let grid = SharedMut(self.grid.as_mut_ptr());
+        // PB-MPM's cut particles take their affine momentum about their kept nodes (below).
+        let about_kept = CUT && self.method == Method::PbMpm;
         for color in &self.bins.by_color {
             color.par_iter().for_each(move |range| {
                 let grid = grid;
@@ -272,20 +274,36 @@ impl CpuSolver {
                         q += tau * (scale * parts.volume0[p]);
                     }
                     let q = q * layout.dx;
-                    // Node momentum is w·(m v + Q (i − fx)); Q·i = a·Q₀ + b·Q₁ + c·Q₂ is built up
-                    // axis by axis so that the inner loop only adds.
-                    let momentum = parts.v[p] * m - q * s.fx;
+                    let cut = if CUT {
+                        crack::StencilCut::new(parts.crack[p], s.fx, layout.dx)
+                    } else {
+                        None
+                    };
+                    // Node momentum is w·(m v + Q (i − centre)); Q·i = a·Q₀ + b·Q₁ + c·Q₂ is
+                    // built up axis by axis so that the inner loop only adds. The centre is
+                    // the particle (fx), except for PB-MPM's cut particles: APIC's affine
+                    // momentum m·C·(xᵢ − xₚ) sums to zero only over the whole stencil
+                    // (Σ wᵢ(xᵢ − xₚ) = 0), so a P2G that skips the nodes across the crack
+                    // writes a net m·C·Σ_kept wᵢ(xᵢ − xₚ) (kg·m/s), a push along the crack
+                    // normal. PB-MPM's C is the constraint's (R·F⁻¹ − I)/dt, large at a
+                    // substep of milliseconds, and that push slides the cut's faces through
+                    // each other: the block stays one piece. About the kept nodes' weighted
+                    // centre x̄ = Σ_kept wᵢxᵢ / Σ_kept wᵢ the affine part sums to zero over
+                    // the nodes written, and the particle moves only m·v·Σ_kept wᵢ. MLS-MPM's
+                    // Q also carries the stress force, whose moment about the particle is the
+                    // force itself, and its C (the grid's velocity gradient) is small: it
+                    // keeps the particle as centre.
+                    let centre = match cut {
+                        Some(cut) if about_kept => cut.kept_centre(&s),
+                        _ => s.fx,
+                    };
+                    let momentum = parts.v[p] * m - q * centre;
                     let (q0, q1, q2) = (
                         q.column(0).into_owned(),
                         q.column(1).into_owned(),
                         q.column(2).into_owned(),
                     );
                     let offs = axis_offsets(&layout, s.base);
-                    let cut = if CUT {
-                        crack::StencilCut::new(parts.crack[p], s.fx, layout.dx)
-                    } else {
-                        None
-                    };
                     let mut qa = momentum;
                     for a in 0..3 {
                         let mut qab = qa;

@@ -138,9 +138,53 @@ fn cut_across(cut: StencilCut, a: u32, b: u32, c: u32) -> bool {
 // PB-MPM's only m·C·dx. A cut particle writes nothing to the nodes across its crack.
 // acc_add_* come from the P2G accumulation variant.
 fn scatter_apic(s: Stencil, m: f32, v: vec3<f32>, q: mat3x3<f32>, crack: vec3<f32>) {
-    let momentum = v * m - q * s.fx;
-    let offs = node_offsets(s.base);
+    scatter_apic_about(s, m, v, q, stencil_cut(crack, s), s.fx);
+}
+
+// The weighted centre Σ_kept w_i·(a, b, c) / Σ_kept w_i of the stencil nodes on a cut
+// particle's side, in stencil units (crack.rs `StencilCut::kept_centre`).
+fn kept_centre(cut: StencilCut, s: Stencil) -> vec3<f32> {
+    var weight = 0.0;
+    var moment = vec3<f32>(0.0);
+    for (var a = 0u; a < 3u; a++) {
+        for (var b = 0u; b < 3u; b++) {
+            let wab = s.w[a].x * s.w[b].y;
+            for (var c = 0u; c < 3u; c++) {
+                if (cut_across(cut, a, b, c)) {
+                    continue;
+                }
+                let w = wab * s.w[c].z;
+                weight += w;
+                moment += vec3<f32>(f32(a), f32(b), f32(c)) * w;
+            }
+        }
+    }
+    if (weight > 0.0) {
+        return moment / weight;
+    }
+    return s.fx;
+}
+
+// PB-MPM's scatter (q = m·C·dx, no stress): a cut particle takes its affine momentum about
+// its kept nodes' weighted centre x̄ instead of x_p. APIC's m·C·(x_i − x_p) sums to zero
+// only over the whole stencil, so skipping the nodes across the crack would write a net
+// m·C·Σ_kept w_i(x_i − x_p), a push along the crack normal; PB-MPM's C ((R·F⁻¹ − I)/dt) is
+// large enough for it to slide the cut's faces through each other (cpu
+// `transfer_to_grid` has the derivation).
+fn scatter_apic_about_kept(s: Stencil, m: f32, v: vec3<f32>, q: mat3x3<f32>, crack: vec3<f32>) {
     let cut = stencil_cut(crack, s);
+    var centre = s.fx;
+    if (cut.crossed) {
+        centre = kept_centre(cut, s);
+    }
+    scatter_apic_about(s, m, v, q, cut, centre);
+}
+
+// The scatter with the affine momentum about `centre` (stencil units): node i receives
+// w_i · (m·v + q·(i − centre)) and w_i · m, except the nodes across `cut`.
+fn scatter_apic_about(s: Stencil, m: f32, v: vec3<f32>, q: mat3x3<f32>, cut: StencilCut, centre: vec3<f32>) {
+    let momentum = v * m - q * centre;
+    let offs = node_offsets(s.base);
     for (var a = 0u; a < 3u; a++) {
         for (var b = 0u; b < 3u; b++) {
             for (var c = 0u; c < 3u; c++) {

@@ -34,7 +34,8 @@ fn pb_constrain(@builtin(global_invocation_id) gid: vec3<u32>) {
     particles[p].c = part.c + (goal - part.c) * constraint_step(mat, dt);
 }
 
-// P2G of APIC momentum and mass only (cpu `particle_to_grid(None)`).
+// P2G of APIC momentum and mass only (cpu `particle_to_grid(None)`); a cut particle's
+// affine momentum about its kept nodes (common.wgsl `scatter_apic_about_kept`).
 @compute @workgroup_size(WG)
 fn pb_p2g(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = gid.x;
@@ -45,7 +46,7 @@ fn pb_p2g(@builtin(global_invocation_id) gid: vec3<u32>) {
     let m = pconst[p].x;
     let s = make_stencil(grid_pos(part.x.xyz));
     let q = part.c * (m * sim.origin_dx.w);
-    scatter_apic(s, m, part.v.xyz, q, particle_crack(p));
+    scatter_apic_about_kept(s, m, part.v.xyz, q, particle_crack(p));
 }
 
 // G2P of an inner iteration: v and C only; the guard looks at the last, integrating G2P.
