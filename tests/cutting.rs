@@ -350,17 +350,15 @@ fn remembered_planes(world: &World, start_y: &[f32]) -> [(f32, f32); 2] {
     planes
 }
 
-/// The block-cut test's first part with PB-MPM: cut through (0.5 s), the block must be two
-/// pieces. It is one (measured), because the faces of the cut slide through each other as
-/// the edge goes down: the blade plane as the −y half's particles remember it spreads to
-/// [−0.00, +0.06] mm at 0.2 s, [−0.25, +0.17] mm at 0.3 s, [−0.07, +0.87] mm at 0.4 s and
-/// [−0.15, +2.62] mm at 0.5 s, the +y half's to [+0.03, +1.87] mm at 0.5 s (MLS-MPM: within
-/// ±0.02 mm throughout), so particles of one half sit inside the other within a cell and
-/// link it. The cause (checked on the CPU, see README) is PB-MPM's large affine
-/// velocity C (the constraint's (R·F⁻¹ − I)/dt at 1/240 s) meeting the side test's
-/// truncated P2G stencil: APIC's affine momentum m·C·(xᵢ − xₚ) sums to zero only over the
-/// whole stencil, so skipping the nodes across the crack adds m·C·Σ_kept wᵢ(xᵢ − xₚ), a
-/// push along the crack normal. Ignored until it is fixed.
+/// The block-cut test with PB-MPM: cut through (0.5 s), the block is two pieces, the y < 0
+/// and y > 0 halves exactly, and the cut's faces stay where the blade passed: the blade
+/// plane as each half's cut particles remember it (their y less their crack's) spreads over
+/// less than a cell (`a_pb_mpm_cut_block_stays_two_through_the_spread` goes on from there).
+///
+/// Before PB-MPM's P2G took a cut particle's affine momentum about its kept nodes (see
+/// `CpuSolver::transfer_to_grid`) the block was one piece at 0.5 s: the −y half's planes
+/// spread over [−0.15, +2.62] mm, the faces slid through each other, and particles of one
+/// half sat within a cell of the other's, linking them.
 #[test]
 fn a_pb_mpm_cut_block_ends_in_two_pieces() {
     let mut scene = shipped("cutting.toml");
@@ -393,5 +391,62 @@ fn a_pb_mpm_cut_block_ends_in_two_pieces() {
         minus.1 - minus.0 < dx && plus.1 - plus.0 < dx,
         "{minus:?} {plus:?}"
     );
-    assert_eq!(world.pieces(), 2, "two pieces after the cut");
+    let p = world.particles();
+    let labels = pieces::label(&p.x, &p.crack, dx);
+    assert_eq!(labels.iter().max(), Some(&1), "two pieces after the cut");
+    for (i, &l) in labels.iter().enumerate() {
+        assert_eq!(
+            l == labels[0],
+            (start_y[i] > 0.0) == (start_y[0] > 0.0),
+            "particle {i}"
+        );
+    }
+}
+
+/// PB-MPM on after the cut: the spine spreads the cut (0.7–1.1 s) and leaves (1.3 s), and
+/// the block should stay two pieces until the end (2.3 s), as with MLS-MPM. It does not
+/// (measured): two pieces at 0.6, 0.8 and 0.9 s (three at 0.7 s), one from 1.0 s on, while
+/// the spine pushes the +y half's top away. Ignored until that is understood and fixed; on
+/// failure it names a pair of particles, one from each half, that link the halves.
+#[test]
+#[ignore = "PB-MPM's halves link again while the spine spreads the cut (see the docs)"]
+fn a_pb_mpm_cut_block_stays_two_through_the_spread() {
+    let mut scene = shipped("cutting.toml");
+    scene.solver.method = dvrk_tissue_sim::mpm::Method::PbMpm;
+    let times = cut_times(&scene);
+    let dx = scene.domain.dx as f32;
+    let mut world = World::new(&scene);
+    let start: Vec<_> = world.particles().x.clone();
+    run_until(&mut world, times.through);
+    while world.time() < times.end - 1e-9 {
+        for _ in 0..6 {
+            world.step_frame().unwrap();
+        }
+        let pieces = world.pieces();
+        println!("t {:.2} s: {pieces} pieces", world.time());
+        if pieces >= 2 {
+            continue;
+        }
+        let p = world.particles();
+        let separates = dvrk_tissue_sim::mpm::crack::separates;
+        let link = (0..p.len())
+            .filter(|&i| start[i].y < 0.0)
+            .flat_map(|i| (0..p.len()).map(move |j| (i, j)))
+            .find(|&(i, j)| {
+                let r = p.x[j] - p.x[i];
+                start[j].y > 0.0
+                    && r.norm() < dx
+                    && !separates(p.crack[i], r)
+                    && !separates(p.crack[j], -r)
+            });
+        panic!(
+            "one piece at t = {:.2} s; a link across the cut: {}",
+            world.time(),
+            link.map_or("none found".into(), |(i, j)| format!(
+                "particle {i} (started at {:?}, now at {:?}, crack {:?}) and {j} (started at \
+                 {:?}, now at {:?}, crack {:?})",
+                start[i], p.x[i], p.crack[i], start[j], p.x[j], p.crack[j]
+            ))
+        );
+    }
 }

@@ -113,9 +113,7 @@ fn cut_agrees(method: Method, p2g: P2gAtomics, position_tolerance: f32) {
     let labels_gpu = pieces::label(&pg.x, &pg.crack, dx);
     let count = labels_cpu.iter().max().map_or(0, |l| l + 1);
     println!("{method:?} {p2g:?}: {count} pieces at {CUT_THROUGH} s");
-    if method == Method::MlsMpm {
-        assert_eq!(count, 2, "two pieces on the CPU");
-    }
+    assert_eq!(count, 2, "two pieces on the CPU");
     assert_eq!(labels_gpu, labels_cpu, "the same pieces");
     assert!(diff < position_tolerance, "positions differ by {diff} m");
 }
@@ -130,10 +128,8 @@ fn gpu_cut_agrees_with_cpu_fixed_point() {
     cut_agrees(Method::MlsMpm, P2gAtomics::Fixed, 5e-5);
 }
 
-// PB-MPM: the crack's side tests in its momentum-only P2G and every iteration's G2P. The
-// pieces are compared, not counted: at 0.2 s PB-MPM's block is still one piece on both
-// backends, its cut faces sliding through each other (measured on the CPU in
-// tests/cutting.rs, `a_pb_mpm_cut_block_ends_in_two_pieces`, ignored until fixed).
+// PB-MPM: the crack's side tests in its momentum-only P2G (a cut particle's affine momentum
+// about its kept nodes, common.wgsl `scatter_apic_about_kept`) and every iteration's G2P.
 #[test]
 fn gpu_pb_mpm_cut_agrees_with_cpu_f32_atomics() {
     cut_agrees(Method::PbMpm, P2gAtomics::Float, 2e-5);

@@ -275,7 +275,8 @@ mod tests {
             let centre = cut.kept_centre(&s);
             // Σ_kept wᵢ(i − centre) = 0 (that is what the centre is for), while about the
             // particle the kept nodes' moment points along the normal, away from the cut.
-            let (mut about_centre, mut about_particle, mut kept) = (Vec3::zeros(), Vec3::zeros(), 0.0);
+            let (mut about_centre, mut about_particle, mut kept) =
+                (Vec3::zeros(), Vec3::zeros(), 0.0);
             for (a, b, c) in (0..27).map(|k| (k / 9, (k / 3) % 3, k % 3)) {
                 let i = Vec3::new(a as f32, b as f32, c as f32);
                 if separates(crack, (i - s.fx) * dx) {
@@ -287,8 +288,15 @@ mod tests {
                 about_particle += (i - s.fx) * w;
             }
             assert!(kept > 0.0);
-            assert!(about_centre.norm() < 1e-5, "{about_centre:?} {crack:?} {:?}", s.fx);
-            assert!(about_particle.dot(&normal) > 0.0, "{about_particle:?} {crack:?}");
+            assert!(
+                about_centre.norm() < 1e-5,
+                "{about_centre:?} {crack:?} {:?}",
+                s.fx
+            );
+            assert!(
+                about_particle.dot(&normal) > 0.0,
+                "{about_particle:?} {crack:?}"
+            );
         }
         assert!(cut_stencils > 200, "{cut_stencils} cut stencils");
     }
