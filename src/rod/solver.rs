@@ -57,6 +57,9 @@ pub const CONTACT_SUBSTEPS: u32 = 4;
 /// segment's length (a 0.15 mm segment at 0.3 m from the origin: ~2e-4).
 const RESIDUAL_TOLERANCE: f64 = 5e-4;
 
+/// Most iterations per substep in contact, the extra ones included.
+const CONTACT_ITERATIONS: u32 = 4;
+
 /// Most iterations per substep, the extra ones included.
 const MAX_ITERATIONS: u32 = 8;
 
@@ -146,13 +149,13 @@ impl RodSolver {
                 rod.points[a.point] = a.from.lerp(&a.to, s1 as f32);
             }
             self.lambda.fill(Vector6::zeros());
-            // In contact, every iteration factorises afresh and there are no extra ones: the
-            // contacts projected after each solve move points far from the last
-            // linearisation, and the residual then measures contact against elasticity, not
-            // the solve's convergence (extra solves let a strand dragged at 1 m/s be pulled
-            // back through the one it pushed: tests/thread.rs).
+            // In contact, every iteration factorises afresh (the contacts projected after
+            // each solve move points far from the last linearisation), and extra solve →
+            // contact rounds follow while the length is off: contacts projected last
+            // stretch the segments they push. A pair the solve pulls back through another is
+            // caught by its start side, however far it went (`self_contact`).
             let most = if touches {
-                iterations
+                iterations.max(CONTACT_ITERATIONS)
             } else {
                 iterations.max(MAX_ITERATIONS)
             };
