@@ -438,7 +438,6 @@ fn crossings(
 /// its length across the side of an upright coil. Frame by frame, no pair of segments that
 /// were close changes sides, and the tail does not end up inside the coil.
 #[test]
-#[ignore = "open defect: the tail still crosses the coil at 2.533 s (README: 'Known defect: a strand dragged along its length through another')"]
 fn a_tail_dragged_across_a_coil_does_not_pass_through_it() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenes/coil_drag.toml");
     let scene = config::load(&path).unwrap_or_else(|e| panic!("{e}"));

@@ -5,21 +5,29 @@
 //! 3-0 thread, so a check of the end positions alone would let segments pass through each
 //! other. Detection is therefore continuous in the way of Bridson et al. (2002) for cloth:
 //!
-//! 1. Broad phase, once per substep after the prediction: each segment's box swept from its
-//!    substep-start to its predicted position (grown by 2r and half its own motion, for what
-//!    the elastic solve adds), hashed into a uniform grid (Teschner et al. 2003, sorted
+//! 1. Broad phase, each iteration after the elastic solve: each segment's box swept from its
+//!    substep-start to its current position (grown by 2r and half its own motion, for what
+//!    the contact passes add), hashed into a uniform grid (Teschner et al. 2003, sorted
 //!    keys instead of a hash table: no allocation once warm); pairs sharing a cell whose
 //!    boxes overlap are candidates.
-//! 2. For each candidate the separating direction n is taken at the substep's start, where
-//!    the thread is known not to intersect itself: the unit vector between the closest
-//!    points of the two start segments.
-//! 3. Each iteration, the closest points of the current segments must stay 2r apart *along
-//!    that n*: C = (x_b − x_a)·n − 2r ≥ 0. A pair that crossed during the substep has
-//!    (x_b − x_a)·n < 0 and is pushed back to the side it came from, however far it went;
-//!    a plain distance constraint would push it on through.
+//! 2. For each candidate the side each segment must keep is taken at the substep's start,
+//!    where the thread is known not to intersect itself. For segments crossing at an angle
+//!    it is the sign of the distance of the two segments' lines along their common normal
+//!    c = e_a × e_b: that sign changes only when one segment passes through the other (or
+//!    round its end), and it is defined even while the closest points sit at a segment's end,
+//!    as they do when a strand slides along its length onto another. For nearly parallel
+//!    segments (lines within `PARALLEL_SINE` of each other, no common normal) it is the unit
+//!    vector between the closest points of the start segments.
+//! 3. Each iteration, after the elastic solve has moved the points, the broad phase is run
+//!    again from the substep's start to the current points (the solve may move a point far
+//!    beyond its prediction: a strand pulled taut round another), and each candidate pair is
+//!    projected: if it is on its start side it must keep its closest points 2r apart
+//!    (|x_b − x_a| ≥ 2r, pushed along x_b − x_a); if it crossed to the other side with its
+//!    closest points inside both segments it passed through, and is pushed back along the
+//!    side normal to 2r on its start side, however far it went. A plain distance constraint
+//!    alone would push a crossed pair on through. No candidate is ever skipped: the pair
+//!    that passed through furthest is the one that most needs its correction.
 //!
-//! The constraint is skipped where the current closest points are offset sideways from n by
-//! more than 2r + |x_b − x_a|/2 (segments that slid past each other's ends, not through).
 //! Segments fewer than `2 + 4r/l` apart along the chain never collide: their rest distance
 //! is below a diameter, and the bending stiffness keeps the thread from folding that tight.
 
@@ -44,9 +52,21 @@ pub struct SelfContacts {
 struct Candidate {
     a: u32,
     b: u32,
-    /// Separating direction at the substep's start, from a towards b.
-    normal: Vec3,
+    /// The side to keep, from a towards b, taken at the substep's start.
+    side: Side,
 }
+
+#[derive(Clone, Copy, Debug)]
+enum Side {
+    /// Segments at an angle: their unit common normal, oriented from a's line to b's.
+    Crossing(Vec3),
+    /// Nearly parallel segments: the unit vector between their closest points.
+    Parallel(Vec3),
+}
+
+/// Sine of the angle between two segments below which they count as parallel: their common
+/// normal c = e_a × e_b is then too short to give a direction (|c| = |e_a||e_b| sin θ).
+const PARALLEL_SINE: f32 = 0.1;
 
 /// Above this many cells a segment's box goes to the brute-force list.
 const MAX_CELLS_PER_SEGMENT: i64 = 64;
@@ -61,7 +81,7 @@ impl SelfContacts {
         2 + (4.0 * rod.material.radius / shortest).ceil() as usize
     }
 
-    /// Candidate pairs for the substep from `start` to the rod's predicted points.
+    /// Candidate pairs for the substep from `start` to the rod's current points.
     pub fn detect(&mut self, rod: &Rod, start: &[Vec3]) {
         let n = rod.segments();
         let r = rod.material.radius;
@@ -144,19 +164,22 @@ impl SelfContacts {
             let xa = start[ai] + (start[ai + 1] - start[ai]) * s;
             let xb = start[bi] + (start[bi + 1] - start[bi]) * t;
             let d = xb - xa;
-            let normal = match d.try_normalize(1e-3 * r) {
-                Some(n) => n,
-                // Touching centrelines at the start (already intersecting): the common
-                // normal of the two directions, if they are not parallel.
-                None => match (start[ai + 1] - start[ai])
-                    .cross(&(start[bi + 1] - start[bi]))
-                    .try_normalize(1e-12)
-                {
-                    Some(n) => n,
+            let (ea, eb) = (start[ai + 1] - start[ai], start[bi + 1] - start[bi]);
+            let c = ea.cross(&eb);
+            let side = if c.norm() > PARALLEL_SINE * ea.norm() * eb.norm() {
+                // (x_b − x_a)·c is the same for any two points of the lines: the signed
+                // distance of b's line from a's. Exactly 0 (lines meeting: segments flat
+                // on a table, end to side) leaves either side free; pick one.
+                let c = c.normalize();
+                Side::Crossing(if d.dot(&c) < 0.0 { -c } else { c })
+            } else {
+                match d.try_normalize(1e-3 * r) {
+                    Some(n) => Side::Parallel(n),
+                    // Parallel and touching along their length: no side to keep.
                     None => continue,
-                },
+                }
             };
-            self.candidates.push(Candidate { a, b, normal });
+            self.candidates.push(Candidate { a, b, side });
         }
     }
 
@@ -165,20 +188,68 @@ impl SelfContacts {
         self.candidates.len()
     }
 
-    /// Projects every candidate pair apart along its start normal, with friction `mu`
-    /// relative to the substep-start points `start`. Returns the number of active contacts.
+    /// Projects every candidate pair apart, back to its start side if it crossed, with
+    /// friction `mu` relative to the substep-start points `start`. Returns the number of
+    /// active contacts.
     pub fn project(&self, rod: &mut Rod, start: &[Vec3], mu: f32) -> u32 {
         let diameter = 2.0 * rod.material.radius;
         let mut active = 0;
         for c in &self.candidates {
-            let (a, b, n) = (c.a as usize, c.b as usize, c.normal);
+            let (a, b) = (c.a as usize, c.b as usize);
             let p = &rod.points;
             let (s, t) = closest_parameters(p[a], p[a + 1], p[b], p[b + 1]);
             let d = (p[b] + (p[b + 1] - p[b]) * t) - (p[a] + (p[a + 1] - p[a]) * s);
-            let along = d.dot(&n);
-            if along >= diameter || (d - n * along).norm() > diameter + 0.5 * d.norm() {
-                continue;
-            }
+            // The side normal now: for crossing segments their current common normal,
+            // oriented as at the start (a substep turns a segment by far less than 90°).
+            let (side_normal, passed) = match c.side {
+                Side::Crossing(c0) => {
+                    let (ea, eb) = (p[a + 1] - p[a], p[b + 1] - p[b]);
+                    let c = ea.cross(&eb);
+                    let normal = if c.norm() > PARALLEL_SINE * ea.norm() * eb.norm() {
+                        let n = c.normalize();
+                        if n.dot(&c0) < 0.0 {
+                            -n
+                        } else {
+                            n
+                        }
+                    } else {
+                        c0
+                    };
+                    // On the other side where the lines meet within both segments:
+                    // through. On the other side by an end: round it, which is allowed.
+                    // The lines' own closest points, not the segments' (clamped to the ends),
+                    // and a diameter's margin past each end: a strand pushed through the
+                    // joint of two segments has its closest points at the joint, an end of
+                    // both pairs it crossed.
+                    let margin = |e: Vec3| diameter / e.norm().max(f32::EPSILON);
+                    let through = line_parameters(p[a], ea, p[b], eb).is_some_and(|(ls, lt)| {
+                        let (ma, mb) = (margin(ea), margin(eb));
+                        ls > -ma && ls < 1.0 + ma && lt > -mb && lt < 1.0 + mb
+                    });
+                    (normal, through && d.dot(&normal) < 0.0)
+                }
+                Side::Parallel(n0) => {
+                    // Parallel segments that slid past each other's ends are beside each
+                    // other, not through: their closest points are offset along the chain.
+                    let along = d.dot(&n0);
+                    let sideways = (d - n0 * along).norm();
+                    (n0, along < 0.0 && sideways <= diameter + 0.5 * d.norm())
+                }
+            };
+            let (n, depth) = if passed {
+                (side_normal, diameter - d.dot(&side_normal))
+            } else {
+                let distance = d.norm();
+                if distance >= diameter {
+                    continue;
+                }
+                let n = if distance > 1e-3 * diameter {
+                    d / distance
+                } else {
+                    side_normal
+                };
+                (n, diameter - distance)
+            };
             // Barycentric inverse-mass weights of the four points.
             let w = [
                 rod.inv_mass[a] * (1.0 - s),
@@ -190,7 +261,6 @@ impl SelfContacts {
             if denom <= 0.0 {
                 continue;
             }
-            let depth = diameter - along;
             apply(rod, a, b, w, n * (depth / denom));
             // Friction on the relative displacement of the two contact points.
             let p = &rod.points;
@@ -259,6 +329,20 @@ pub fn closest_parameters(p0: Vec3, p1: Vec3, q0: Vec3, q1: Vec3) -> (f32, f32) 
         s = ((b - c) / a).clamp(0.0, 1.0);
     }
     (s, t)
+}
+
+/// Parameters (s, t) of the closest points of the lines p0 + s·d1 and q0 + t·d2, unclamped;
+/// None for parallel lines.
+fn line_parameters(p0: Vec3, d1: Vec3, q0: Vec3, d2: Vec3) -> Option<(f32, f32)> {
+    let r = p0 - q0;
+    let (a, b, e) = (d1.norm_squared(), d1.dot(&d2), d2.norm_squared());
+    let (c, f) = (d1.dot(&r), d2.dot(&r));
+    let denom = a * e - b * b;
+    if denom <= PARALLEL_SINE * PARALLEL_SINE * a * e {
+        return None;
+    }
+    let s = (b * f - c * e) / denom;
+    Some((s, (b * s + f) / e))
 }
 
 /// Smallest centreline distance between two segments at least `chain_gap` apart along the

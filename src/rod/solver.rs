@@ -38,7 +38,7 @@ impl Default for RodSolverSettings {
 }
 
 /// Most contact projection passes per iteration.
-const CONTACT_PASSES: usize = 4;
+const CONTACT_PASSES: usize = 8;
 
 /// Least substeps per frame while the thread can touch something (a table, a tool, itself).
 /// The elastic solve is direct and needs no small steps, but contacts are projected one after
@@ -56,6 +56,9 @@ pub const CONTACT_SUBSTEPS: u32 = 4;
 /// one residual evaluation. Half the 0.1 % length budget, and above the f32 rounding of a
 /// segment's length (a 0.15 mm segment at 0.3 m from the origin: ~2e-4).
 const RESIDUAL_TOLERANCE: f64 = 5e-4;
+
+/// Most iterations per substep in contact, the extra ones included.
+const CONTACT_ITERATIONS: u32 = 4;
 
 /// Most iterations per substep, the extra ones included.
 const MAX_ITERATIONS: u32 = 8;
@@ -145,17 +148,14 @@ impl RodSolver {
             for a in env.attachments.iter().filter(|a| a.point < count) {
                 rod.points[a.point] = a.from.lerp(&a.to, s1 as f32);
             }
-            if env.self_collision {
-                self.self_contacts.detect(rod, &self.prev_points);
-            }
             self.lambda.fill(Vector6::zeros());
-            // In contact, every iteration factorises afresh and there are no extra ones: the
-            // contacts projected after each solve move points far from the last
-            // linearisation, and the residual then measures contact against elasticity, not
-            // the solve's convergence (extra solves let a strand dragged at 1 m/s be pulled
-            // back through the one it pushed: tests/thread.rs).
+            // In contact, every iteration factorises afresh (the contacts projected after
+            // each solve move points far from the last linearisation), and extra solve →
+            // contact rounds follow while the length is off: contacts projected last
+            // stretch the segments they push. A pair the solve pulls back through another is
+            // caught by its start side, however far it went (`self_contact`).
             let most = if touches {
-                iterations
+                iterations.max(CONTACT_ITERATIONS)
             } else {
                 iterations.max(MAX_ITERATIONS)
             };
@@ -174,6 +174,13 @@ impl RodSolver {
                 let chord = !touches && iteration > 0 && iteration < iterations;
                 if !(chord && direct::resolve(rod, compliance, lambda, inv_h2, scratch)) {
                     direct::solve(rod, compliance, lambda, inv_h2, scratch);
+                }
+                // Self-contact candidates from the substep's start to where the solve put
+                // the points: a strand pulled taut round another moves far beyond its
+                // prediction (measured: 1.2 mm, five diameters, in one 4 ms substep of
+                // tests/scenes/coil_drag.toml).
+                if env.self_collision {
+                    self.self_contacts.detect(rod, &self.prev_points);
                 }
                 // Contacts in a pile (thread on thread on table) push each other back in:
                 // a few Gauss–Seidel passes, until one finds nothing to correct.
