@@ -1,7 +1,9 @@
 //! Tearing (see `dvrk_tissue_sim::mpm::damage`).
 //!
-//! **Shipped scene.** `config/tearing.toml` run headless as a user runs it tears the flap
-//! off (`pieces` ≥ 2), the torn flap goes with the gripper.
+//! **Shipped scene.** `config/tearing.toml` run headless as a user runs it: the keyframed
+//! gripper closes on the flap's free end, pulls it up and away, and the flap tears off
+//! along a line across the sheet between the clamp and the jaws, rising with the jaws; the
+//! same pull without toughness stretches the sheet in one piece.
 //!
 //! **Trouser tear.** A sheet of thickness t with a pre-cut slit: its two legs stand up and
 //! down from the end of the tail (the test's steady "T" shape from the start), the tail's
@@ -37,6 +39,7 @@ use dvrk_tissue_sim::mpm::{
     Particles, PbMpmParams, SolverSetup, Vec3,
 };
 use dvrk_tissue_sim::tools::{ContactModel, Shape, ToolKinematics, ToolPose, ToolVelocity};
+use dvrk_tissue_sim::world::World;
 use nalgebra::{UnitQuaternion, Vector3};
 
 mod support;
@@ -318,77 +321,247 @@ fn shipped() -> Scene {
     scene
 }
 
-/// Runs `scene` to its last keyframe; returns the world, the starting positions and the
-/// index of the gripper among the tools.
-fn run_scene(scene: &Scene) -> (dvrk_tissue_sim::world::World, Vec<Vec3>, usize) {
-    let mut world = dvrk_tissue_sim::world::World::new(scene);
+/// The shipped scene run to its last keyframe.
+struct Pull {
+    world: World,
+    /// The particles' starting positions.
+    start: Vec<Vec3>,
+    /// The tissue's pull on the gripper over the last frame (N, downwards positive).
+    pull: f64,
+}
+
+fn run_scene(scene: &Scene) -> Pull {
+    let mut world = World::new(scene);
     let start = world.particles().x.clone();
-    let gripper = scene
+    let gripper = gripper_of(scene);
+    let end = scene.tools[gripper].keyframes.last().unwrap().t;
+    let mut pull = 0.0;
+    while world.time() < end - 1e-9 {
+        pull = -world.step_frame().unwrap().wrenches[gripper].force.z;
+    }
+    Pull { world, start, pull }
+}
+
+fn gripper_of(scene: &Scene) -> usize {
+    scene
         .tools
         .iter()
         .position(|t| t.name == "gripper")
-        .unwrap();
-    let end = scene.tools[gripper].keyframes.last().unwrap().t;
-    while world.time() < end - 1e-9 {
-        world.step_frame().unwrap();
-    }
-    (world, start, gripper)
+        .unwrap()
 }
 
+/// The shipped scene's layout, from its tools: which particles the closed jaws hold (the
+/// flap's end), which the clamp holds (the base), and how far the jaws rise once shut.
+struct Grasp {
+    /// Hinge x at the closing keyframe, and the closed jaws' reach either side of it (one
+    /// jaw thickness) and across the sheet (half the jaw width) (m).
+    hinge_x: f64,
+    thickness: f64,
+    half_width: f64,
+    /// The clamp's far edge (m): particles that start below it are the base.
+    base_edge: f64,
+    /// The jaws' rise from the closing keyframe to the last (m).
+    lift: f64,
+}
+
+impl Grasp {
+    fn of(scene: &Scene) -> Self {
+        let keys = &scene.tools[gripper_of(scene)].keyframes;
+        let close = keys.iter().find(|k| k.jaw_deg <= 0.0).unwrap();
+        let Shape::Gripper {
+            jaw_width,
+            jaw_thickness,
+            ..
+        } = scene.tools[gripper_of(scene)].shape
+        else {
+            panic!("the tearing scene pulls with a gripper");
+        };
+        let clamp = scene.tools.iter().find(|t| t.name == "clamp").unwrap();
+        let Shape::Box { half_extents } = clamp.shape else {
+            panic!("the clamp is a box");
+        };
+        Grasp {
+            hinge_x: close.position[0],
+            thickness: jaw_thickness as f64,
+            half_width: 0.5 * jaw_width as f64,
+            base_edge: clamp.keyframes[0].position[0] + half_extents[0] as f64,
+            lift: keys.last().unwrap().position[2] - close.position[2],
+        }
+    }
+
+    /// Particles that started between the closed jaws' faces.
+    fn flap(&self, start: &[Vec3]) -> Vec<usize> {
+        (0..start.len())
+            .filter(|&i| {
+                (start[i].x as f64 - self.hinge_x).abs() <= self.thickness
+                    && (start[i].y as f64).abs() <= self.half_width
+            })
+            .collect()
+    }
+
+    fn base(&self, start: &[Vec3]) -> Vec<usize> {
+        (0..start.len())
+            .filter(|&i| (start[i].x as f64) < self.base_edge)
+            .collect()
+    }
+
+    /// Whether a particle started between the clamp and the jaws, where the flap can tear
+    /// off the base.
+    fn between(&self, x: &Vec3) -> bool {
+        (self.base_edge..self.hinge_x - self.thickness).contains(&(x.x as f64))
+    }
+}
+
+/// Mean rise of `region` from its start (m).
+fn rise(world: &World, start: &[Vec3], region: &[usize]) -> f64 {
+    let x = &world.particles().x;
+    region
+        .iter()
+        .map(|&i| (x[i].z - start[i].z) as f64)
+        .sum::<f64>()
+        / region.len() as f64
+}
+
+/// The sheet's particles on lines along x (the pull's direction): each line is one starting
+/// (y, z), its particles in order of their starting x.
+fn lines_along_x(start: &[Vec3]) -> Vec<Vec<usize>> {
+    let mut lines: std::collections::BTreeMap<(i64, i64), Vec<usize>> = Default::default();
+    for (i, x) in start.iter().enumerate() {
+        let key = (
+            (x.y as f64 * 1e5).round() as i64,
+            (x.z as f64 * 1e5).round() as i64,
+        );
+        lines.entry(key).or_default().push(i);
+    }
+    lines
+        .into_values()
+        .map(|mut line| {
+            line.sort_by(|&a, &b| start[a].x.total_cmp(&start[b].x));
+            line
+        })
+        .collect()
+}
+
+/// Largest distance now between neighbours along x that both started between the clamp
+/// and the jaws (m): where the flap tore off, the flap's lift.
+fn largest_gap(world: &World, start: &[Vec3], grasp: &Grasp) -> f32 {
+    let x = &world.particles().x;
+    lines_along_x(start)
+        .iter()
+        .flat_map(|line| line.windows(2))
+        .filter(|pair| pair.iter().all(|&i| grasp.between(&start[i])))
+        .map(|pair| (x[pair[0]] - x[pair[1]]).norm())
+        .fold(0.0, f32::max)
+}
+
+/// The shipped scene as a user runs it: the gripper closes on the flap's free end, pulls it
+/// up and away, and the flap tears off along a line between the clamp and the jaws. The
+/// same pull without toughness only stretches the sheet.
 #[test]
 fn the_shipped_scene_tears_the_flap_off() {
     let scene = shipped();
     assert!(scene.tissues[0].material.toughness.is_some());
-    let (world, start, gripper) = run_scene(&scene);
-    let pieces = world.pieces();
+    let grasp = Grasp::of(&scene);
+    let torn_run = run_scene(&scene);
+    let (world, start) = (&torn_run.world, &torn_run.start);
     let parts = world.particles();
     let dx = world.layout().dx;
     let labels =
         dvrk_tissue_sim::mpm::pieces::label_torn(&parts.x, &parts.crack, &parts.damage, dx);
-    // The flap: particles that started under the jaws; the base: those under the clamp.
-    let first = &scene.tools[gripper].keyframes[0].position;
-    let last = &scene.tools[gripper].keyframes.last().unwrap().position;
-    let under = |x: &Vec3, at: &[f64; 3], r: f64| {
-        ((x.x as f64 - at[0]).powi(2) + (x.y as f64 - at[1]).powi(2)).sqrt() < r
-    };
-    let flap: Vec<usize> = (0..start.len())
-        .filter(|&i| under(&start[i], first, 0.003))
-        .collect();
-    assert!(!flap.is_empty());
-    let base: Vec<usize> = (0..start.len()).filter(|&i| start[i].x < -0.012).collect();
-    let rise = flap
+    let torn = |i: usize| parts.damage[i] >= TORN;
+    let flap = grasp.flap(start);
+    let base = grasp.base(start);
+    assert!(!flap.is_empty() && !base.is_empty());
+    let flap_rise = rise(world, start, &flap);
+    // The tear line: on every line of particles along the pull, one torn between the clamp
+    // and the jaws (the whole cross-section parted), and where along x it runs.
+    let lines = lines_along_x(start);
+    let cut = lines
         .iter()
-        .map(|&i| (parts.x[i].z - start[i].z) as f64)
-        .sum::<f64>()
-        / flap.len() as f64;
-    let lift = last[2] - first[2];
-    let torn = parts.damage.iter().filter(|&&d| d >= TORN).count();
+        .filter(|line| line.iter().any(|&i| torn(i) && grasp.between(&start[i])))
+        .count();
+    let on_line: Vec<f64> = (0..start.len())
+        .filter(|&i| torn(i) && grasp.between(&start[i]))
+        .map(|i| start[i].x as f64)
+        .collect();
+    let mean = on_line.iter().sum::<f64>() / on_line.len().max(1) as f64;
+    let spread = (on_line.iter().map(|x| (x - mean).powi(2)).sum::<f64>()
+        / on_line.len().max(1) as f64)
+        .sqrt();
+    let gap = largest_gap(world, start, &grasp);
     println!(
-        "tearing scene: pieces {pieces}, {torn} torn particles, flap rose {:.1} mm (gripper \
-         {:.1} mm)",
-        rise * 1e3,
-        lift * 1e3
+        "tearing scene: pieces {}, {} torn ({} under the jaws), flap rose {:.2} mm of the \
+         jaws' {:.2} mm; tear line: {cut} of {} lines along the pull cut, {} torn between \
+         clamp and jaws at x = {:.2} ± {:.2} mm; largest gap there {:.2} mm; pull at the end \
+         {:.4} N",
+        world.pieces(),
+        (0..start.len()).filter(|&i| torn(i)).count(),
+        flap.iter().filter(|&&i| torn(i)).count(),
+        flap_rise * 1e3,
+        grasp.lift * 1e3,
+        lines.len(),
+        on_line.len(),
+        mean * 1e3,
+        spread * 1e3,
+        gap * 1e3,
+        torn_run.pull
     );
-    assert!(pieces >= 2, "the flap should tear off: pieces {pieces}");
+    assert!(world.pieces() >= 2, "the flap should tear off");
     assert!(
-        rise > 0.6 * lift,
-        "the flap goes with the gripper: rose {rise} m of {lift} m"
+        flap_rise > 0.8 * grasp.lift,
+        "the flap goes with the jaws: rose {flap_rise} m of {} m",
+        grasp.lift
     );
-    let flap_piece = labels[flap[0]];
-    assert!(flap.iter().all(|&i| labels[i] == flap_piece));
+    // Torn particles under the jaws (the squeeze's own damage) join the flap's piece or
+    // none; the intact ones are one piece, apart from every particle of the base.
+    let intact_flap: Vec<usize> = flap.iter().copied().filter(|&i| !torn(i)).collect();
+    assert!(
+        intact_flap.len() * 2 > flap.len(),
+        "the jaws crushed the flap"
+    );
+    let flap_piece = labels[intact_flap[0]];
+    assert!(intact_flap.iter().all(|&i| labels[i] == flap_piece));
     assert!(
         base.iter().all(|&i| labels[i] != flap_piece),
         "the flap is a piece apart from the clamped base"
     );
+    assert_eq!(cut, lines.len(), "the tear crosses the whole sheet");
+    assert!(
+        gap > 4.0 * dx,
+        "the torn flap has parted from the base: {gap} m"
+    );
 
-    // The same pull on a sheet that cannot tear: no damage state. Its particles still part
-    // where the pull spreads them more than a cell apart (MPM's numerical separation under
-    // large stretch), so `pieces` alone does not tell the two runs apart here.
+    // The same pull on a sheet that cannot tear: it stretches as a tent from the clamp to
+    // the jaws, one piece (every particle within a cell of a neighbour), neighbours along
+    // the pull less than one and a half cells apart (the stretch is largest at the jaws'
+    // edge), and the jaws still pull on it at the end.
     let mut whole = shipped();
     whole.tissues[0].material.toughness = None;
-    let (world, _, _) = run_scene(&whole);
+    let whole_run = run_scene(&whole);
+    let (world, start) = (&whole_run.world, &whole_run.start);
+    let whole_rise = rise(world, start, &flap);
+    let whole_gap = largest_gap(world, start, &grasp);
+    println!(
+        "without toughness: pieces {}, flap rose {:.2} mm, largest gap between clamp and \
+         jaws {:.2} mm, pull at the end {:.4} N",
+        world.pieces(),
+        whole_rise * 1e3,
+        whole_gap * 1e3,
+        whole_run.pull
+    );
     assert!(world.particles().damage.is_empty());
-    println!("without toughness: pieces {}", world.pieces());
+    assert_eq!(world.pieces(), 1, "the untoughened sheet stays one piece");
+    assert!(whole_rise > 0.8 * grasp.lift, "the jaws held the sheet");
+    assert!(
+        whole_gap < 1.5 * dx,
+        "the untoughened sheet parted: {whole_gap} m"
+    );
+    assert!(
+        torn_run.pull < 0.25 * whole_run.pull,
+        "once torn off, the flap alone hangs from the jaws: {} N against {} N",
+        torn_run.pull,
+        whole_run.pull
+    );
 }
 
 #[test]
@@ -415,7 +588,7 @@ fn the_headless_summary_reports_the_pieces() {
 fn check_refuses_a_toughness_that_is_not_positive_and_the_implicit_method() {
     let text = std::fs::read_to_string(SCENE).unwrap();
     for bad in ["0.0", "-5.0", "nan"] {
-        let scene = text.replace("toughness = 0.5", &format!("toughness = {bad}"));
+        let scene = text.replace("toughness = 1.0", &format!("toughness = {bad}"));
         match config::from_str(&scene, std::path::Path::new("tearing.toml")) {
             Err(SceneError::Invalid { problems, .. }) => {
                 assert_eq!(problems.len(), 1, "{problems:#?}");
@@ -440,36 +613,59 @@ fn check_refuses_a_toughness_that_is_not_positive_and_the_implicit_method() {
 }
 
 /// The shipped scene made quick enough for llvmpipe: the sheet half as wide (8 mm, 1280
-/// particles), the pull to the same end point in 0.25 s instead of 1.3 s (it tears at about 0.2 s).
+/// particles), the jaws start lowered (open) and close at once, and the pull to the same end
+/// point starts as soon as they press shut (about 0.45 s) and takes 0.25 s instead of 0.8 s
+/// (it tears at about 0.7 s).
 fn quick_tearing(backend: BackendChoice, p2g: P2gAtomics) -> Scene {
     let mut scene = shipped();
     scene.solver.backend = backend;
     scene.solver.p2g_atomics = p2g;
     scene.tissues[0].size[1] = 0.008;
-    let keys = &mut scene.tools[1].keyframes;
-    keys.truncate(3);
-    keys[1].t = 0.05;
-    keys[2].t = GPU_TEAR_END;
+    let gripper = gripper_of(&scene);
+    let keys = &scene.tools[gripper].keyframes;
+    let lowered = keys.iter().find(|k| k.jaw_deg <= 0.0).unwrap().clone();
+    let open = keys.iter().rfind(|k| k.jaw_deg > 0.0).unwrap().clone();
+    let pulled = keys.last().unwrap().clone();
+    let at = |key: &config::Keyframe, t: f64| {
+        let mut key = key.clone();
+        key.t = t;
+        key
+    };
+    scene.tools[gripper].keyframes = vec![
+        at(&open, 0.0),
+        at(&lowered, 0.05),
+        at(&lowered, 0.5),
+        at(&pulled, GPU_TEAR_END),
+    ];
     scene
 }
 
 /// Time (s) the quick tearing scene runs.
-const GPU_TEAR_END: f64 = 0.3;
+const GPU_TEAR_END: f64 = 0.75;
 
 /// Tearing on the GPU against the CPU: the damage fields, the torn particles and the
-/// positions agree while the flap is torn off.
-fn gpu_tear_agrees(p2g: P2gAtomics, damage_tolerance: f32, position_tolerance: f32) {
+/// positions agree while the flap is torn off. Positions are held to `position_tolerance`
+/// while the sheet is one piece and to `torn_off_tolerance` once the flap is off: torn
+/// particles carry no tension, so the backends' rounding differences grow in them instead
+/// of being pulled back.
+fn gpu_tear_agrees(
+    p2g: P2gAtomics,
+    damage_tolerance: f32,
+    position_tolerance: f32,
+    torn_off_tolerance: f32,
+) {
     if !support::gpu_ready(p2g) {
         return;
     }
-    let mut cpu = dvrk_tissue_sim::world::World::new(&quick_tearing(BackendChoice::Cpu, p2g));
-    let mut gpu = dvrk_tissue_sim::world::World::new(&quick_tearing(BackendChoice::Gpu, p2g));
+    let mut cpu = World::new(&quick_tearing(BackendChoice::Cpu, p2g));
+    let mut gpu = World::new(&quick_tearing(BackendChoice::Gpu, p2g));
     assert_ne!(
         gpu.backend().name(),
         "cpu",
         "the GPU steps the tearing scene"
     );
     let (mut worst_damage, mut worst_x, mut partly_damaged) = (0.0f32, 0.0f32, 0);
+    let mut worst_x_torn_off = 0.0f32;
     while cpu.time() < GPU_TEAR_END - 1e-9 {
         let rc = cpu.step_frame().unwrap();
         let rg = gpu.step_frame().unwrap();
@@ -500,7 +696,11 @@ fn gpu_tear_agrees(p2g: P2gAtomics, damage_tolerance: f32, position_tolerance: f
             torn(&pg.damage)
         );
         worst_damage = worst_damage.max(dd);
-        worst_x = worst_x.max(dxp);
+        if cpu.pieces() == 1 {
+            worst_x = worst_x.max(dxp);
+        } else {
+            worst_x_torn_off = worst_x_torn_off.max(dxp);
+        }
     }
     let (pc, pg) = (cpu.particles(), gpu.particles());
     let torn_cpu: Vec<bool> = pc.damage.iter().map(|&d| d >= TORN).collect();
@@ -513,7 +713,8 @@ fn gpu_tear_agrees(p2g: P2gAtomics, damage_tolerance: f32, position_tolerance: f
         .count();
     println!(
         "{p2g:?}: {torn} torn on the CPU, {differ} torn on one backend only; damage within \
-         {worst_damage:e}, positions within {worst_x:e} m; pieces cpu {} gpu {}",
+         {worst_damage:e}, positions within {worst_x:e} m in one piece, {worst_x_torn_off:e} m \
+         torn off; pieces cpu {} gpu {}",
         cpu.pieces(),
         gpu.pieces()
     );
@@ -532,19 +733,29 @@ fn gpu_tear_agrees(p2g: P2gAtomics, damage_tolerance: f32, position_tolerance: f
     );
     assert!(
         worst_x < position_tolerance,
-        "positions differ by {worst_x} m"
+        "positions differ by {worst_x} m in one piece"
+    );
+    assert!(
+        worst_x_torn_off > 0.0,
+        "the flap was not torn off within the run"
+    );
+    assert!(
+        worst_x_torn_off < torn_off_tolerance,
+        "positions differ by {worst_x_torn_off} m once torn off"
     );
     assert_eq!(gpu.pieces(), cpu.pieces());
 }
 
 #[test]
 fn gpu_tearing_agrees_with_cpu_f32_atomics() {
-    // Measured on llvmpipe: damage within 2.3e-5, positions within 1.1e-6 m.
-    gpu_tear_agrees(P2gAtomics::Float, 1e-3, 1e-5);
+    // Measured on llvmpipe over two runs (f32 atomics add in no fixed order): damage within
+    // 3.9e-4–4.5e-4, positions within 2.6e-7 m in one piece and 3.5e-5–4.3e-5 m torn off.
+    gpu_tear_agrees(P2gAtomics::Float, 1e-3, 1e-5, 1e-4);
 }
 
 #[test]
 fn gpu_tearing_agrees_with_cpu_fixed_point() {
-    // Measured on llvmpipe: damage within 3.9e-5, positions within 1.5e-6 m.
-    gpu_tear_agrees(P2gAtomics::Fixed, 1e-3, 1e-5);
+    // Measured on llvmpipe: damage within 5.1e-4, positions within 3.7e-7 m in one piece
+    // and 2.7e-5 m torn off.
+    gpu_tear_agrees(P2gAtomics::Fixed, 1e-3, 1e-5, 1e-4);
 }
