@@ -768,8 +768,9 @@ fn gpu_tear_agrees(
 
 #[test]
 fn gpu_tearing_agrees_with_cpu_f32_atomics() {
-    // Measured on llvmpipe over two runs (f32 atomics add in no fixed order): damage within
-    // 3.9e-4–4.5e-4, positions within 2.6e-7 m in one piece and 3.5e-5–4.3e-5 m torn off.
+    // Measured on llvmpipe over three runs (f32 atomics add in no fixed order): damage
+    // within 3.9e-4–5.1e-4, positions within 2.6e-7 m in one piece and 3.5e-5–4.3e-5 m torn
+    // off.
     gpu_tear_agrees(P2gAtomics::Float, 1e-3, 1e-5, 1e-4);
 }
 
