@@ -533,9 +533,13 @@ fn a_strand_dragged_through_another_at_one_metre_per_second_does_not_pass() {
         upper < -0.04,
         "the upper strand was dragged 50 mm down: z {upper}"
     );
+    // With the length held in contact the diagonal carries the lower strand down with the
+    // upper one: it ends hanging nearly vertical 0.9 mm beside it (measured: middles at
+    // z −0.04895 and −0.04900 m), so the strands' heights no longer tell their sides and
+    // the test holds their closest approach at every frame's end.
     assert!(
-        upper - lower > 0.9 * diameter,
-        "upper strand {upper} not above lower {lower} by a diameter"
+        closest > 0.9 * diameter,
+        "strands came within {closest} m (diameter {diameter} m); middles at z {lower}, {upper}"
     );
 }
 

@@ -189,9 +189,11 @@ impl SelfContacts {
     }
 
     /// Projects every candidate pair apart, back to its start side if it crossed, with
-    /// friction `mu` relative to the substep-start points `start`. Returns the number of
-    /// active contacts.
-    pub fn project(&self, rod: &mut Rod, start: &[Vec3], mu: f32) -> u32 {
+    /// friction `mu` relative to the substep-start points `start`. Pairs on their side are
+    /// pushed apart only when closer than `least` diameters, and then to that distance;
+    /// pairs that crossed always go back to a diameter. Returns the number of active
+    /// contacts.
+    pub fn project(&self, rod: &mut Rod, start: &[Vec3], mu: f32, least: f32) -> u32 {
         let diameter = 2.0 * rod.material.radius;
         let mut active = 0;
         for c in &self.candidates {
@@ -240,7 +242,7 @@ impl SelfContacts {
                 (side_normal, diameter - d.dot(&side_normal))
             } else {
                 let distance = d.norm();
-                if distance >= diameter {
+                if distance >= least * diameter {
                     continue;
                 }
                 let n = if distance > 1e-3 * diameter {
@@ -248,7 +250,7 @@ impl SelfContacts {
                 } else {
                     side_normal
                 };
-                (n, diameter - distance)
+                (n, least * diameter - distance)
             };
             // Barycentric inverse-mass weights of the four points.
             let w = [

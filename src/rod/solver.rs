@@ -63,6 +63,17 @@ const CONTACT_ITERATIONS: u32 = 4;
 /// Most iterations per substep, the extra ones included.
 const MAX_ITERATIONS: u32 = 8;
 
+/// Most direct solves that restore the length after a substep's contacts. One is not enough
+/// where segments turned far in the substep (the frames enter the stretch-shear constraint
+/// nonlinearly): measured on `stress`'s loop pulled shut, strain 8.0e-2 after one, 3.1e-5
+/// after three or four.
+const LENGTH_SOLVES: u32 = 4;
+
+/// Closest approach, in diameters, that self-contact restores after the length solves
+/// (during the rounds it keeps a full diameter). The band between it and a diameter is left
+/// to the next substep's rounds, so that the last contact pass stretches the thread little.
+const RESTORED_SEPARATION: f32 = 0.9;
+
 /// The solver for one rod: its compliances, multipliers and the previous substep's state.
 #[derive(Clone, Debug)]
 pub struct RodSolver {
@@ -79,6 +90,8 @@ pub struct RodSolver {
     /// This substep's colliders.
     placed: Vec<PlacedCollider>,
     self_contacts: SelfContacts,
+    /// The multipliers of the solve → contact rounds, while the length is restored.
+    round_lambda: Vec<Vector6<f64>>,
 }
 
 impl RodSolver {
@@ -95,6 +108,7 @@ impl RodSolver {
             held: Vec::new(),
             placed: Vec::new(),
             self_contacts: SelfContacts::default(),
+            round_lambda: Vec::new(),
         }
     }
 
@@ -149,6 +163,7 @@ impl RodSolver {
                 rod.points[a.point] = a.from.lerp(&a.to, s1 as f32);
             }
             self.lambda.fill(Vector6::zeros());
+            let mut touched = false;
             // In contact, every iteration factorises afresh (the contacts projected after
             // each solve move points far from the last linearisation), and extra solve →
             // contact rounds follow while the length is off: contacts projected last
@@ -175,37 +190,44 @@ impl RodSolver {
                 if !(chord && direct::resolve(rod, compliance, lambda, inv_h2, scratch)) {
                     direct::solve(rod, compliance, lambda, inv_h2, scratch);
                 }
-                // Self-contact candidates from the substep's start to where the solve put
-                // the points: a strand pulled taut round another moves far beyond its
-                // prediction (measured: 1.2 mm, five diameters, in one 4 ms substep of
-                // tests/scenes/coil_drag.toml).
-                if env.self_collision {
-                    self.self_contacts.detect(rod, &self.prev_points);
-                }
-                // Contacts in a pile (thread on thread on table) push each other back in:
-                // a few Gauss–Seidel passes, until one finds nothing to correct.
-                let mut found = (0, 0, 0);
-                for pass in 0..CONTACT_PASSES {
-                    let (on_table, on_tools) =
-                        project_contacts(rod, &self.prev_points, table, &self.placed);
-                    let on_walls = env.walls.map_or(0, |(lo, hi)| project_walls(rod, lo, hi));
-                    let on_self = if env.self_collision {
-                        self.self_contacts
-                            .project(rod, &self.prev_points, env.self_friction)
-                    } else {
-                        0
-                    };
-                    if pass == 0 {
-                        found = (on_table, on_tools, on_self);
-                    }
-                    if on_table + on_tools + on_self + on_walls == 0 {
-                        break;
-                    }
-                }
+                let (found, any) = self.project_contacts(rod, env, table);
+                touched |= any;
                 if iteration == 0 {
                     report.table_contacts += found.0;
                     report.tool_contacts += found.1;
                     report.self_contacts += found.2;
+                }
+            }
+            if touched {
+                self.restore_length(rod, inv_h2);
+                // The restoring solves move the touching points too. Tools get the last word
+                // (without it the solves pulled a thread back through a 0.3 mm wire pushing a
+                // segment's middle, tests/thread.rs), and so do pairs of segments the solves
+                // pulled through each other or closer than `RESTORED_SEPARATION` (without it
+                // the tail of tests/scenes/coil_drag.toml crossed the coil; with crossed pairs
+                // alone it came within 0.14 diameters). The table and pairs merely closer
+                // than a diameter do not: all contacts projected again after the solves
+                // stretched `stress`'s coil pile by 4.1e-2 and let the strand dragged in
+                // tests/thread.rs end within a diameter of the one it pushed.
+                if env.self_collision {
+                    self.self_contacts.detect(rod, &self.prev_points);
+                }
+                for _ in 0..CONTACT_PASSES {
+                    let (_, on_tools) =
+                        project_contacts(rod, &self.prev_points, None, &self.placed);
+                    let on_self = if env.self_collision {
+                        self.self_contacts.project(
+                            rod,
+                            &self.prev_points,
+                            env.self_friction,
+                            RESTORED_SEPARATION,
+                        )
+                    } else {
+                        0
+                    };
+                    if on_tools + on_self == 0 {
+                        break;
+                    }
                 }
             }
             self.update_velocities(rod, h);
@@ -218,6 +240,83 @@ impl RodSolver {
             .map(|j| rod.strain(j).abs())
             .fold(0.0, f32::max);
         report
+    }
+
+    /// Every contact projected, in Gauss–Seidel passes until one finds nothing to correct
+    /// (contacts in a pile, thread on thread on table, push each other back in). Returns
+    /// the table, tool and self contacts the first pass found, and whether any pass moved a
+    /// point.
+    fn project_contacts(
+        &mut self,
+        rod: &mut Rod,
+        env: &RodEnvironment,
+        table: Option<(f32, f32)>,
+    ) -> ((u32, u32, u32), bool) {
+        // Self-contact candidates from the substep's start to where the solve put the
+        // points: a strand pulled taut round another moves far beyond its prediction
+        // (measured: 1.2 mm, five diameters, in one 4 ms substep of
+        // tests/scenes/coil_drag.toml).
+        if env.self_collision {
+            self.self_contacts.detect(rod, &self.prev_points);
+        }
+        let mut found = (0, 0, 0);
+        let mut any = false;
+        for pass in 0..CONTACT_PASSES {
+            let (on_table, on_tools) =
+                project_contacts(rod, &self.prev_points, table, &self.placed);
+            let on_walls = env.walls.map_or(0, |(lo, hi)| project_walls(rod, lo, hi));
+            let on_self = if env.self_collision {
+                self.self_contacts
+                    .project(rod, &self.prev_points, env.self_friction, 1.0)
+            } else {
+                0
+            };
+            if pass == 0 {
+                found = (on_table, on_tools, on_self);
+            }
+            if on_table + on_tools + on_self + on_walls == 0 {
+                break;
+            }
+            any = true;
+        }
+        (found, any)
+    }
+
+    /// Direct solves after the substep's last contact projection, from zero multipliers,
+    /// until the stretch residual is within `RESIDUAL_TOLERANCE` (at most `LENGTH_SOLVES`).
+    ///
+    /// Contacts projected after the solve lengthen the segments they push, and the rounds'
+    /// multipliers cannot take that back: table friction returns each point to where the
+    /// solve moved it from (its slip is far below μ·d), so every round adds the same Δλ and
+    /// the solve ends believing in a tension that the strain C = −α̃·λ then keeps (a final
+    /// solve that kept them left `stress`'s loop 1.4 % long, frame after frame). Solved from
+    /// λ = 0 the segments come back to their length.
+    /// The points are free in these solves: holding the points that touch something along
+    /// their contact normals (inverse mass w·(I − n·nᵀ)) was tried and let the coil pile
+    /// blow up (strain 98 after a second of `stress`'s coil drop), while free points leave
+    /// it at 1.4 diameters' closest approach. The tension reported is the sum of both sets
+    /// of multipliers.
+    fn restore_length(&mut self, rod: &mut Rod, inv_h2: f64) {
+        self.round_lambda.clone_from(&self.lambda);
+        self.lambda.fill(Vector6::zeros());
+        for solve in 0..LENGTH_SOLVES {
+            if solve > 0
+                && direct::stretch_residual(rod, &self.compliance, &self.lambda, inv_h2)
+                    <= RESIDUAL_TOLERANCE
+            {
+                break;
+            }
+            direct::solve(
+                rod,
+                &self.compliance,
+                &mut self.lambda,
+                inv_h2,
+                &mut self.scratch,
+            );
+        }
+        for (lambda, round) in self.lambda.iter_mut().zip(&self.round_lambda) {
+            *lambda += round;
+        }
     }
 
     fn update_tension(&self, rod: &mut Rod, inv_h2: f64) {

@@ -2,7 +2,7 @@
 //! across the table, a loop whose ends are pulled apart until it closes on its crossing
 //! (knot-like tightening of crossing segments), and a thread dropped in coils onto itself.
 //! Each case must stay finite, never bring two segments closer than 90 % of a diameter
-//! (no pass-through) and keep every segment's strain below 0.1 %.
+//! (no pass-through) and keep every segment's strain below 1 %.
 
 use dvrk_tissue_sim::mpm::Vec3;
 use dvrk_tissue_sim::rod::self_contact::min_self_distance;
