@@ -292,9 +292,10 @@ impl BladeMesh {
         if (0..3).any(|a| p[a] < self.aabb_min[a] - band || p[a] > self.aabb_max[a] + band) {
             return None;
         }
+        // Bounded by the band: the tree skips every triangle farther than that.
         let (projection, (triangle, location)) = self
             .surface
-            .project_local_point_and_get_location(&point(p), false);
+            .project_local_point_and_get_location_with_max_dist(&point(p), false, band)?;
         let t = triangle as usize;
         let (normal, distance, q) = match location {
             TrianglePointLocation::OnVertex(i)
