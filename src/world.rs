@@ -478,9 +478,7 @@ impl World {
             max_speed: scene.solver.max_speed as f32,
             max_substeps: scene.solver.max_substeps_per_frame,
             tool_count: tools.len(),
-            cutting: tools
-                .iter()
-                .any(|t| matches!(t.shape, Shape::Slicer { .. })),
+            cutting: tools.iter().any(|t| t.shape.cuts()),
             p2g: scene.solver.p2g_atomics,
             method: scene.solver.method,
             pb_mpm: PbMpmParams {
@@ -493,9 +491,13 @@ impl World {
         let gpu_context = if setup.particles.is_empty() {
             None
         } else {
+            let tool_refused = gpu::unsupported_tool(tools.iter().map(|t| t.shape));
+            if let (BackendChoice::Gpu, Some(feature)) = (scene.solver.backend, tool_refused) {
+                return Err(GpuError::Unsupported(feature).into());
+            }
             match gpu::adapter::select(scene.solver.backend)? {
                 Some(ctx) if scene.solver.backend == BackendChoice::Auto => {
-                    match gpu::unsupported(&ctx, &setup) {
+                    match gpu::unsupported(&ctx, &setup).or(tool_refused) {
                         Some(feature) => {
                             tracing::info!("backend: cpu (auto: the GPU backend has no {feature})");
                             None

@@ -450,3 +450,171 @@ fn a_pb_mpm_cut_block_stays_two_through_the_spread() {
         );
     }
 }
+
+/// A flat mesh blade the shape of the cutting scene's quad: `length` along x centred on 0,
+/// from the x axis down to z = −`height`, in `columns` quads (so that its surface has
+/// interior edges and vertices too), cutting with its bottom edge only.
+fn flat_mesh_blade(length: f32, height: f32, columns: usize) -> Shape {
+    use dvrk_tissue_sim::tools::mesh_slicer::{BladeFile, BladeMesh};
+    use dvrk_tissue_sim::tools::obj;
+    let mut text = String::new();
+    for i in 0..=columns {
+        let x = -0.5 * length + length * i as f32 / columns as f32;
+        text += &format!("v {x} 0 0\nv {x} 0 {}\n", -height);
+    }
+    for i in 0..columns {
+        let (a, b) = (2 * i + 1, 2 * i + 3);
+        text += &format!("f {a} {} {} {b}\n", a + 1, b + 1);
+    }
+    // The spine runs down both sides as well as along the top: the quad's sides do not
+    // cut, its edge is the bottom alone.
+    let top = (0..=columns).map(|i| (2 * i + 1).to_string());
+    let spine: Vec<String> = std::iter::once("2".to_string())
+        .chain(top)
+        .chain(std::iter::once((2 * columns + 2).to_string()))
+        .collect();
+    text += &format!("l {}\n", spine.join(" "));
+    let path = std::path::Path::new("flat.obj");
+    let mesh = BladeMesh::from_obj(obj::parse(&text).unwrap(), path);
+    Shape::MeshSlicer {
+        file: BladeFile::loaded("flat.obj", mesh),
+        thickness: 0.0004,
+    }
+}
+
+/// The cracks a tool of `shape` at the world's current tool pose gives its particles now.
+fn cracks_now(world: &World, shape: Shape) -> Vec<dvrk_tissue_sim::mpm::Vec3> {
+    use dvrk_tissue_sim::tools::{ToolKinematics, ToolVelocity};
+    let tool = &world.tools()[0];
+    let dx = world.scene().domain.dx as f32;
+    let kinematics = ToolKinematics::new(
+        shape,
+        tool.contact,
+        &tool.pose_at(world.time()),
+        &ToolVelocity::default(),
+        dx,
+    );
+    let x = &world.particles().x;
+    let mut crack = vec![dvrk_tissue_sim::mpm::Vec3::zeros(); x.len()];
+    dvrk_tissue_sim::mpm::crack::mark(&[kinematics], x, &mut crack, dx);
+    crack
+}
+
+#[test]
+fn a_flat_mesh_blade_cuts_what_the_quad_cuts() {
+    let scene = shipped("cutting.toml");
+    let times = cut_times(&scene);
+    let Shape::Slicer { length, height, .. } = scene.tools[0].shape else {
+        panic!("the cutting scene's tool is a slicer");
+    };
+    let mesh = flat_mesh_blade(length, height, 4);
+    let mut world = World::new(&scene);
+    let (mut frames, mut marked, mut largest_difference) = (0, 0, 0.0f32);
+    // Every frame of the cut and the spread, on the particles where the quad left them.
+    while world.time() < times.spread - 1e-9 {
+        let quad = cracks_now(&world, scene.tools[0].shape);
+        let from_mesh = cracks_now(&world, mesh);
+        for (i, (q, m)) in quad.iter().zip(&from_mesh).enumerate() {
+            assert_eq!(
+                q.norm() > 0.0,
+                m.norm() > 0.0,
+                "particle {i} at {:?}, t = {}",
+                world.particles().x[i],
+                world.time()
+            );
+            assert!(
+                (q - m).norm() <= 4.0 * f32::EPSILON * q.norm(),
+                "particle {i}: quad {q:?}, mesh {m:?}"
+            );
+            marked += (q.norm() > 0.0) as usize;
+            largest_difference = largest_difference.max((q - m).norm());
+        }
+        frames += 1;
+        world.step_frame().unwrap();
+    }
+    println!(
+        "{frames} frames, {marked} particle cracks compared, largest difference \
+         {largest_difference:e} m"
+    );
+    assert!(
+        marked > 1000,
+        "the comparison covers the cut: {marked} cracks"
+    );
+}
+
+fn mesh_times(scene: &Scene) -> (f64, f64, f64) {
+    let k = &scene.tools[0].keyframes;
+    assert_eq!(k.len(), 4, "the mesh cutting scene's four keyframes");
+    (k[1].t, k[2].t, k[3].t)
+}
+
+#[test]
+fn a_mesh_blade_cuts_the_block_into_two_pieces_that_stay_two() {
+    let scene = shipped("cutting_mesh.toml");
+    assert!(matches!(scene.tools[0].shape, Shape::MeshSlicer { .. }));
+    let (through, out, end) = mesh_times(&scene);
+    let dx = scene.domain.dx;
+    let mut world = World::new(&scene);
+    let start_y: Vec<f32> = world.particles().x.iter().map(|x| x.y).collect();
+    let start_z: Vec<f32> = world.particles().x.iter().map(|x| x.z).collect();
+    assert_eq!(world.pieces(), 1);
+
+    run_until(&mut world, through);
+    let p = world.particles();
+    let labels = pieces::label(&p.x, &p.crack, dx as f32);
+    assert_eq!(labels.iter().max(), Some(&1), "two pieces after the cut");
+    for (i, &l) in labels.iter().enumerate() {
+        assert_eq!(
+            l == labels[0],
+            (start_y[i] > 0.0) == (start_y[0] > 0.0),
+            "particle {i}"
+        );
+    }
+    let (minus, plus) = faces(&world, &start_y, &start_z, 1.0);
+    println!("faces after the cut: {minus:.5} / {plus:.5} m");
+    assert!(plus - minus <= dx, "cut {:.5} m wide", plus - minus);
+
+    run_until(&mut world, out);
+    while world.time() < end - 1e-9 {
+        for _ in 0..6 {
+            world.step_frame().unwrap();
+        }
+        assert_eq!(world.pieces(), 2, "t = {:.3} s", world.time());
+    }
+    let (minus, plus) = faces(&world, &start_y, &start_z, 1.0);
+    println!("faces a second after the blade left: {minus:.5} / {plus:.5} m");
+    assert!(plus - minus <= dx, "cut {:.5} m wide", plus - minus);
+}
+
+#[test]
+fn auto_runs_a_mesh_slicer_on_the_cpu_and_the_gpu_backend_refuses_it() {
+    let mut scene = shipped("cutting_mesh.toml");
+    scene.solver.backend = BackendChoice::Auto;
+    assert_eq!(World::try_new(&scene).unwrap().backend().name(), "cpu");
+    scene.solver.backend = BackendChoice::Gpu;
+    let Err(e) = World::try_new(&scene) else {
+        panic!("the GPU backend took a mesh slicer");
+    };
+    assert!(e.to_string().contains("mesh_slicer"), "{e}");
+}
+
+#[test]
+fn a_snapshot_draws_the_cut_of_a_mesh_blade() {
+    use dvrk_tissue_sim::output::snapshot::{self, SnapshotOptions};
+    let scene = shipped("cutting_mesh.toml");
+    let mut world = World::new(&scene);
+    let options = SnapshotOptions {
+        width: 320,
+        height: 240,
+        ..Default::default()
+    };
+    run_until(&mut world, 0.3);
+    let picture = snapshot::render(&world, &options);
+    let red = pixels_of_colour(&picture.rgb, snapshot::cut_face_colour(options.measure));
+    println!(
+        "{} particles on the cut faces, {red} pixels in the cut colour",
+        picture.cut_face_particles
+    );
+    assert!(picture.cut_face_particles > 0);
+    assert!(red > 30, "{red} pixels show the cut");
+}

@@ -701,3 +701,72 @@ fn a_thread_laid_along_points_is_valid_and_bad_polylines_are_refused() {
         "one of `start`, `points`",
     );
 }
+
+/// A flat 30 × 20 mm blade: spine (`l`) along the top, edge 20 mm below it.
+const FLAT_BLADE: &str = "v -0.015 0 0\nv -0.015 0 -0.02\nv 0.015 0 0\nv 0.015 0 -0.02\n\
+                          f 1 2 4 3\nl 1 3\n";
+
+/// The good scene with a mesh slicer of `thickness` reading `blade.obj` beside the scene
+/// file, in a fresh folder holding `obj` as that file (none when `None`); its problems.
+fn mesh_slicer_problems(obj: Option<&str>, thickness: &str) -> Vec<config::Problem> {
+    static FOLDERS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let n = FOLDERS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("mesh_slicer_check_{}_{n}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    if let Some(obj) = obj {
+        std::fs::write(dir.join("blade.obj"), obj).unwrap();
+    }
+    let text = GOOD.replacen(
+        r#"shape = { type = "sphere", radius = 0.005 }"#,
+        &format!(
+            r#"shape = {{ type = "mesh_slicer", file = "blade.obj", thickness = {thickness} }}"#
+        ),
+        1,
+    );
+    let result = config::from_str(&text, &dir.join("scene.toml"));
+    std::fs::remove_dir_all(&dir).unwrap();
+    match result {
+        Ok(_) => Vec::new(),
+        Err(SceneError::Invalid { problems, .. }) => problems,
+        Err(other) => panic!("expected validation problems, got {other}"),
+    }
+}
+
+#[test]
+fn mesh_slicer_files_are_read_beside_the_scene_and_bad_ones_refused() {
+    assert_eq!(mesh_slicer_problems(Some(FLAT_BLADE), "0.0004"), vec![]);
+    let file_key = "tool[0] (probe).shape.file";
+    let file_problem = |obj: Option<&str>, fragment: &str| {
+        let p = mesh_slicer_problems(obj, "0.0004");
+        assert_single(&p, file_key, fragment);
+        assert_eq!(p[0].value, "\"blade.obj\"");
+    };
+    file_problem(None, "cannot read the blade mesh");
+    // Malformed OBJ: the file and line.
+    file_problem(Some("v 0 0\n"), "blade.obj:1: a vertex needs three");
+    file_problem(Some("v 0 0 0\nl 1 1\n"), "no faces");
+    file_problem(
+        Some("v 0 0 0\nv 0.01 0 0\nv 0.02 0 0\nf 1 2 3\nl 1 2\n"),
+        "blade.obj:4: degenerate face",
+    );
+    file_problem(Some(&FLAT_BLADE.replace("l 1 3\n", "")), "no spine");
+    file_problem(
+        Some(&FLAT_BLADE.replace("l 1 3", "l 1 4")),
+        "blade.obj:6: spine segment 1–4 is not a boundary edge",
+    );
+    file_problem(
+        Some(&FLAT_BLADE.replace("l 1 3", "l 1 3 4 2 1")),
+        "no cutting edge",
+    );
+    // 3 mm long: less than 2·dx = 4 mm across.
+    file_problem(
+        Some(&FLAT_BLADE.replace("0.015", "0.0015")),
+        "at least 2·dx = 0.004 m across",
+    );
+    // The spine's thickness: > 0, and at most half the blade's height (20 mm).
+    let thickness_key = "tool[0] (probe).shape.thickness";
+    let p = mesh_slicer_problems(Some(FLAT_BLADE), "-0.0001");
+    assert_single(&p, thickness_key, "0 < thickness");
+    let p = mesh_slicer_problems(Some(FLAT_BLADE), "0.015");
+    assert_single(&p, thickness_key, "height/2 = 0.01 m");
+}

@@ -12,6 +12,7 @@ pub use scene::{
 pub use thread::{PinnedEnds, Thread};
 pub use validate::{validate, Problem};
 
+use crate::tools::Shape;
 use std::path::{Path, PathBuf};
 
 #[derive(Debug, thiserror::Error)]
@@ -30,12 +31,20 @@ pub enum SceneError {
     },
 }
 
-/// Parses scene text without semantic checks (`path` is only used in messages).
+/// Parses scene text without semantic checks, and reads the files it names relative to
+/// `path`'s folder (blade meshes; their problems are reported by [`validate`]).
 pub fn parse(text: &str, path: &Path) -> Result<Scene, SceneError> {
-    toml::from_str(text).map_err(|e| SceneError::Parse {
+    let scene: Scene = toml::from_str(text).map_err(|e| SceneError::Parse {
         path: path.to_owned(),
         message: e.to_string(),
-    })
+    })?;
+    let folder = path.parent().unwrap_or(Path::new(""));
+    for tool in &scene.tools {
+        if let Shape::MeshSlicer { file, .. } = tool.shape {
+            file.load(folder);
+        }
+    }
+    Ok(scene)
 }
 
 /// Parses and validates scene text.

@@ -399,6 +399,46 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
                     ),
                 );
             }
+            Shape::MeshSlicer { file, thickness } => match file.state() {
+                None => c.require(
+                    false,
+                    key("shape.file"),
+                    file.path(),
+                    "a blade mesh read relative to the scene file (this scene was not read \
+                     from a file)",
+                ),
+                Some(Err(e)) => c.require(false, key("shape.file"), file.path(), e.to_string()),
+                Some(Ok(blade)) => {
+                    // As for the quad: the blade must span a particle's stencil in both
+                    // directions of its surface, and the spine fit on it.
+                    let mut sides = [0, 1, 2].map(|a| blade.extents()[a] as f64);
+                    sides.sort_by(f64::total_cmp);
+                    c.require(
+                        sides[1] >= 2.0 * d.dx,
+                        key("shape.file"),
+                        file.path(),
+                        format!(
+                            "a blade at least 2·dx = {} m across in both directions of its \
+                             surface (this one's bounding box is {:.5} × {:.5} m): it must \
+                             cover a particle's stencil",
+                            2.0 * d.dx,
+                            sides[2],
+                            sides[1]
+                        ),
+                    );
+                    let height = blade.height();
+                    c.require(
+                        thickness.is_finite() && thickness > 0.0 && thickness <= 0.5 * height,
+                        key("shape.thickness"),
+                        thickness,
+                        format!(
+                            "0 < thickness ≤ height/2 = {} m (the spine's; the blade's height \
+                             is the farthest its surface lies from the spine)",
+                            0.5 * height
+                        ),
+                    );
+                }
+            },
         }
         // Grid contact acts on nodes inside a solid; one thinner than two cells leaves too
         // few of a particle's 27 stencil nodes constrained, and tissue flows through it.

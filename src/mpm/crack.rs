@@ -101,9 +101,7 @@ impl StencilCut {
 
 /// Whether any of the tools cuts (needs the per-particle crack state).
 pub fn any_slicer(tools: &[ToolKinematics]) -> bool {
-    tools
-        .iter()
-        .any(|t| matches!(t.shape, Shape::Slicer { .. }))
+    tools.iter().any(|t| t.shape.cuts())
 }
 
 /// Gives each uncut particle that a slicer's edge passes this substep the blade's plane as
@@ -131,21 +129,29 @@ pub fn any_passing(tools: &[ToolKinematics], x: &[Vec3], dx: f32) -> bool {
 }
 
 /// The crack a slicer's edge gives the particle at `x` this substep (see
-/// [`slicer::edge_passing`]): the blade's plane, for a particle nearer it than a stencil's
-/// reach, in a strip above the edge.
+/// [`slicer::edge_passing`] and [`crate::tools::mesh_slicer::BladeMesh::edge_passing`]): the
+/// blade's local plane, for a particle nearer it than a stencil's reach, in a strip along
+/// the edge.
 #[inline(always)]
 fn passing(tools: &[ToolKinematics], x: Vec3, dx: f32) -> Option<Vec3> {
     let band = slicer::STENCIL_REACH_CELLS * dx;
+    let floor = MIN_OFFSET_CELLS * dx;
     tools.iter().find_map(|tool| {
-        let Shape::Slicer { length, height, .. } = tool.shape else {
-            return None;
-        };
-        let local = tool.rotation.tr_mul(&(x - tool.translation));
-        slicer::edge_passing(local, length, height, band).map(|side| {
-            let sign = if side < 0.0 { -1.0 } else { 1.0 };
-            let normal = tool.rotation.column(1).into_owned() * sign;
-            normal * side.abs().max(MIN_OFFSET_CELLS * dx)
-        })
+        let local = || tool.rotation.tr_mul(&(x - tool.translation));
+        match tool.shape {
+            Shape::Slicer { length, height, .. } => {
+                slicer::edge_passing(local(), length, height, band).map(|side| {
+                    let sign = if side < 0.0 { -1.0 } else { 1.0 };
+                    let normal = tool.rotation.column(1).into_owned() * sign;
+                    normal * side.abs().max(floor)
+                })
+            }
+            Shape::MeshSlicer { file, .. } => file
+                .mesh()
+                .edge_passing(local(), band)
+                .map(|(normal, distance)| tool.rotation * normal * distance.max(floor)),
+            _ => None,
+        }
     })
 }
 

@@ -174,6 +174,10 @@ impl DrawnTool {
                 let half = Vec3::new(0.5 * length, 0.5 * thickness.max(6e-4), 0.5 * height);
                 crate::tools::sdf::cuboid(local + Vec3::new(0.0, 0.0, 0.5 * height), half).distance
             }
+            // A mesh blade as a sheet at least 0.6 mm thick.
+            Shape::MeshSlicer { file, thickness } => {
+                file.mesh().surface_distance(local) - 0.5 * thickness.max(6e-4)
+            }
             shape => shape.query(local, self.jaw).distance,
         }
     }

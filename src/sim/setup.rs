@@ -186,10 +186,7 @@ pub fn surface_kind(scene: &Scene) -> SurfaceKind {
         );
         return SurfaceKind::Isosurface;
     }
-    let cuts = scene
-        .tools
-        .iter()
-        .find(|t| matches!(t.shape, crate::tools::Shape::Slicer { .. }));
+    let cuts = scene.tools.iter().find(|t| t.shape.cuts());
     match (scene.outputs.surface, cuts) {
         (SurfaceKind::Mesh, Some(tool)) => {
             tracing::info!(

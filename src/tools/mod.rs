@@ -4,6 +4,8 @@
 pub mod contact;
 pub mod grip;
 pub mod jaw;
+pub mod mesh_slicer;
+pub mod obj;
 pub mod pose;
 pub mod sdf;
 pub mod slicer;
@@ -70,7 +72,9 @@ impl ToolKinematics {
         let contact_threshold = match shape {
             Shape::Needle { wire_radius, .. } => (1.5 * dx - wire_radius).max(0.0),
             // The spine is a cylinder of the blade's thickness, fattened as a wire is.
-            Shape::Slicer { thickness, .. } => (1.5 * dx - 0.5 * thickness).max(0.0),
+            Shape::Slicer { thickness, .. } | Shape::MeshSlicer { thickness, .. } => {
+                (1.5 * dx - 0.5 * thickness).max(0.0)
+            }
             _ => 0.0,
         };
         let translation: Vec3 = pose.position.cast();

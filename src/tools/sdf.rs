@@ -4,6 +4,7 @@
 //! which part of the tool is nearest (a gripper has two jaws that move differently). 1D
 //! shapes (the arc needle) also return the unit tangent of the curve at the nearest point.
 
+use super::mesh_slicer::BladeFile;
 use crate::mpm::Vec3;
 use serde::{Deserialize, Serialize};
 
@@ -43,6 +44,13 @@ pub enum Shape {
     Slicer {
         length: f32,
         height: f32,
+        thickness: f32,
+    },
+    /// A blade from a triangle mesh file (seed 002's triangle-mesh slicer): its surface,
+    /// spine and cutting edge come from the OBJ `file` (tool frame, see
+    /// [`crate::tools::mesh_slicer`]); `thickness` is the spine's, as for the quad.
+    MeshSlicer {
+        file: BladeFile,
         thickness: f32,
     },
 }
@@ -200,6 +208,7 @@ impl Shape {
             Shape::Slicer {
                 length, thickness, ..
             } => super::slicer::spine(p, length, thickness),
+            Shape::MeshSlicer { file, thickness } => file.mesh().spine_distance(p, thickness),
         }
     }
 
@@ -228,6 +237,7 @@ impl Shape {
                 height,
                 thickness,
             } => Vec3::new(0.5 * length, 0.5 * thickness, height).norm() + thickness,
+            Shape::MeshSlicer { file, thickness } => file.mesh().bounding_radius() + thickness,
         }
     }
 
@@ -244,8 +254,13 @@ impl Shape {
                 jaw_width,
                 ..
             } => Some(jaw_thickness.min(jaw_width)),
-            Shape::Needle { .. } | Shape::Slicer { .. } => None,
+            Shape::Needle { .. } | Shape::Slicer { .. } | Shape::MeshSlicer { .. } => None,
         }
+    }
+
+    /// Whether the shape cuts tissue (a slicer of either kind).
+    pub fn cuts(&self) -> bool {
+        matches!(self, Shape::Slicer { .. } | Shape::MeshSlicer { .. })
     }
 }
 

@@ -58,6 +58,7 @@ mod sparse;
 use super::backend::{FramePlan, FrameStats, P2gAtomics};
 use super::grid::Node;
 use super::{GridLayout, Method, Particles, PbMpmParams, SolveCounts, SolverSetup, MAX_TOOLS};
+use crate::tools::Shape;
 use adapter::GpuContext;
 use crack::CrackStage;
 use g2p::G2pStage;
@@ -78,6 +79,19 @@ pub const IMPLICIT_WITHOUT_FLOAT_ATOMICS: &str =
     "solver.method = \"implicit\" on an adapter without f32 atomics (SHADER_FLOAT32_ATOMIC)";
 /// How [`GpuError::Unsupported`] names the implicit method in a scene with a slicer.
 pub const IMPLICIT_WITH_CUTTING: &str = "solver.method = \"implicit\" in a scene that cuts";
+
+/// How [`GpuError::Unsupported`] names a slicer from a mesh file: its closest-point query
+/// and crack marking run on the CPU only (see `tools::mesh_slicer`).
+pub const MESH_SLICER: &str = "a slicer from a mesh file (shape type \"mesh_slicer\")";
+
+/// What of a scene's tools the GPU backend cannot step, if anything: a slicer from a mesh
+/// file. A scene with `backend = "auto"` then runs on the CPU.
+pub fn unsupported_tool(shapes: impl IntoIterator<Item = Shape>) -> Option<&'static str> {
+    shapes
+        .into_iter()
+        .any(|s| matches!(s, Shape::MeshSlicer { .. }))
+        .then_some(MESH_SLICER)
+}
 
 /// Why the GPU backend could not be used.
 #[derive(Debug, thiserror::Error)]

@@ -192,6 +192,9 @@ impl From<&ToolKinematics> for GpuTool {
                 height,
                 thickness,
             } => ([length, height, thickness, 0.0], SLICER_KIND),
+            Shape::MeshSlicer { .. } => unreachable!(
+                "the GPU backend refuses mesh slicers before packing tools (gpu::unsupported_tool)"
+            ),
         };
         let (friction, drag, sticky) = match t.contact {
             ContactModel::Coulomb { friction, drag } => (friction, drag, 0),
