@@ -491,13 +491,9 @@ impl World {
         let gpu_context = if setup.particles.is_empty() {
             None
         } else {
-            let tool_refused = gpu::unsupported_tool(tools.iter().map(|t| t.shape));
-            if let (BackendChoice::Gpu, Some(feature)) = (scene.solver.backend, tool_refused) {
-                return Err(GpuError::Unsupported(feature).into());
-            }
             match gpu::adapter::select(scene.solver.backend)? {
                 Some(ctx) if scene.solver.backend == BackendChoice::Auto => {
-                    match gpu::unsupported(&ctx, &setup).or(tool_refused) {
+                    match gpu::unsupported(&ctx, &setup) {
                         Some(feature) => {
                             tracing::info!("backend: cpu (auto: the GPU backend has no {feature})");
                             None
@@ -509,7 +505,10 @@ impl World {
             }
         };
         let backend = match gpu_context {
-            Some(ctx) => Backend::Gpu(Box::new(GpuSolver::new(ctx, setup)?)),
+            Some(ctx) => {
+                let shapes: Vec<_> = tools.iter().map(|t| t.shape).collect();
+                Backend::Gpu(Box::new(GpuSolver::new(ctx, setup, &shapes)?))
+            }
             None => Backend::Cpu(Box::new(CpuBackend::new(CpuSolver::new(setup)))),
         };
         Ok(World {

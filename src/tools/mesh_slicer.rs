@@ -40,6 +40,21 @@ const DEGENERATE_AREA: f32 = 1e-8;
 /// [`TrianglePointLocation::OnEdge`]: 0 is AB, 1 is BC, 2 is AC.
 const TRIANGLE_EDGES: [[usize; 2]; 3] = [[0, 1], [1, 2], [0, 2]];
 
+/// One triangle of a blade with what the cut rule needs to classify a closest point on it
+/// (see [`BladeMesh::edge_passing`]): the GPU backend uploads these.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BladeTriangle {
+    /// Corners a, b, c in the file's order (tool frame, m).
+    pub corners: [Vec3; 3],
+    /// Unit normal, as `edge_passing` takes it on a face.
+    pub normal: Vec3,
+    /// Whether each edge is on the surface's boundary, in parry's numbering of
+    /// `TrianglePointLocation::OnEdge`: 0 is AB, 1 is BC, 2 is AC.
+    pub boundary_edges: [bool; 3],
+    /// Whether each corner is a boundary vertex of the surface.
+    pub boundary_corners: [bool; 3],
+}
+
 /// A loaded blade: its surface (for closest points), which of its features are on the
 /// outline, its cutting edge and its spine, all in the tool frame.
 pub struct BladeMesh {
@@ -230,6 +245,24 @@ impl BladeMesh {
     /// Number of triangles of the surface.
     pub fn triangle_count(&self) -> usize {
         self.triangles.len()
+    }
+
+    /// The triangles with their normals and boundary features, in the file's order.
+    pub fn triangles(&self) -> impl ExactSizeIterator<Item = BladeTriangle> + '_ {
+        self.triangles
+            .iter()
+            .enumerate()
+            .map(|(t, tri)| BladeTriangle {
+                corners: tri.map(|i| self.vertices[i as usize]),
+                normal: self.normals[t],
+                boundary_edges: self.boundary_edge[t],
+                boundary_corners: tri.map(|i| self.boundary_vertex[i as usize]),
+            })
+    }
+
+    /// Least and greatest corner of the surface's bounding box in the tool frame (m).
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        (self.aabb_min, self.aabb_max)
     }
 
     /// The cutting edge's segments (tool frame, m).

@@ -20,7 +20,8 @@ pub struct GpuContext {
     pub float_atomics: bool,
 }
 
-fn is_hardware(t: DeviceType) -> bool {
+/// Whether an adapter of type `t` is hardware (`auto` takes only these).
+pub fn is_hardware(t: DeviceType) -> bool {
     matches!(
         t,
         DeviceType::DiscreteGpu | DeviceType::IntegratedGpu | DeviceType::VirtualGpu

@@ -423,6 +423,46 @@ fn sdf_slicer_spine(p: vec3<f32>, len: f32, thickness: f32) -> Hit {
     return solid(length(d) - 0.5 * thickness, unit_or(d, vec3<f32>(0.0, 0.0, 1.0)), 0u);
 }
 
+// ---- a mesh slicer's blade (blade.rs: its record in `blades`; mesh_slicer.rs) ----
+
+// The counts of the blade record at `blade`: triangles, cutting-edge segments, spine
+// segments.
+fn blade_counts(blade: u32) -> vec4<u32> {
+    return bitcast<vec4<u32>>(blades[blade]);
+}
+
+// Index of the blade's first segment record: its cutting edge's, the spine's after them.
+fn blade_segments(blade: u32) -> u32 {
+    return blade + BLADE_HEADER + 4u * blade_counts(blade).x;
+}
+
+// Closest point to p on the segment [a, b] (mesh_slicer.rs `closest_on_segment`).
+fn closest_on_segment(p: vec3<f32>, a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
+    let ab = b - a;
+    let t = clamp(dot(p - a, ab) / dot(ab, ab), 0.0, 1.0);
+    return a + ab * t;
+}
+
+// The mesh slicer's blunt spine (mesh_slicer.rs `spine_distance`): a capsule of radius
+// thickness/2 along each spine segment; the nearest segment's point, the first on ties.
+// Its surface and edge have no contact.
+fn sdf_mesh_spine(p: vec3<f32>, blade: u32, thickness: f32) -> Hit {
+    let counts = blade_counts(blade);
+    let first = blade_segments(blade) + 2u * counts.y;
+    var nearest = p;
+    var least = 3.0e38;
+    for (var s = 0u; s < counts.z; s++) {
+        let q = closest_on_segment(p, blades[first + 2u * s].xyz, blades[first + 2u * s + 1u].xyz);
+        let r = p - q;
+        if (dot(r, r) < least) {
+            least = dot(r, r);
+            nearest = q;
+        }
+    }
+    let d = p - nearest;
+    return solid(length(d) - 0.5 * thickness, unit_or(d, vec3<f32>(0.0, 0.0, 1.0)), 0u);
+}
+
 fn tool_query(t: Tool, p: vec3<f32>) -> Hit {
     let s = t.shape;
     switch t.kind.x {
@@ -431,7 +471,8 @@ fn tool_query(t: Tool, p: vec3<f32>) -> Hit {
         case 2u: { return sdf_box(p, s.xyz); }
         case 3u: { return sdf_gripper(p, t.lin.w, s.x, s.y, s.z); }
         case 4u: { return sdf_needle(p, s.x, s.y, s.z); }
-        default: { return sdf_slicer_spine(p, s.x, s.z); }
+        case 5u: { return sdf_slicer_spine(p, s.x, s.z); }
+        default: { return sdf_mesh_spine(p, t.kind.z, s.x); }
     }
 }
 

@@ -1,4 +1,5 @@
-//! Host side of `crack.wgsl`: the per-substep crack marking of a scene with a slicer (see
+//! Host side of `crack.wgsl`: the per-substep crack marking of a scene with a slicer, the
+//! quad or one from a mesh file (whose blade `blade.rs` uploads; see
 //! [`crate::mpm::crack`]). A scene without one builds no pipeline and records nothing; its
 //! P2G and G2P see `CUTTING` false and skip the side tests.
 

@@ -11,7 +11,8 @@
 //! - `grid_update`: gravity, tools (SDF only inside each tool's bounding box), friction,
 //!   momentum exchange reduced per block into per-tool impulses, table, walls;
 //! - `g2p`: interpolation back, advection, F update, damping and the guard;
-//! - `crack`: with a slicer, the particles its edge passes take its plane as their crack;
+//! - `crack`: with a slicer, the particles its edge passes take its plane as their crack
+//!   (a mesh slicer's local tangent plane: its blade is uploaded once, `blade.rs`);
 //!   P2G and G2P then skip (read the particle's own velocity at) the nodes across it, and
 //!   G2P turns it with the material (see [`crate::mpm::crack`]). Without a slicer the crack
 //!   buffer is a placeholder, nothing is dispatched and the side tests compile away;
@@ -43,6 +44,7 @@
 //! frame, so its outputs (point cloud, mesh) are built on the CPU while the device computes.
 
 pub mod adapter;
+mod blade;
 mod crack;
 mod g2p;
 mod grid_update;
@@ -79,19 +81,6 @@ pub const IMPLICIT_WITHOUT_FLOAT_ATOMICS: &str =
     "solver.method = \"implicit\" on an adapter without f32 atomics (SHADER_FLOAT32_ATOMIC)";
 /// How [`GpuError::Unsupported`] names the implicit method in a scene with a slicer.
 pub const IMPLICIT_WITH_CUTTING: &str = "solver.method = \"implicit\" in a scene that cuts";
-
-/// How [`GpuError::Unsupported`] names a slicer from a mesh file: its closest-point query
-/// and crack marking run on the CPU only (see `tools::mesh_slicer`).
-pub const MESH_SLICER: &str = "a slicer from a mesh file (shape type \"mesh_slicer\")";
-
-/// What of a scene's tools the GPU backend cannot step, if anything: a slicer from a mesh
-/// file. A scene with `backend = "auto"` then runs on the CPU.
-pub fn unsupported_tool(shapes: impl IntoIterator<Item = Shape>) -> Option<&'static str> {
-    shapes
-        .into_iter()
-        .any(|s| matches!(s, Shape::MeshSlicer { .. }))
-        .then_some(MESH_SLICER)
-}
 
 /// Why the GPU backend could not be used.
 #[derive(Debug, thiserror::Error)]
@@ -191,7 +180,9 @@ fn check_limits(device: &wgpu::Device, setup: &SolverSetup) -> Result<(), GpuErr
 }
 
 impl GpuSolver {
-    pub fn new(ctx: GpuContext, setup: SolverSetup) -> Result<Self, GpuError> {
+    /// A solver for `setup` whose tools have the shapes `shapes` (in the scene's order: a
+    /// mesh slicer's blade is uploaded once here).
+    pub fn new(ctx: GpuContext, setup: SolverSetup, shapes: &[Shape]) -> Result<Self, GpuError> {
         if let Some(feature) = unsupported(&ctx, &setup) {
             return Err(GpuError::Unsupported(feature));
         }
@@ -230,6 +221,7 @@ impl GpuSolver {
             device,
             &ctx.queue,
             &setup,
+            shapes,
             max_substeps,
             steps_per_substep as u64,
         );

@@ -127,13 +127,16 @@ shared_struct! {
         pub aabb_max: [f32; 4],
         /// The shape's dimensions; a gripper's w: its grip ratio.
         pub shape: [f32; 4],
-        /// x: shape (0 sphere, 1 capsule, 2 box, 3 gripper, 4 needle, 5 slicer); y: 1 sticky.
+        /// x: shape (0 sphere, 1 capsule, 2 box, 3 gripper, 4 needle, 5 slicer, 6 mesh
+        /// slicer); y: 1 sticky; z: a mesh slicer's blade record in `blades` (`blade.rs`).
         pub kind: [u32; 4],
     }
 }
 
 /// `GpuTool::kind.x` of a slicer.
 pub const SLICER_KIND: u32 = 5;
+/// `GpuTool::kind.x` of a slicer from a mesh file.
+pub const MESH_SLICER_KIND: u32 = 6;
 
 /// Every shared struct's WGSL declaration, for the prelude.
 pub const WGSL_STRUCTS: [&str; 5] = [
@@ -192,9 +195,9 @@ impl From<&ToolKinematics> for GpuTool {
                 height,
                 thickness,
             } => ([length, height, thickness, 0.0], SLICER_KIND),
-            Shape::MeshSlicer { .. } => unreachable!(
-                "the GPU backend refuses mesh slicers before packing tools (gpu::unsupported_tool)"
-            ),
+            // The blade itself is uploaded once (`blade.rs`); `Resources` sets kind.z to
+            // its record.
+            Shape::MeshSlicer { thickness, .. } => ([thickness, 0.0, 0.0, 0.0], MESH_SLICER_KIND),
         };
         let (friction, drag, sticky) = match t.contact {
             ContactModel::Coulomb { friction, drag } => (friction, drag, 0),

@@ -15,8 +15,9 @@
 //! A stage's source is then the prelude, `common.wgsl` (stencil, materials, tool SDFs,
 //! contact, boundary, the guard), the P2G accumulation variant, and the stage's own file.
 
+use super::blade;
 use super::grid_update::IMPULSE_WORDS;
-use super::pack::{SLICER_KIND, WGSL_STRUCTS};
+use super::pack::{MESH_SLICER_KIND, SLICER_KIND, WGSL_STRUCTS};
 use super::readback::word;
 use super::resources::{Binding, ARGS_GROUP};
 use super::WG;
@@ -49,6 +50,8 @@ fn prelude(float_p2g: bool, cutting: bool) -> String {
     // Cutting: whether particles carry cracks, and the constants of crack.rs / slicer.rs.
     writeln!(out, "const CUTTING: bool = {cutting};").unwrap();
     writeln!(out, "const SLICER_KIND: u32 = {SLICER_KIND}u;").unwrap();
+    writeln!(out, "const MESH_SLICER_KIND: u32 = {MESH_SLICER_KIND}u;").unwrap();
+    out.push_str(&blade::wgsl_constants());
     writeln!(
         out,
         "const STENCIL_REACH_CELLS: f32 = {STENCIL_REACH_CELLS:?};"

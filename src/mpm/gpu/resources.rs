@@ -4,6 +4,7 @@
 //! Group 0's bindings are listed once, by [`Binding`]: its order is the binding numbers, and
 //! both the bind group layout here and the WGSL declarations of the prelude come from it.
 
+use super::blade;
 use super::grid_update::IMPULSE_WORDS;
 use super::p2g::FIXED_SCALE;
 use super::pack::{self, GpuMaterial, GpuParticle, GpuTool, SimUniform, StepUniform};
@@ -11,6 +12,7 @@ use super::readback::{self, extract_bytes_per_particle, CRACK_BYTES, STATS_BYTES
 use crate::mpm::backend::FramePlan;
 use crate::mpm::grid::Node;
 use crate::mpm::{SolverSetup, TableHold, Vec3, MAX_TOOLS};
+use crate::tools::Shape;
 
 /// The bind group of the indirect dispatch arguments (binding 0 in it).
 pub const ARGS_GROUP: u32 = 1;
@@ -41,10 +43,12 @@ pub enum Binding {
     Extract,
     /// Per particle: its crack n·d (see `crack.wgsl`); a placeholder without a slicer.
     Cracks,
+    /// The mesh slicers' blades (see `blade.rs`); a placeholder without one.
+    Blades,
 }
 
 impl Binding {
-    pub const ALL: [Binding; 14] = [
+    pub const ALL: [Binding; 15] = [
         Binding::Sim,
         Binding::Step,
         Binding::Particles,
@@ -59,6 +63,7 @@ impl Binding {
         Binding::Partials,
         Binding::Extract,
         Binding::Cracks,
+        Binding::Blades,
     ];
 
     /// The variable's name in WGSL.
@@ -78,6 +83,7 @@ impl Binding {
             Binding::Partials => "partials",
             Binding::Extract => "out_pos",
             Binding::Cracks => "cracks",
+            Binding::Blades => "blades",
         }
     }
 
@@ -106,6 +112,7 @@ impl Binding {
             Binding::Partials => "array<f32>",
             Binding::Extract => "array<vec4<f32>>",
             Binding::Cracks => "array<vec4<f32>>",
+            Binding::Blades => "array<vec4<f32>>",
         }
     }
 
@@ -131,7 +138,7 @@ impl Binding {
     }
 }
 
-const _: () = assert!(Binding::ALL.len() == Binding::Cracks as usize + 1);
+const _: () = assert!(Binding::ALL.len() == Binding::Blades as usize + 1);
 
 /// Buffers, bind groups and pipeline layouts of one solver.
 pub struct Resources {
@@ -163,6 +170,9 @@ pub struct Resources {
     pub with_args: wgpu::PipelineLayout,
     /// Bytes between two Step entries (the uniform offset alignment).
     pub step_stride: u64,
+    /// Per tool of the scene, its blade's record in the blades buffer (0 for a tool that
+    /// is not a mesh slicer).
+    blade_at: Vec<u32>,
     tool_scratch: Vec<GpuTool>,
     step_scratch: Vec<u8>,
 }
@@ -251,11 +261,13 @@ fn sim_uniform(setup: &SolverSetup) -> SimUniform {
 
 impl Resources {
     /// Allocates the buffers for `setup` with `steps_per_substep` Step entries a substep,
-    /// uploads the particles, materials and constants, and builds the bind groups.
+    /// uploads the particles, materials, constants and the blades of the mesh slicers
+    /// among `shapes` (the scene's tools in order), and builds the bind groups.
     pub fn new(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         setup: &SolverSetup,
+        shapes: &[Shape],
         max_substeps: u32,
         steps_per_substep: u64,
     ) -> Self {
@@ -305,6 +317,17 @@ impl Resources {
         let crack_bytes = if setup.cutting { n * CRACK_BYTES } else { 0 } as u64;
         let cracks = storage(device, "cracks", crack_bytes, copy);
         let crack_snapshot = storage(device, "frame-start cracks", crack_bytes, copy);
+        // Only a scene with a mesh slicer has blades; the others bind 16 unused bytes.
+        let (blade_data, blade_at) = blade::pack(shapes);
+        let blades = storage(
+            device,
+            "blades",
+            std::mem::size_of_val(blade_data.as_slice()) as u64,
+            copy,
+        );
+        if !blade_data.is_empty() {
+            queue.write_buffer(&blades, 0, bytemuck::cast_slice(&blade_data));
+        }
         let args = storage(device, "indirect args", 16, wgpu::BufferUsages::INDIRECT);
         let sim = uniform(device, "sim", std::mem::size_of::<SimUniform>() as u64);
         let steps = uniform(
@@ -363,6 +386,7 @@ impl Resources {
             Binding::Partials => partials.as_entire_binding(),
             Binding::Extract => extract.as_entire_binding(),
             Binding::Cracks => cracks.as_entire_binding(),
+            Binding::Blades => blades.as_entire_binding(),
         };
         let bind_entries: Vec<_> = Binding::ALL
             .iter()
@@ -411,6 +435,7 @@ impl Resources {
             plain,
             with_args,
             step_stride,
+            blade_at,
             tool_scratch: Vec::new(),
             step_scratch: Vec::new(),
         }
@@ -451,8 +476,17 @@ impl Resources {
             queue.write_buffer(&self.steps, 0, &self.step_scratch);
         }
         self.tool_scratch.clear();
+        let blade_at = &self.blade_at;
         self.tool_scratch
-            .extend(plan.tools.iter().map(GpuTool::from));
+            .extend(plan.tools.iter().enumerate().map(|(i, t)| {
+                let mut tool = GpuTool::from(t);
+                // Substep-major: entry i is tool i mod the tool count.
+                tool.kind[2] = blade_at
+                    .get(i % blade_at.len().max(1))
+                    .copied()
+                    .unwrap_or(0);
+                tool
+            }));
         if !self.tool_scratch.is_empty() {
             queue.write_buffer(&self.tools, 0, bytemuck::cast_slice(&self.tool_scratch));
         }
