@@ -71,10 +71,23 @@ rec.spin_for(0.05)
 fps_during = frames_per_second()
 print("FLOOD_END", flush=True)
 
+# The node drains the flood's backlog at its own frame rate, which a loaded machine slows:
+# wait for the newest command (a value no older command carries) rather than a fixed time,
+# then make sure no older command overrides it afterwards.
+newest = start + 0.00525
+
+
+def insertion():
+    return rec.latest("/PSM1/measured_js").position[2]
+
+
+deadline = time.monotonic() + 15.0
+while abs(insertion() - newest) >= 1e-6 and time.monotonic() < deadline:
+    rclpy.spin_once(rec.node, timeout_sec=0.01)
 rec.spin_for(1.0)
-final = rec.latest("/PSM1/measured_js").position[2]
-check(abs(final - (start + 0.00525)) < 1e-6,
-      f"the newest command is applied: insertion {final:.6f} m, commanded {start + 0.00525:.6f} m")
+final = insertion()
+check(abs(final - newest) < 1e-6,
+      f"the newest command is applied and stays: insertion {final:.6f} m, commanded {newest:.6f} m")
 rate = sent / elapsed
 check(rate > 1000.0, f"flood of {sent} commands at {rate:.0f} Hz")
 check(fps_during >= 0.85 * fps_before,
