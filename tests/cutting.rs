@@ -59,6 +59,21 @@ fn faces(world: &World, start_y: &[f32], start_z: &[f32], depth: f32) -> (f64, f
     (sums[0].0 / sums[0].1 as f64, sums[1].0 / sums[1].1 as f64)
 }
 
+/// The block is two pieces, each exactly one side of the blade's plane y = 0 (no particle
+/// torn off or left behind in the cut); `start_y` holds each particle's starting y.
+fn assert_two_pieces_by_side(world: &World, start_y: &[f32], dx: f32) {
+    let p = world.particles();
+    let labels = pieces::label(&p.x, &p.crack, dx);
+    assert_eq!(labels.iter().max(), Some(&1), "two pieces after the cut");
+    for (i, &l) in labels.iter().enumerate() {
+        assert_eq!(
+            l == labels[0],
+            (start_y[i] > 0.0) == (start_y[0] > 0.0),
+            "particle {i}"
+        );
+    }
+}
+
 #[test]
 fn a_cut_block_ends_in_two_pieces_that_stay_two() {
     let scene = shipped("cutting.toml");
@@ -72,16 +87,7 @@ fn a_cut_block_ends_in_two_pieces_that_stay_two() {
     run_until(&mut world, times.through);
     // Cut through: two pieces, each exactly one side of the blade plane (no particle torn
     // off or left behind in the cut).
-    let p = world.particles();
-    let labels = pieces::label(&p.x, &p.crack, dx as f32);
-    assert_eq!(labels.iter().max(), Some(&1), "two pieces after the cut");
-    for (i, &l) in labels.iter().enumerate() {
-        assert_eq!(
-            l == labels[0],
-            (start_y[i] > 0.0) == (start_y[0] > 0.0),
-            "particle {i}"
-        );
-    }
+    assert_two_pieces_by_side(&world, &start_y, dx as f32);
     // The cut is at most a cell wide: the faces stay within a cell of each other (they
     // started one particle spacing, dx/2, apart).
     let (minus, plus) = faces(&world, &start_y, &start_z, 1.0);
@@ -391,16 +397,7 @@ fn a_pb_mpm_cut_block_ends_in_two_pieces() {
         minus.1 - minus.0 < dx && plus.1 - plus.0 < dx,
         "{minus:?} {plus:?}"
     );
-    let p = world.particles();
-    let labels = pieces::label(&p.x, &p.crack, dx);
-    assert_eq!(labels.iter().max(), Some(&1), "two pieces after the cut");
-    for (i, &l) in labels.iter().enumerate() {
-        assert_eq!(
-            l == labels[0],
-            (start_y[i] > 0.0) == (start_y[0] > 0.0),
-            "particle {i}"
-        );
-    }
+    assert_two_pieces_by_side(&world, &start_y, dx);
 }
 
 /// PB-MPM on after the cut: the spine spreads the cut (0.7–1.1 s) and leaves (1.3 s), and
@@ -560,16 +557,7 @@ fn a_mesh_blade_cuts_the_block_into_two_pieces_that_stay_two() {
     assert_eq!(world.pieces(), 1);
 
     run_until(&mut world, through);
-    let p = world.particles();
-    let labels = pieces::label(&p.x, &p.crack, dx as f32);
-    assert_eq!(labels.iter().max(), Some(&1), "two pieces after the cut");
-    for (i, &l) in labels.iter().enumerate() {
-        assert_eq!(
-            l == labels[0],
-            (start_y[i] > 0.0) == (start_y[0] > 0.0),
-            "particle {i}"
-        );
-    }
+    assert_two_pieces_by_side(&world, &start_y, dx as f32);
     let (minus, plus) = faces(&world, &start_y, &start_z, 1.0);
     println!("faces after the cut: {minus:.5} / {plus:.5} m");
     assert!(plus - minus <= dx, "cut {:.5} m wide", plus - minus);
