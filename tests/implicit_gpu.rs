@@ -105,11 +105,16 @@ fn run_both(scene: &Scene, frames: usize) -> (f32, f32, SolveCounts, SolveCounts
     (diff, moved, sc, sg)
 }
 
-/// Newton counts within one a frame of each other on average, CG within a factor.
+/// Newton counts within one a frame of each other on average or within 10 %, whichever is
+/// more, CG within a factor. The GPU's f32 atomics sum in an order that changes from run to
+/// run, and with it where a residual crosses its tolerance: four runs of the sphere press
+/// on llvmpipe (Mesa 25.0) took 74–81 Newton iterations against the CPU's 78, with positions
+/// within 1.1e-5 m.
 fn assert_counts_comparable(frames: usize, cpu: SolveCounts, gpu: SolveCounts) {
     assert!(cpu.newton > 0 && gpu.newton > 0, "cpu {cpu:?} gpu {gpu:?}");
+    let newton_slack = frames.max(cpu.newton as usize / 10);
     assert!(
-        cpu.newton.abs_diff(gpu.newton) as usize <= frames,
+        cpu.newton.abs_diff(gpu.newton) as usize <= newton_slack,
         "Newton cpu {} gpu {}",
         cpu.newton,
         gpu.newton
