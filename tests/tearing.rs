@@ -16,16 +16,19 @@
 //! band's width, see `damage`) has the toughness, the rest of the sheet cannot tear. At two
 //! cells through the thickness the legs' roots are as likely to tear off as the tear is to
 //! run (a free tear at this resolution took leg B off at its root), and it is the energy
-//! balance of a running tear that this test measures. The legs are stiff (E = 250 kPa,
-//! 1 % strain at G_c·t/2), their bending takes no energy in the steady state.
+//! balance of a running tear that this test measures. The legs hardly stretch (E = 250 kPa,
+//! 1 % strain at G_c·t/2), but they do not bend for free (below).
 //!
 //! Measured: the legs pull with about 4 × G_c·t/2 at dx = 1 mm and 3.6 × at 0.8 mm, and
 //! (with the speed and dx changed for the run) 3.8–4.2 × from 0.02 to 0.16 m/s and 3.6–3.7 ×
-//! at dx = 0.67 and 0.5 mm: the excess depends neither on the rate nor, below 0.8 mm, on
-//! dx, so it is not a drag nor a grid cohesion that fades with the stencil. Nor is the
-//! damaged band wider than the cell the crack band assumes (printed: 0.82 of a cell at
-//! 1 mm, 0.64 at 0.8 mm, torn through); its cause is open (README "Tearing"). The bound below states what the model gives now, not the
-//! issue's target.
+//! at dx = 0.67 and 0.5 mm. The energy audit of the steady half (printed) says where the
+//! work goes at dx = 1 mm: 27 % to the damage law (0.74 G_c per unit of new crack area: the
+//! torn band is 0.82 of a cell wide), 40 % into strain energy the legs keep (they are two
+//! cells thick and bend round a sharp elbow at the tear's root), 33 % to the solver's own
+//! dissipation (APIC transfers and the velocity damping; without toughness it takes 38 % of
+//! the work of stretching the sheet). The excess is the legs' stiffness: the force is linear
+//! in E (0.8 % from a line over 62.5–250 kPa, 2.6e-4 N per kPa) and tends to 0.86 × G_c·t/2
+//! as E → 0, the flexible legs the classical answer assumes.
 //!
 //! **GPU.** The quick tearing scene on both backends, each GPU P2G variant: compared every
 //! frame, the damage (partly damaged particles included) and positions agree, the same
@@ -34,7 +37,8 @@
 use dvrk_tissue_sim::config::{self, Scene, SceneError};
 use dvrk_tissue_sim::mpm::backend::BackendChoice;
 use dvrk_tissue_sim::mpm::cpu::{CpuSolver, SubstepInput};
-use dvrk_tissue_sim::mpm::damage::TORN;
+use dvrk_tissue_sim::mpm::damage::{self, TORN};
+use dvrk_tissue_sim::mpm::material::energy_density;
 use dvrk_tissue_sim::mpm::{
     Boundary, GridLayout, ImplicitParams, Lame, MaterialModel, MaterialParams, Method, P2gAtomics,
     Particles, PbMpmParams, SolverSetup, Vec3,
@@ -71,6 +75,59 @@ struct Trouser {
     band_torn: f64,
     band_damaged: f64,
     substeps: usize,
+    /// The energy audit of the steady second half.
+    energy: EnergyAudit,
+}
+
+/// Where the grips' work over the steady second half of the pull went (J).
+#[derive(Debug, Default)]
+struct EnergyAudit {
+    /// Work of the two leg grips: Σ impulse · grip velocity.
+    work: f64,
+    /// Change of the stored strain energy Σ V₀ ((1 − d) ψ⁺ + ψ⁻).
+    elastic: f64,
+    kinetic: f64,
+    /// Change of the energy the damage law dissipated, Σ V₀ ∫₀ᵈ Y(s) ds.
+    damage: f64,
+    /// How far the tear ran meanwhile (m).
+    advance: f64,
+}
+
+impl EnergyAudit {
+    /// What neither storage nor the damage law took: the solver's own dissipation
+    /// (transfers, velocity damping), ≥ 0 unless energy is created.
+    fn numerical_dissipation(&self) -> f64 {
+        self.work - self.elastic - self.kinetic - self.damage
+    }
+}
+
+/// The stored strain, kinetic and damage-dissipated energies of `p` (J).
+fn energies(p: &Particles, materials: &[MaterialParams], dx: f32) -> [f64; 3] {
+    let mut sums = [0.0f64; 3];
+    for i in 0..p.len() {
+        let m = &materials[p.material[i] as usize];
+        let d = p.damage.get(i).copied().unwrap_or(0.0) as f64;
+        let total = energy_density(m.model, m.lame, &p.f[i]);
+        let tension = damage::split(m, &p.f[i]).tensile_energy as f64;
+        let volume = p.volume0[i] as f64;
+        sums[0] += volume * (total - d * tension);
+        sums[1] += 0.5 * p.mass[i] as f64 * p.v[i].norm_squared() as f64;
+        if m.toughness > 0.0 && d > 0.0 {
+            // d(Y) = 1 − exp(−(Y − Y₀)/Y₀) gives ∫₀ᵈ Y ds = Y₀ (2d + (1 − d) ln(1 − d)).
+            let onset = damage::onset_energy(m.toughness, dx) as f64;
+            let d = d.min(1.0 - 1e-9);
+            sums[2] += volume * onset * (2.0 * d + (1.0 - d) * (1.0 - d).ln());
+        }
+    }
+    sums
+}
+
+/// The largest starting x of a torn tail particle (m).
+fn tear_front(p: &Particles, start: &[Vec3], tail: usize) -> f64 {
+    (0..tail)
+        .filter(|&i| p.damage.get(i).is_some_and(|&d| d >= TORN))
+        .map(|i| start[i].x as f64)
+        .fold(0.0, f64::max)
 }
 
 fn sticky_box(centre: Vec3, half: Vec3, velocity: f64, t: f64, dx: f32) -> ToolKinematics {
@@ -94,8 +151,9 @@ fn sticky_box(centre: Vec3, half: Vec3, velocity: f64, t: f64, dx: f32) -> ToolK
     )
 }
 
-/// Runs the trouser tear at cell size `dx` (m) with toughness `toughness` (0: none).
-fn trouser(dx: f32, toughness: f32) -> Trouser {
+/// Runs the trouser tear at cell size `dx` (m) with toughness `toughness` (0: none) and
+/// Young's modulus `young` (Pa).
+fn trouser(dx: f32, toughness: f32, young: f64) -> Trouser {
     let (t, w) = (THICKNESS, LEG_WIDTH);
     let origin = Vec3::new(-0.006, -0.008, -0.016);
     let layout = GridLayout::new(origin, Vec3::new(0.026, 0.016, 0.034), dx);
@@ -150,7 +208,7 @@ fn trouser(dx: f32, toughness: f32) -> Trouser {
     let start = particles.x.clone();
     let sheet = MaterialParams {
         model: MaterialModel::NeoHookean,
-        lame: Lame::from_young_poisson(YOUNG, 0.3),
+        lame: Lame::from_young_poisson(young, 0.3),
         density: 1000.0,
         damping: 20.0,
         toughness: 0.0,
@@ -178,9 +236,18 @@ fn trouser(dx: f32, toughness: f32) -> Trouser {
     let substeps = (PULL / SPEED / dt as f64).ceil() as usize;
     let grip = 0.002;
     let half_leg = Vec3::new(0.5 * t + dx, 0.5 * w + dx, 0.5 * grip);
+    let materials = [sheet, line];
     let mut sums = [0.0f64; 2];
     let mut steady = 0.0f64;
+    let mut half = ([0.0f64; 3], 0.0f64);
+    let mut work = 0.0f64;
     for s in 0..substeps {
+        if s == substeps / 2 {
+            half = (
+                energies(&solver.particles, &materials, dx),
+                tear_front(&solver.particles, &start, tail),
+            );
+        }
         let time = s as f64 * dt as f64;
         let tools = [
             sticky_box(
@@ -216,6 +283,7 @@ fn trouser(dx: f32, toughness: f32) -> Trouser {
             // The tissue pulls the rising grip down and the sinking one up.
             sums[0] -= stats.tool_impulses[0].linear.z;
             sums[1] += stats.tool_impulses[1].linear.z;
+            work += (stats.tool_impulses[1].linear.z - stats.tool_impulses[0].linear.z) * SPEED;
             steady += dt as f64;
         }
     }
@@ -231,7 +299,15 @@ fn trouser(dx: f32, toughness: f32) -> Trouser {
         .sum::<f64>()
         / n)
         .sqrt();
-    let advance = torn.iter().map(|&i| start[i].x as f64).fold(0.0, f64::max);
+    let advance = tear_front(parts, &start, tail);
+    let end = energies(parts, &materials, dx);
+    let energy = EnergyAudit {
+        work,
+        elastic: end[0] - half.0[0],
+        kinetic: end[1] - half.0[1],
+        damage: end[2] - half.0[2],
+        advance: advance - half.1,
+    };
     let damaged_volume = |least: f32| {
         (0..tail)
             .filter_map(|i| {
@@ -249,6 +325,7 @@ fn trouser(dx: f32, toughness: f32) -> Trouser {
         band_torn: damaged_volume(TORN) / area,
         band_damaged: damaged_volume(0.0) / area,
         substeps,
+        energy,
     }
 }
 
@@ -271,15 +348,29 @@ fn report(dx: f32, r: &Trouser) {
         r.band_damaged * 1e3,
         r.substeps
     );
+    let e = &r.energy;
+    println!(
+        "  steady half: grips' work {:.3e} J = stored strain {:.3e} + kinetic {:.3e} + damage \
+         {:.3e} ({:.2} G_c per unit of new crack area) + the solver's dissipation {:.3e}",
+        e.work,
+        e.elastic,
+        e.kinetic,
+        e.damage,
+        e.damage / (TOUGHNESS as f64 * THICKNESS as f64 * e.advance.max(f64::MIN_POSITIVE)),
+        e.numerical_dissipation()
+    );
 }
 
-/// The steady force of each leg lies between G_c·t/2 and 5 × G_c·t/2 (see the module docs
-/// for the excess), the two legs within 10 % of each other, and with inextensible legs the
-/// tear runs as far as each grip has moved (within 30 %).
+/// The steady force of each leg lies between G_c·t/2 and 5 × G_c·t/2 (the excess is the
+/// legs' strain energy, see the module docs and the next test), the two legs within 10 % of
+/// each other, and with inextensible legs the tear runs as far as each grip has moved (within
+/// 30 %). The energy audit of the steady half closes: the damage law dissipates between 0.5
+/// and 1.1 G_c per unit of new crack area (the band is a little under a cell wide), and the
+/// solver creates no energy.
 #[test]
 fn trouser_tear_force_is_bounded_by_the_toughness() {
     let dx = 0.001;
-    let r = trouser(dx, TOUGHNESS);
+    let r = trouser(dx, TOUGHNESS, YOUNG);
     report(dx, &r);
     let expected = TOUGHNESS as f64 * THICKNESS as f64 / 2.0;
     for f in r.force {
@@ -298,14 +389,73 @@ fn trouser_tear_force_is_bounded_by_the_toughness() {
         r.path_y.abs() < 0.25 * dx as f64,
         "the tear runs along its line"
     );
+    let e = &r.energy;
+    let per_area = e.damage / (TOUGHNESS as f64 * THICKNESS as f64 * e.advance);
+    assert!(
+        e.advance > 0.0 && (0.5..1.1).contains(&per_area),
+        "damage dissipated {per_area} G_c per unit area over an advance of {} m",
+        e.advance
+    );
+    assert!(
+        e.numerical_dissipation() > -0.02 * e.work,
+        "energy created: {e:?}"
+    );
+}
+
+/// The classical trouser answer F = G_c·t/2 assumes legs that bend for free; these legs are
+/// two cells thick and their strain energy grows with E. Run at E = 62.5, 125 and 250 kPa,
+/// the force is close to linear in E, and its E → 0 limit (least squares) lies within 25 % of
+/// G_c·t/2.
+#[test]
+fn trouser_tear_force_tends_to_the_toughness_as_the_legs_soften() {
+    let dx = 0.001;
+    let expected = TOUGHNESS as f64 * THICKNESS as f64 / 2.0;
+    let runs: Vec<(f64, f64)> = [0.25, 0.5, 1.0]
+        .iter()
+        .map(|scale| {
+            let young = YOUNG * scale;
+            let r = trouser(dx, TOUGHNESS, young);
+            println!("E = {:.1} kPa:", young * 1e-3);
+            report(dx, &r);
+            (young, 0.5 * (r.force[0] + r.force[1]))
+        })
+        .collect();
+    let n = runs.len() as f64;
+    let (mean_e, mean_f) = (
+        runs.iter().map(|r| r.0).sum::<f64>() / n,
+        runs.iter().map(|r| r.1).sum::<f64>() / n,
+    );
+    let slope = runs
+        .iter()
+        .map(|(e, f)| (e - mean_e) * (f - mean_f))
+        .sum::<f64>()
+        / runs.iter().map(|(e, _)| (e - mean_e).powi(2)).sum::<f64>();
+    let limit = mean_f - slope * mean_e;
+    let worst_fit = runs
+        .iter()
+        .map(|(e, f)| (f - (limit + slope * e)).abs() / f)
+        .fold(0.0, f64::max);
+    println!(
+        "force per leg → {limit:.4} N as E → 0 ({:.3} G_c·t/2), {:.3e} N per kPa, worst \
+         departure from the line {:.1} %",
+        limit / expected,
+        slope * 1e3,
+        worst_fit * 100.0
+    );
+    assert!(slope > 0.0, "the force grows with the legs' stiffness");
+    assert!(worst_fit < 0.1, "force not linear in E: {runs:?}");
+    assert!(
+        (limit / expected - 1.0).abs() < 0.25,
+        "E → 0 limit {limit} N vs G_c·t/2 = {expected} N"
+    );
 }
 
 /// The tearing force and how far the tear runs converge as dx shrinks: at dx = 1 mm and
 /// 0.8 mm they differ by less than 20 % and one coarse cell.
 #[test]
 fn trouser_tear_converges_with_the_cell_size() {
-    let coarse = trouser(0.001, TOUGHNESS);
-    let fine = trouser(0.0008, TOUGHNESS);
+    let coarse = trouser(0.001, TOUGHNESS, YOUNG);
+    let fine = trouser(0.0008, TOUGHNESS, YOUNG);
     report(0.001, &coarse);
     report(0.0008, &fine);
     for leg in 0..2 {
@@ -326,7 +476,7 @@ fn trouser_tear_converges_with_the_cell_size() {
 /// Without toughness the same pull does not tear: the legs only stretch, and pull harder.
 #[test]
 fn trouser_without_toughness_does_not_tear() {
-    let r = trouser(0.001, 0.0);
+    let r = trouser(0.001, 0.0, YOUNG);
     report(0.001, &r);
     assert_eq!(r.advance, 0.0);
     let expected = TOUGHNESS as f64 * THICKNESS as f64 / 2.0;
