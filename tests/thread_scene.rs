@@ -1,7 +1,8 @@
 //! The suture thread in scenes: `config/thread.toml` headless (a gripper picks the thread up
 //! off the table, lifts it by the grasped point while the rest hangs, opens and it falls
-//! back), a thread-only scene with a pinned end, a capsule pushing a lying thread, and the
-//! thread's topics in a recorded bag.
+//! back), a thread-only scene with a pinned end, a capsule pushing a lying thread, the
+//! thread's topics in a recorded bag, and `config/knot.toml` (a laid overhand knot pulled
+//! tight).
 
 use dvrk_tissue_sim::config;
 use dvrk_tissue_sim::world::World;
@@ -465,5 +466,77 @@ fn a_tail_dragged_across_a_coil_does_not_pass_through_it() {
         closest > 0.8 * diameter,
         "closest approach {} diameters",
         closest / diameter
+    );
+}
+
+/// The knot determinant of the thread's centreline, and how far (m) its knot reaches across
+/// the line of pull: from the ends' mean y down to its lowest y (the lobes lie at −y).
+fn knot_and_depth(world: &World) -> (u128, f32) {
+    let thread = &world.threads()[0];
+    let points = &thread.rod.points;
+    let ends = 0.5 * (points[0].y + points[points.len() - 1].y);
+    let lowest = points.iter().map(|p| p.y).fold(f32::MAX, f32::min);
+    (thread.knot_determinant(), ends - lowest)
+}
+
+/// `config/knot.toml`: an overhand knot laid loosely on the table (det 3), its tails grasped
+/// and pulled apart along x until the knot reaches less than 60 % as far across the line of
+/// pull as laid, then pulled once more (closing it further) and held. Frame by frame no pair of segments passes through another;
+/// the knot determinant reads 3 after the tightening, after the last pull and at the end of
+/// the hold, and the thread stays within 0.1 % of its length.
+#[test]
+fn knot_toml_pulled_tight_and_pulled_again_stays_an_overhand_knot() {
+    // The keyframe times of config/knot.toml: the tightening pull ends, the last pull ends,
+    // the hold ends.
+    const TIGHTENED: f64 = 2.6;
+    const PULLED: f64 = 3.5;
+    const END: f64 = 4.5;
+    let scene = shipped("knot.toml");
+    let mut world = World::new(&scene);
+    let rod = &world.threads()[0].rod;
+    let gap = dvrk_tissue_sim::rod::self_contact::SelfContacts::chain_gap(rod);
+    let diameter = 2.0 * rod.material.radius;
+    let (laid, laid_depth) = knot_and_depth(&world);
+    assert_eq!(laid, 3, "laid as an open overhand knot");
+    let mut largest_elongation = 0.0_f64;
+    let mut checks = Vec::new();
+    for until in [TIGHTENED, PULLED, END] {
+        while world.time() < until - 1e-9 {
+            let before = world.threads()[0].rod.points.clone();
+            world.step_frame().expect("frame");
+            let thread = &world.threads()[0];
+            assert!(thread.rod.is_finite());
+            let crossed = crossings(&before, &thread.rod.points, gap, 4.0 * diameter);
+            assert!(
+                crossed.is_empty(),
+                "at {:.3} s segments (a, b, distance before in m) crossed: {crossed:?}",
+                world.time()
+            );
+            largest_elongation = largest_elongation.max(thread.elongation().abs());
+        }
+        checks.push((until, knot_and_depth(&world)));
+    }
+    println!(
+        "laid: det {laid}, depth {laid_depth:.4} m; (time s, (det, depth m)): {checks:?}; \
+         largest |elongation| {largest_elongation:.2e}"
+    );
+    for (t, (det, _)) in &checks {
+        assert_eq!(*det, 3, "knot determinant at {t} s");
+    }
+    // Measured: 40.2 mm laid, 21.6 mm tightened, 17.0 mm after the last pull, 15.9 mm at
+    // the end of the hold.
+    let tightened_depth = checks[0].1 .1;
+    assert!(
+        tightened_depth < 0.6 * laid_depth,
+        "the pull closes the lobes: depth {tightened_depth} m of {laid_depth} m laid"
+    );
+    let final_depth = checks[2].1 .1;
+    assert!(
+        final_depth < tightened_depth,
+        "the last pull closes them further: depth {final_depth} m, {tightened_depth} m before"
+    );
+    assert!(
+        largest_elongation < 1e-3,
+        "largest elongation {largest_elongation}"
     );
 }
