@@ -112,11 +112,9 @@ fn energies(p: &Particles, materials: &[MaterialParams], dx: f32) -> [f64; 3] {
         let volume = p.volume0[i] as f64;
         sums[0] += volume * (total - d * tension);
         sums[1] += 0.5 * p.mass[i] as f64 * p.v[i].norm_squared() as f64;
-        if m.toughness > 0.0 && d > 0.0 {
-            // d(Y) = 1 − exp(−(Y − Y₀)/Y₀) gives ∫₀ᵈ Y ds = Y₀ (2d + (1 − d) ln(1 − d)).
+        if m.toughness > 0.0 {
             let onset = damage::onset_energy(m.toughness, dx) as f64;
-            let d = d.min(1.0 - 1e-9);
-            sums[2] += volume * onset * (2.0 * d + (1.0 - d) * (1.0 - d).ln());
+            sums[2] += volume * damage::dissipated_energy(d, onset);
         }
     }
     sums

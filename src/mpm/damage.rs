@@ -112,6 +112,20 @@ pub fn softening(tensile_energy: f32, onset: f32) -> f32 {
     }
 }
 
+/// Energy density (J/m³) the softening law has dissipated in bringing a particle's damage
+/// from 0 to `damage`, ∫₀ᵈ Y(s) ds with Y(s) = Y₀ (1 − ln(1 − s)) the inverse of
+/// [`softening`]: Y₀ (2d + (1 − d) ln(1 − d)), which is 2 Y₀ = G_c/dx at d = 1.
+pub fn dissipated_energy(damage: f64, onset: f64) -> f64 {
+    let d = damage.clamp(0.0, 1.0);
+    let remaining = 1.0 - d;
+    let log_term = if remaining > 0.0 {
+        remaining * remaining.ln()
+    } else {
+        0.0
+    };
+    onset * (2.0 * d + log_term)
+}
+
 /// Advances the particle's damage `d` to the deformation `f` (never down) and returns its
 /// degraded Kirchhoff stress (1 − d) τ⁺ + τ⁻ (Pa). `onset` is [`onset_energy`] of the
 /// particle's material, 0 for a material without toughness (which never damages).
@@ -237,6 +251,7 @@ mod tests {
         assert_eq!(onset, 5000.0);
         assert_eq!(softening(onset * 0.99, onset), 0.0);
         // ∫ Y dd over the softening law, numerically: Y₀ + Y_f = 2·onset = G_c/dx.
+        // The closed form `dissipated_energy` agrees with it along the way.
         let mut dissipated = 0.0f64;
         let mut d_prev = 0.0f64;
         for i in 0..200_000 {
@@ -244,12 +259,20 @@ mod tests {
             let d = softening(y as f32, onset) as f64;
             dissipated += y * (d - d_prev);
             d_prev = d;
+            if i == 10_000 {
+                let closed = dissipated_energy(d, onset as f64);
+                assert!(
+                    (dissipated - closed).abs() < 1e-3 * closed,
+                    "at d = {d}: {dissipated} vs {closed}"
+                );
+            }
         }
         let expected = 20.0 / 0.002;
         assert!(
             (dissipated - expected).abs() < 1e-3 * expected,
             "{dissipated} vs {expected}"
         );
+        assert!((dissipated_energy(1.0, onset as f64) - expected).abs() < 1e-9 * expected);
         // Irreversible: unloading keeps the damage reached.
         let m = material(MaterialModel::NeoHookean);
         let stretched = Mat3::from_diagonal(&nalgebra::Vector3::new(1.6, 1.0, 1.0));
