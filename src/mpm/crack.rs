@@ -104,55 +104,130 @@ pub fn any_slicer(tools: &[ToolKinematics]) -> bool {
     tools.iter().any(|t| t.shape.cuts())
 }
 
+/// Padding (cells) of a slicer's cutting box in [`Reaches::meet_box`]: the box is tested in
+/// the world frame there and in the tool's frame by the edge test, and the two frames'
+/// rounding differ by far less than this.
+pub const REACH_PAD_CELLS: f32 = 1e-2;
+
+/// Where one slicer's edge can give a crack this substep: the tool-frame box outside which
+/// its edge test answers nothing (the blade's cutting strip, or a mesh blade's bounding box,
+/// grown by the band), padded by [`REACH_PAD_CELLS`].
+struct Reach<'a> {
+    tool: &'a ToolKinematics,
+    /// The box's half extents in the tool frame (m).
+    half: Vec3,
+    /// Its centre in the world, and the half extents of its world-axis bounding box (m).
+    world_centre: Vec3,
+    world_half: Vec3,
+}
+
+impl Reach<'_> {
+    /// Whether the world box with centre `c` and half extents `e` may meet this reach: it
+    /// does not when the two boxes are apart along a world axis or along one of the tool's
+    /// axes (separating axes; the edge–edge axes are left out, so a few boxes that miss
+    /// are kept, never one that meets).
+    fn meets(&self, c: Vec3, e: Vec3) -> bool {
+        let apart_world = ((c - self.world_centre).abs() - e - self.world_half).max() > 0.0;
+        if apart_world {
+            return false;
+        }
+        let r = &self.tool.rotation;
+        let along = r.tr_mul(&(c - self.world_centre));
+        let reach = r.abs().tr_mul(&e);
+        (along.abs() - reach - self.half).max() <= 0.0
+    }
+}
+
+/// The cutting tools' reaches this substep, in the order of `tools` (the first whose edge
+/// passes a particle gives its crack). Tested against the box of a block of particles,
+/// they spare the block's particles the edge test when no slicer's edge can reach it.
+pub struct Reaches<'a> {
+    reaches: Vec<Reach<'a>>,
+    band: f32,
+    floor: f32,
+}
+
+impl<'a> Reaches<'a> {
+    pub fn new(tools: &'a [ToolKinematics], dx: f32) -> Self {
+        let band = slicer::STENCIL_REACH_CELLS * dx;
+        let pad = REACH_PAD_CELLS * dx;
+        let reaches = tools
+            .iter()
+            .filter_map(|tool| {
+                let (lo, hi) = match tool.shape {
+                    Shape::Slicer { length, height, .. } => {
+                        slicer::cutting_box(length, height, band)
+                    }
+                    Shape::MeshSlicer { file, .. } => file.mesh().cutting_box(band),
+                    _ => return None,
+                };
+                let centre = 0.5 * (lo + hi);
+                let half = (0.5 * (hi - lo)).add_scalar(pad);
+                Some(Reach {
+                    tool,
+                    half,
+                    world_centre: tool.translation + tool.rotation * centre,
+                    world_half: tool.rotation.abs() * half,
+                })
+            })
+            .collect();
+        Reaches {
+            reaches,
+            band,
+            floor: MIN_OFFSET_CELLS * dx,
+        }
+    }
+
+    /// Whether some slicer's edge may give a crack to a particle in the world box
+    /// `lo`–`hi` (m) this substep.
+    pub fn meet_box(&self, lo: Vec3, hi: Vec3) -> bool {
+        let (c, e) = (0.5 * (lo + hi), 0.5 * (hi - lo));
+        self.reaches.iter().any(|r| r.meets(c, e))
+    }
+
+    /// The crack a slicer's edge gives the particle at `x` this substep (see
+    /// [`slicer::edge_passing`] and [`crate::tools::mesh_slicer::BladeMesh::edge_passing`]):
+    /// the blade's local plane, for a particle nearer it than a stencil's reach, in a strip
+    /// along the edge.
+    #[inline(always)]
+    pub fn passing(&self, x: Vec3) -> Option<Vec3> {
+        let (band, floor) = (self.band, self.floor);
+        self.reaches.iter().find_map(|&Reach { tool, .. }| {
+            let local = tool.rotation.tr_mul(&(x - tool.translation));
+            match tool.shape {
+                Shape::Slicer { length, height, .. } => {
+                    slicer::edge_passing(local, length, height, band).map(|side| {
+                        let sign = if side < 0.0 { -1.0 } else { 1.0 };
+                        let normal = tool.rotation.column(1).into_owned() * sign;
+                        normal * side.abs().max(floor)
+                    })
+                }
+                Shape::MeshSlicer { file, .. } => file
+                    .mesh()
+                    .edge_passing(local, band)
+                    .map(|(normal, distance)| tool.rotation * normal * distance.max(floor)),
+                _ => None,
+            }
+        })
+    }
+}
+
 /// Gives each uncut particle that a slicer's edge passes this substep the blade's plane as
-/// its crack (see [`passing`]).
+/// its crack (see [`Reaches::passing`]), testing every particle. The solver tests only the
+/// particles of grid blocks a reach meets (`CpuSolver::mark_cuts`).
 pub fn mark(tools: &[ToolKinematics], x: &[Vec3], crack: &mut [Vec3], dx: f32) {
+    let reaches = Reaches::new(tools, dx);
     crack
         .par_iter_mut()
         .zip(x.par_iter())
         .with_min_len(1024)
         .for_each(|(crack, x)| {
             if *crack == Vec3::zeros() {
-                if let Some(new) = passing(tools, *x, dx) {
+                if let Some(new) = reaches.passing(*x) {
                     *crack = new;
                 }
             }
         });
-}
-
-/// Whether any particle at `x` is where a slicer's edge passes (so that the crack state is
-/// only allocated, and the transfers only test it, once something is cut).
-pub fn any_passing(tools: &[ToolKinematics], x: &[Vec3], dx: f32) -> bool {
-    x.par_iter()
-        .with_min_len(1024)
-        .any(|x| passing(tools, *x, dx).is_some())
-}
-
-/// The crack a slicer's edge gives the particle at `x` this substep (see
-/// [`slicer::edge_passing`] and [`crate::tools::mesh_slicer::BladeMesh::edge_passing`]): the
-/// blade's local plane, for a particle nearer it than a stencil's reach, in a strip along
-/// the edge.
-#[inline(always)]
-fn passing(tools: &[ToolKinematics], x: Vec3, dx: f32) -> Option<Vec3> {
-    let band = slicer::STENCIL_REACH_CELLS * dx;
-    let floor = MIN_OFFSET_CELLS * dx;
-    tools.iter().find_map(|tool| {
-        let local = || tool.rotation.tr_mul(&(x - tool.translation));
-        match tool.shape {
-            Shape::Slicer { length, height, .. } => {
-                slicer::edge_passing(local(), length, height, band).map(|side| {
-                    let sign = if side < 0.0 { -1.0 } else { 1.0 };
-                    let normal = tool.rotation.column(1).into_owned() * sign;
-                    normal * side.abs().max(floor)
-                })
-            }
-            Shape::MeshSlicer { file, .. } => file
-                .mesh()
-                .edge_passing(local(), band)
-                .map(|(normal, distance)| tool.rotation * normal * distance.max(floor)),
-            _ => None,
-        }
-    })
 }
 
 /// The crack carried through one substep of the velocity gradient `c` (1/s): the normal
@@ -305,6 +380,47 @@ mod tests {
             );
         }
         assert!(cut_stencils > 200, "{cut_stencils} cut stencils");
+    }
+
+    #[test]
+    fn a_block_no_edge_reaches_is_skipped_and_none_an_edge_reaches_is() {
+        let dx = 0.002;
+        let mut state = 4242u32;
+        let mut uniform = || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (state >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let (mut passed, mut skipped) = (0, 0);
+        for _ in 0..200 {
+            let mut tool = blade(360.0 * uniform() as f64);
+            let axis = Vec3::new(uniform() - 0.5, uniform() - 0.5, uniform() - 0.5).normalize();
+            tool.rotation = nalgebra::Rotation3::from_axis_angle(
+                &nalgebra::Unit::new_normalize(axis),
+                6.0 * uniform(),
+            )
+            .into_inner();
+            let tools = [tool];
+            let reaches = Reaches::new(&tools, dx);
+            for _ in 0..200 {
+                // A block of the grid's size (five cells with its margin) somewhere within
+                // 30 mm of the blade, and a particle in it.
+                let lo = tools[0].translation
+                    + Vec3::new(uniform() - 0.5, uniform() - 0.5, uniform() - 0.5) * 0.06;
+                let hi = lo + Vec3::repeat(5.0 * dx);
+                let x = lo + Vec3::new(uniform(), uniform(), uniform()) * 5.0 * dx;
+                let met = reaches.meet_box(lo, hi);
+                if reaches.passing(x).is_some() {
+                    passed += 1;
+                    assert!(met, "{lo:?} {x:?}");
+                }
+                skipped += usize::from(!met);
+            }
+        }
+        // Both answers are exercised, and most blocks this far out are skipped.
+        assert!(
+            passed > 50 && skipped > 20_000,
+            "{passed} passed, {skipped} skipped"
+        );
     }
 
     #[test]

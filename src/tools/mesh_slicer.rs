@@ -265,6 +265,15 @@ impl BladeMesh {
         (self.aabb_min, self.aabb_max)
     }
 
+    /// The tool-frame box outside which [`Self::edge_passing`] answers `None` for this
+    /// `band`: the surface's bounding box grown by it, least and greatest corner (m).
+    pub fn cutting_box(&self, band: f32) -> (Vec3, Vec3) {
+        (
+            self.aabb_min.add_scalar(-band),
+            self.aabb_max.add_scalar(band),
+        )
+    }
+
     /// The cutting edge's segments (tool frame, m).
     pub fn cutting_edges(&self) -> &[[Vec3; 2]] {
         &self.cutting_edges

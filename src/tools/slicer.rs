@@ -48,6 +48,15 @@ pub fn edge_passing(p: Vec3, length: f32, height: f32, band: f32) -> Option<f32>
     covered.then_some(p.y)
 }
 
+/// The tool-frame box outside which [`edge_passing`] answers `None` for this `band`: the
+/// strip along the edge, least and greatest corner (m).
+pub fn cutting_box(length: f32, height: f32, band: f32) -> (Vec3, Vec3) {
+    (
+        Vec3::new(-0.5 * length, -band, -height),
+        Vec3::new(0.5 * length, band, band - height),
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -93,6 +93,88 @@ fn axis_offsets(layout: &GridLayout, base: super::IVec3) -> [[usize; 3]; 3] {
     out
 }
 
+/// Spreads one particle's momentum over its stencil (P2G's inner loop): node i gets
+/// w·(`momentum` + Q·i) and w·`m`, with Q·i = a·q₀ + b·q₁ + c·q₂ built up axis by axis so
+/// that the inner loop only adds; nodes for which `across` holds (the far side of the
+/// particle's crack) get nothing.
+///
+/// # Safety
+/// Every node `offs` addresses must lie in `grid`, and no other thread may write them
+/// meanwhile.
+#[inline(always)]
+unsafe fn scatter(
+    grid: *mut [f32; 4],
+    offs: &[[usize; 3]; 3],
+    s: &Stencil,
+    m: f32,
+    momentum: Vec3,
+    q: [Vec3; 3],
+    across: impl Fn(usize, usize, usize) -> bool,
+) {
+    let mut qa = momentum;
+    for a in 0..3 {
+        let mut qab = qa;
+        for b in 0..3 {
+            let wab = s.w[a].x * s.w[b].y;
+            let mut qabc = qab;
+            for c in 0..3 {
+                if across(a, b, c) {
+                    qabc += q[2];
+                    continue;
+                }
+                let w = wab * s.w[c].z;
+                let contrib = qabc * w;
+                let node = &mut *grid.add(offs[0][a] + offs[1][b] + offs[2][c]);
+                node[0] += contrib.x;
+                node[1] += contrib.y;
+                node[2] += contrib.z;
+                node[3] += w * m;
+                qabc += q[2];
+            }
+            qab += q[1];
+        }
+        qa += q[0];
+    }
+}
+
+/// Gathers one particle's stencil (G2P's inner loop): Σ w·v, and B's columns
+/// [Σ a·wv, Σ b·wv, Σ c·wv]; at nodes for which `across` holds (the far side of the
+/// particle's crack) the particle's own velocity `own` stands for the node's.
+#[inline(always)]
+fn gather(
+    grid: &[[f32; 4]],
+    offs: &[[usize; 3]; 3],
+    s: &Stencil,
+    own: Vec3,
+    across: impl Fn(usize, usize, usize) -> bool,
+) -> (Vec3, [Vec3; 3]) {
+    let mut v = Vec3::zeros();
+    let (mut b0, mut b1, mut b2) = (Vec3::zeros(), Vec3::zeros(), Vec3::zeros());
+    for a in 0..3 {
+        let mut sum_a = Vec3::zeros();
+        for bb in 0..3 {
+            let wab = s.w[a].x * s.w[bb].y;
+            let mut sum_b = Vec3::zeros();
+            for c in 0..3 {
+                let node = grid[offs[0][a] + offs[1][bb] + offs[2][c]];
+                let node_v = if across(a, bb, c) {
+                    own
+                } else {
+                    Vec3::new(node[0], node[1], node[2])
+                };
+                let wv = node_v * (wab * s.w[c].z);
+                sum_b += wv;
+                b2 += wv * c as f32;
+            }
+            sum_a += sum_b;
+            b1 += sum_b * bb as f32;
+        }
+        v += sum_a;
+        b0 += sum_a * a as f32;
+    }
+    (v, [b0, b1, b2])
+}
+
 impl CpuSolver {
     pub fn new(setup: SolverSetup) -> Self {
         let layout = setup.layout;
@@ -130,14 +212,16 @@ impl CpuSolver {
 
     pub fn substep(&mut self, input: &SubstepInput) -> SubstepStats {
         assert!(input.tools.len() <= MAX_TOOLS, "at most {MAX_TOOLS} tools");
-        self.mark_cuts(input.tools);
-        if self.method == Method::PbMpm {
-            return self.pb_substep(input, self.pb_mpm);
-        }
         if self.method == Method::Implicit {
+            // The implicit substep bins the particles itself: its marking tests them all.
+            self.mark_cuts(input.tools, false);
             return self.implicit_substep(input);
         }
         self.bin_particles();
+        self.mark_cuts(input.tools, true);
+        if self.method == Method::PbMpm {
+            return self.pb_substep(input, self.pb_mpm);
+        }
         self.clear_touched_blocks();
         let stress_scale = -input.dt * 4.0 * self.layout.inv_dx * self.layout.inv_dx;
         self.particle_to_grid(Some(stress_scale), self.method.affine_transfer());
@@ -154,19 +238,67 @@ impl CpuSolver {
 
     /// Cracks where a slicer's edge passes (see [`crack`]). The crack state is allocated
     /// when the edge first reaches a particle; without a slicer this costs one scan of the
-    /// tools.
-    fn mark_cuts(&mut self, tools: &[ToolKinematics]) {
+    /// tools. With `binned` (the bins hold this substep's positions) only the particles of
+    /// blocks a slicer's reach meets are tested, so a slicer far from the tissue costs a
+    /// test per occupied block, and one cutting it the particles near its edge.
+    fn mark_cuts(&mut self, tools: &[ToolKinematics], binned: bool) {
         if !crack::any_slicer(tools) {
             return;
         }
+        let layout = self.layout;
+        let reaches = crack::Reaches::new(tools, layout.dx);
+        let bins = &self.bins;
+        let near: Vec<&[u32]> = if binned {
+            // A particle of block b has its stencil base in nodes 4b..4b+3 along each axis,
+            // so it lies within cells 4b + [0.5, 4.5) of the origin; half a cell more
+            // either side covers the base's truncation at the domain's low edge.
+            let bs = super::grid::BLOCK as f32;
+            bins.by_color
+                .iter()
+                .flatten()
+                .map(|r| &bins.order[r.start as usize..r.end as usize])
+                .filter(|ps| {
+                    let key = bins.key[ps[0] as usize] as usize;
+                    let b = Vec3::from(layout.block_coords(key).map(|c| c as f32));
+                    let lo = layout.origin + b * (bs * layout.dx);
+                    reaches.meet_box(lo, lo + Vec3::repeat((bs + 1.0) * layout.dx))
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         let parts = &mut self.particles;
+        let x = &parts.x[..];
         if parts.crack.len() != parts.len() {
-            if !crack::any_passing(tools, &parts.x, self.layout.dx) {
+            let any = if binned {
+                near.par_iter()
+                    .any(|ps| ps.iter().any(|&p| reaches.passing(x[p as usize]).is_some()))
+            } else {
+                x.par_iter()
+                    .with_min_len(1024)
+                    .any(|&x| reaches.passing(x).is_some())
+            };
+            if !any {
                 return;
             }
             parts.crack = vec![Vec3::zeros(); parts.len()];
         }
-        crack::mark(tools, &parts.x, &mut parts.crack, self.layout.dx);
+        if !binned {
+            crack::mark(tools, x, &mut parts.crack, layout.dx);
+            return;
+        }
+        let cracks = SharedMut(parts.crack.as_mut_ptr());
+        near.par_iter().for_each(|ps| {
+            for &p in ps.iter() {
+                // SAFETY: each particle index appears once in the bins' order.
+                let crack = unsafe { &mut *cracks.ptr().add(p as usize) };
+                if *crack == Vec3::zeros() {
+                    if let Some(new) = reaches.passing(x[p as usize]) {
+                        *crack = new;
+                    }
+                }
+            }
+        });
     }
 
     /// Whether particles carry cracks: P2G and G2P then test each node against them; a
@@ -304,33 +436,22 @@ impl CpuSolver {
                         q.column(2).into_owned(),
                     );
                     let offs = axis_offsets(&layout, s.base);
-                    let mut qa = momentum;
-                    for a in 0..3 {
-                        let mut qab = qa;
-                        for b in 0..3 {
-                            let wab = s.w[a].x * s.w[b].y;
-                            let mut qabc = qab;
-                            for c in 0..3 {
-                                if cut.is_some_and(|cut| cut.across(a, b, c)) {
-                                    qabc += q2;
-                                    continue;
-                                }
-                                let w = wab * s.w[c].z;
-                                let contrib = qabc * w;
-                                let idx = offs[0][a] + offs[1][b] + offs[2][c];
-                                // SAFETY: blocks of one colour write disjoint node sets (see `binning`),
-                                // and `idx` is inside the grid because particles are kept within
-                                // `particle_bounds`.
-                                let node = unsafe { &mut *grid.0.add(idx) };
-                                node[0] += contrib.x;
-                                node[1] += contrib.y;
-                                node[2] += contrib.z;
-                                node[3] += w * m;
-                                qabc += q2;
+                    let grid = grid.0;
+                    // SAFETY: blocks of one colour write disjoint node sets (see `binning`),
+                    // and every node is inside the grid because particles are kept within
+                    // `particle_bounds`. A particle whose stencil the crack does not cross
+                    // takes the loop without the side test (monomorphised apart).
+                    unsafe {
+                        match cut {
+                            Some(cut) => {
+                                scatter(grid, &offs, &s, m, momentum, [q0, q1, q2], |a, b, c| {
+                                    cut.across(a, b, c)
+                                })
                             }
-                            qab += q1;
+                            None => {
+                                scatter(grid, &offs, &s, m, momentum, [q0, q1, q2], |_, _, _| false)
+                            }
                         }
-                        qa += q0;
                     }
                 }
             });
@@ -445,31 +566,14 @@ impl CpuSolver {
                         let offs = axis_offsets(&layout, s.base);
                         // B = Σ w v (i − fx)ᵀ = [Σ a·wv, Σ b·wv, Σ c·wv] − v fxᵀ: the per-node work
                         // is a few adds instead of an outer product.
-                        let mut v = Vec3::zeros();
-                        let (mut b0, mut b1, mut b2) =
-                            (Vec3::zeros(), Vec3::zeros(), Vec3::zeros());
-                        for a in 0..3 {
-                            let mut sum_a = Vec3::zeros();
-                            for bb in 0..3 {
-                                let wab = s.w[a].x * s.w[bb].y;
-                                let mut sum_b = Vec3::zeros();
-                                for c in 0..3 {
-                                    let node = grid[offs[0][a] + offs[1][bb] + offs[2][c]];
-                                    let node_v = if cut.is_some_and(|cut| cut.across(a, bb, c)) {
-                                        vs[i]
-                                    } else {
-                                        Vec3::new(node[0], node[1], node[2])
-                                    };
-                                    let wv = node_v * (wab * s.w[c].z);
-                                    sum_b += wv;
-                                    b2 += wv * c as f32;
-                                }
-                                sum_a += sum_b;
-                                b1 += sum_b * bb as f32;
+                        // A particle whose stencil the crack does not cross takes the loop
+                        // without the side test (monomorphised apart).
+                        let (mut v, [b0, b1, b2]) = match cut {
+                            Some(cut) => {
+                                gather(grid, &offs, &s, vs[i], |a, b, c| cut.across(a, b, c))
                             }
-                            v += sum_a;
-                            b0 += sum_a * a as f32;
-                        }
+                            None => gather(grid, &offs, &s, vs[i], |_, _, _| false),
+                        };
                         let b = Mat3::from_columns(&[b0, b1, b2]) - v * s.fx.transpose();
                         // APIC: C = B·D⁻¹ with D = dx²/4·I; offsets are in grid units.
                         let c_new = b * (4.0 * layout.inv_dx);

@@ -60,13 +60,12 @@ pub fn project_elastic(c: &Mat3, f: &Mat3, dt: f32, step: f32) -> Mat3 {
 }
 
 impl CpuSolver {
-    /// One PB-MPM substep (module docs).
+    /// One PB-MPM substep (module docs), on particles the caller has binned.
     pub(super) fn pb_substep(&mut self, input: &SubstepInput, params: PbMpmParams) -> SubstepStats {
         let later = SubstepInput {
             gravity: Vec3::zeros(),
             ..*input
         };
-        self.bin_particles();
         let mut tool_impulses = [ToolImpulse::default(); MAX_TOOLS];
         let iterations = params.iterations.max(1);
         let mut end = (0.0, 0, None);
