@@ -78,6 +78,9 @@ pub struct RodFrameReport {
     pub table_contacts: u32,
     pub tool_contacts: u32,
     pub self_contacts: u32,
+    /// Substeps in which the move of some points was scaled back because it would have
+    /// passed a strand through another (`crossing`).
+    pub substeps_held_back: u32,
     /// Largest |strain| of any segment at the end of the frame.
     pub max_strain: f32,
 }

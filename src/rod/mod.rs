@@ -5,9 +5,11 @@
 //! points and one frame quaternion per segment, `constraints` linearises stretch-shear and
 //! bend-twist, `direct` solves them together along the chain each iteration, `solver` runs
 //! the substeps, `environment` adds the table, tools and grasps a frame meets and
-//! `self_contact` keeps the thread from passing through itself.
+//! `self_contact` keeps the thread from passing through itself, and `crossing` scales back the
+//! length restoration after the contacts wherever it would pull a strand through another.
 
 pub mod constraints;
+pub mod crossing;
 pub mod direct;
 pub mod environment;
 pub mod material;

@@ -27,10 +27,17 @@
 //!    side normal to 2r on its start side, however far it went. A plain distance constraint
 //!    alone would push a crossed pair on through. No candidate is ever skipped: the pair
 //!    that passed through furthest is the one that most needs its correction.
+//! 4. Whether a pair passed through is also known exactly (`crossing`): its centrelines met
+//!    an odd number of times on the straight way from the substep's start. This catches
+//!    what the end test of step 3 cannot: a taut strand pulled through a *bent* joint
+//!    (the lines' closest points land beyond both segments' ends) and pairs turned nearly
+//!    parallel (no line parameters). It is tested once per broad phase, and again in the
+//!    passes for pairs within two diameters, which a neighbour's push may have moved through.
 //!
 //! Segments fewer than `2 + 4r/l` apart along the chain never collide: their rest distance
 //! is below a diameter, and the bending stiffness keeps the thread from folding that tight.
 
+use super::crossing::pair_crossed;
 use super::environment::friction_correction;
 use super::state::Rod;
 use crate::mpm::Vec3;
@@ -54,6 +61,10 @@ struct Candidate {
     b: u32,
     /// The side to keep, from a towards b, taken at the substep's start.
     side: Side,
+    /// Whether the centrelines crossed on the way from the substep's start to where the
+    /// solve put them (`crossing`): true where the side test below cannot tell, through a
+    /// bent joint or a pair turned nearly parallel.
+    crossed: bool,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -83,6 +94,44 @@ impl SelfContacts {
 
     /// Candidate pairs for the substep from `start` to the rod's current points.
     pub fn detect(&mut self, rod: &Rod, start: &[Vec3]) {
+        let r = rod.material.radius;
+        self.swept_pairs(rod, start);
+        self.candidates.clear();
+        for &(a, b) in &self.pairs {
+            let (ai, bi) = (a as usize, b as usize);
+            let (s, t) = closest_parameters(start[ai], start[ai + 1], start[bi], start[bi + 1]);
+            let xa = start[ai] + (start[ai + 1] - start[ai]) * s;
+            let xb = start[bi] + (start[bi + 1] - start[bi]) * t;
+            let d = xb - xa;
+            let (ea, eb) = (start[ai + 1] - start[ai], start[bi + 1] - start[bi]);
+            let c = ea.cross(&eb);
+            let side = if c.norm() > PARALLEL_SINE * ea.norm() * eb.norm() {
+                // (x_b − x_a)·c is the same for any two points of the lines: the signed
+                // distance of b's line from a's. Exactly 0 (lines meeting: segments flat
+                // on a table, end to side) leaves either side free; pick one.
+                let c = c.normalize();
+                Side::Crossing(if d.dot(&c) < 0.0 { -c } else { c })
+            } else {
+                match d.try_normalize(1e-3 * r) {
+                    Some(n) => Side::Parallel(n),
+                    // Parallel and touching along their length: no side to keep.
+                    None => continue,
+                }
+            };
+            let crossed = pair_crossed(start, &rod.points, ai, bi, 2.0 * r);
+            self.candidates.push(Candidate {
+                a,
+                b,
+                side,
+                crossed,
+            });
+        }
+    }
+
+    /// Broad phase: the pairs of segments, at least `chain_gap` apart along the chain, whose
+    /// boxes swept from `start` to the rod's current points (grown by a diameter and half
+    /// their motion) overlap, sorted and without repeats.
+    pub(crate) fn swept_pairs(&mut self, rod: &Rod, start: &[Vec3]) -> &[(u32, u32)] {
         let n = rod.segments();
         let r = rod.material.radius;
         let gap = Self::chain_gap(rod);
@@ -157,30 +206,7 @@ impl SelfContacts {
         }
         self.pairs.sort_unstable();
         self.pairs.dedup();
-        self.candidates.clear();
-        for &(a, b) in &self.pairs {
-            let (ai, bi) = (a as usize, b as usize);
-            let (s, t) = closest_parameters(start[ai], start[ai + 1], start[bi], start[bi + 1]);
-            let xa = start[ai] + (start[ai + 1] - start[ai]) * s;
-            let xb = start[bi] + (start[bi + 1] - start[bi]) * t;
-            let d = xb - xa;
-            let (ea, eb) = (start[ai + 1] - start[ai], start[bi + 1] - start[bi]);
-            let c = ea.cross(&eb);
-            let side = if c.norm() > PARALLEL_SINE * ea.norm() * eb.norm() {
-                // (x_b − x_a)·c is the same for any two points of the lines: the signed
-                // distance of b's line from a's. Exactly 0 (lines meeting: segments flat
-                // on a table, end to side) leaves either side free; pick one.
-                let c = c.normalize();
-                Side::Crossing(if d.dot(&c) < 0.0 { -c } else { c })
-            } else {
-                match d.try_normalize(1e-3 * r) {
-                    Some(n) => Side::Parallel(n),
-                    // Parallel and touching along their length: no side to keep.
-                    None => continue,
-                }
-            };
-            self.candidates.push(Candidate { a, b, side });
-        }
+        &self.pairs
     }
 
     /// Candidate pairs found by the last `detect`.
@@ -201,6 +227,10 @@ impl SelfContacts {
             let p = &rod.points;
             let (s, t) = closest_parameters(p[a], p[a + 1], p[b], p[b + 1]);
             let d = (p[b] + (p[b + 1] - p[b]) * t) - (p[a] + (p[a + 1] - p[a]) * s);
+            // Passes move points by less than a diameter, but pushing one pair apart can push
+            // a neighbouring pair through: near pairs are tested afresh.
+            let crossed =
+                c.crossed || (d.norm() < 2.0 * diameter && pair_crossed(start, p, a, b, diameter));
             // The side normal now: for crossing segments their current common normal,
             // oriented as at the start (a substep turns a segment by far less than 90°).
             let (side_normal, passed) = match c.side {
@@ -228,14 +258,17 @@ impl SelfContacts {
                         let (ma, mb) = (margin(ea), margin(eb));
                         ls > -ma && ls < 1.0 + ma && lt > -mb && lt < 1.0 + mb
                     });
-                    (normal, through && d.dot(&normal) < 0.0)
+                    (normal, (through || crossed) && d.dot(&normal) < 0.0)
                 }
                 Side::Parallel(n0) => {
                     // Parallel segments that slid past each other's ends are beside each
                     // other, not through: their closest points are offset along the chain.
                     let along = d.dot(&n0);
                     let sideways = (d - n0 * along).norm();
-                    (n0, along < 0.0 && sideways <= diameter + 0.5 * d.norm())
+                    (
+                        n0,
+                        along < 0.0 && (crossed || sideways <= diameter + 0.5 * d.norm()),
+                    )
                 }
             };
             let (n, depth) = if passed {
