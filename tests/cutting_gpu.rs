@@ -136,16 +136,10 @@ fn scene_cut_agrees(scene: SceneOf, method: Method, p2g: P2gAtomics, position_to
     // (measured over 8 runs on llvmpipe: 99 % within 0.7–3.6e-3 rad, the worst 2.1e-3 to
     // 1.03e-2 rad; fixed point, which is deterministic: 6.9e-4 and 2.1e-3 rad). The normals
     // turn by at most 1.1e-2 rad in this scene, so this catches a wrong plane, not a missing
-    // turn; `mpm::crack`'s unit tests check the turn itself. The mesh blade with f32 atomics
-    // once reached 6.0e-3 rad for 99 % (positions 3.8e-5 m): the 99 % bound for f32 atomics
-    // is 1e-2 rad, for the deterministic fixed point 5e-3 rad.
-    let p99_bound = match p2g {
-        P2gAtomics::Float => 1e-2,
-        _ => 5e-3,
-    };
+    // turn; `mpm::crack`'s unit tests check the turn itself.
     assert!(
-        p99_angle < p99_bound,
-        "99 % of crack normals agree within {p99_angle} rad, not {p99_bound}"
+        p99_angle < 5e-3,
+        "99 % of crack normals agree within {p99_angle} rad, not 5e-3"
     );
     assert!(
         worst_angle < 3e-2,
