@@ -111,7 +111,10 @@ fn run_both(scene: &Scene, frames: usize) -> (f32, f32, SolveCounts, SolveCounts
 /// on llvmpipe (Mesa 25.0) took 74–81 Newton iterations against the CPU's 78, with positions
 /// within 1.1e-5 m.
 fn assert_counts_comparable(frames: usize, cpu: SolveCounts, gpu: SolveCounts) {
-    assert!(cpu.newton > 0 && gpu.newton > 0, "cpu {cpu:?} gpu {gpu:?}");
+    assert!(
+        cpu.newton > 0 && gpu.newton > 0 && cpu.cg > 0 && gpu.cg > 0,
+        "cpu {cpu:?} gpu {gpu:?}"
+    );
     let newton_slack = frames.max(cpu.newton as usize / 10);
     assert!(
         cpu.newton.abs_diff(gpu.newton) as usize <= newton_slack,

@@ -21,11 +21,14 @@
 //! Constraints (`constraints`): a node a tool, the table or a wall acts on has the
 //! velocity components they prescribe fixed for the solve (projected CG: the residual,
 //! the search directions and the preconditioner are projected onto the free components).
-//! After the solve each node holds the solution along its free components and, along its
-//! prescribed ones, the velocity v* + dt·f(v)/m it would reach without the constraint; the
-//! explicit solver's own grid update (`update_grid`) then applies grips, contact with
-//! friction, table and walls and records the tools' impulses, and G2P advects: the same
-//! grid update, with the elastic force taken at the end of the step instead of its start.
+//! A node with one prescribed direction (the normal of a tool, the table or a wall) slides
+//! along the surface, and the surface's Coulomb friction and drag act on it inside the
+//! solve, as a dissipation potential in Φ (`slip`). After the solve a free node enters the
+//! grid update with the solution, a constrained one with the velocity v* + dt·f(v)/m it
+//! would reach without its constraint; the explicit solver's grid update (`update_grid_with`)
+//! then ends a node with one prescribed direction at the solution and records what its
+//! tool took, applies the explicit rules (grips, contact with friction, table, walls) to a
+//! fully prescribed one, and G2P advects.
 //!
 //! The constraints are chosen from v*; a node that the solution then moves into a tool,
 //! the table or a wall joins them (`activate_constraints`: its approaching component is
@@ -46,14 +49,17 @@
 
 mod constraints;
 pub mod hessian;
+pub mod slip;
 
-use super::{axis_offsets, CpuSolver, SharedMut, SubstepInput};
+use super::{axis_offsets, CpuSolver, SharedMut, SolvedContact, SubstepInput};
 use crate::mpm::grid::{GridLayout, NODES_PER_BLOCK};
 use crate::mpm::kernel::Stencil;
 use crate::mpm::material::{energy_density, first_piola, J_MIN};
 use crate::mpm::{ImplicitParams, Mat3, Preconditioner, SolveCounts, SubstepStats, Vec3};
+use constraints::Surface;
 use hessian::{velocity_gradient_stiffness, Mat9};
 use rayon::prelude::*;
+use slip::{Slip, SLIP_THRESHOLD};
 
 /// Buffers of the implicit solve: node arrays indexed like the grid (only the nodes of the
 /// touched blocks are read or written), particle arrays indexed like the particles.
@@ -81,6 +87,11 @@ pub struct Workspace {
     prescribed: Vec<Vec3>,
     /// Surface normal of a node with one prescribed direction (see `constraints`).
     normal: Vec<Vec3>,
+    /// The surface such a node slides on, and its friction weight λ = μ·N (N·s; `slip`).
+    surface: Vec<Surface>,
+    slip_weight: Vec<f32>,
+    /// The slip threshold ε of this substep (m/s).
+    slip_threshold: f32,
     /// Diagonal Hessian block, then the preconditioner (its projected inverse).
     block: Vec<Mat3>,
     /// Per particle: velocity-gradient stiffness (see `hessian`).
@@ -91,6 +102,10 @@ pub struct Workspace {
     /// elastic forces added, dt·f/m), kept for the next substep's warm start; zero outside
     /// `correction_blocks`.
     correction: Vec<Vec3>,
+    /// The normal impulse N (N·s) a surface gave each node with one prescribed direction at
+    /// the end of the last substep, zero elsewhere: the next substep's first friction
+    /// weights (`slip`); zero outside `correction_blocks`.
+    carried_impulse: Vec<f32>,
     /// The blocks the last substep touched: where `correction` may be non-zero.
     correction_blocks: Vec<u32>,
 }
@@ -115,7 +130,10 @@ impl Workspace {
                 *v = vec![Vec3::zeros(); nodes];
             }
             self.mass = vec![0.0; nodes];
+            self.slip_weight = vec![0.0; nodes];
+            self.surface = vec![Surface::still(); nodes];
             self.correction = vec![Vec3::zeros(); nodes];
+            self.carried_impulse = vec![0.0; nodes];
             self.correction_blocks.clear();
             self.free = vec![Mat3::zeros(); nodes];
             self.block = vec![Mat3::zeros(); nodes];
@@ -189,7 +207,17 @@ impl CpuSolver {
         self.clear_touched_blocks();
         self.particle_to_grid(None, true);
         let solve = self.solve_velocities(input);
-        let tool_impulses = self.update_grid(input);
+        // A node with one prescribed direction ends at the solution, friction included;
+        // the grid update records what its surface took.
+        let ws = std::mem::take(&mut self.implicit_work);
+        let tool_impulses = self.update_grid_with(input, |i| {
+            (ws.mass[i] > 0.0 && ws.normal[i].norm_squared() > 0.0).then(|| SolvedContact {
+                velocity: ws.v[i],
+                tool: ws.surface[i].tool,
+                part: ws.surface[i].part,
+            })
+        });
+        self.implicit_work = ws;
         let (max_speed, clamped_particles, guard) = self.grid_to_particle(input.dt, true);
         SubstepStats {
             tool_impulses,
@@ -301,18 +329,23 @@ impl CpuSolver {
             }
             energy = self.evaluate(&mut ws, dt, true);
         }
-        // Momentum for the grid update. Free components: the solution v (recomputing them as
+        // Momentum for the grid update. Free nodes: the solution v (recomputing it as
         // v* − (∂E/∂v)/m would divide the solve's residual by the node mass: on stiff
-        // tissue, centimetres per second of noise). Prescribed components: v* − (∂E/∂v)/m,
-        // the velocity the node would have without its constraint, so that the grid
-        // update's contact sees it arrive and records the impulse the tool takes.
+        // tissue, centimetres per second of noise). Constrained nodes: v* − (∂E/∂v)/m, the
+        // velocity the node would have without its constraint and friction, so that the
+        // grid update records the impulse its surface takes (a node with one prescribed
+        // direction then takes the solution, see `implicit_substep`; a fully prescribed one
+        // the explicit contact rules).
         let grid = SharedMut(self.grid.as_mut_ptr());
         let gravity = input.gravity;
         self.for_each_node(|i| {
             let m = ws.mass[i];
             if m > 0.0 {
-                let unconstrained = ws.v_star[i] - ws.elastic_grad[i] / m;
-                let v = end_velocity(&ws.free[i], &ws.normal[i], &ws.v[i], &unconstrained);
+                let v = if ws.free[i].trace() > 2.5 {
+                    ws.v[i]
+                } else {
+                    ws.v_star[i] - ws.elastic_grad[i] / m
+                };
                 let p = (v - gravity * dt) * m;
                 // SAFETY: `for_each_node` visits each node once.
                 unsafe { *grid.at(i) = [p.x, p.y, p.z, m] };
@@ -355,41 +388,53 @@ impl CpuSolver {
             if c.free.trace() > free.trace() - 0.5 {
                 return 0.0;
             }
-            *out.free.at(i) = c.free;
-            *out.prescribed.at(i) = c.prescribed;
-            *out.normal.at(i) = c.normal;
-            *out.v.at(i) = c.free * v + c.prescribed;
+            out.constrain(i, &c, v, 0.0);
             1.0
         });
         count as usize
     }
 
-    /// Stores v − v* of this substep's solution for the next warm start (zero where the
-    /// last substep stored one and this one touches nothing).
+    /// Stores v − v* of this substep's solution for the next warm start, and the normal
+    /// impulse n·(m(v − v*) + ∂E/∂v) each surface gave its nodes for the next substep's
+    /// friction weights (zero where the last substep stored them and this one touches
+    /// nothing).
     fn keep_correction(&self, ws: &mut Workspace) {
         for &b in &ws.correction_blocks {
             let start = b as usize * NODES_PER_BLOCK;
             ws.correction[start..start + NODES_PER_BLOCK].fill(Vec3::zeros());
+            ws.carried_impulse[start..start + NODES_PER_BLOCK].fill(0.0);
         }
         let correction = SharedMut(ws.correction.as_mut_ptr());
+        let carried = SharedMut(ws.carried_impulse.as_mut_ptr());
         let (mass, v, v_star, free) = (&ws.mass, &ws.v, &ws.v_star, &ws.free);
+        let (normal, elastic_grad) = (&ws.normal, &ws.elastic_grad);
         self.for_each_node(|i| {
-            let c = if mass[i] > 0.0 {
-                free[i] * (v[i] - v_star[i])
+            let m = mass[i];
+            let (c, n) = if m > 0.0 {
+                let reaction = (v[i] - v_star[i]) * m + elastic_grad[i];
+                (
+                    free[i] * (v[i] - v_star[i]),
+                    normal[i].dot(&reaction).max(0.0),
+                )
             } else {
-                Vec3::zeros()
+                (Vec3::zeros(), 0.0)
             };
             // SAFETY: `for_each_node` visits each node once.
-            unsafe { *correction.at(i) = c };
+            unsafe {
+                *correction.at(i) = c;
+                *carried.at(i) = n;
+            }
         });
         ws.correction_blocks.clone_from(&self.bins.touched);
     }
 
     /// v*, the constraints, and the warm start v = S v* + prescribed.
     fn prepare_nodes(&self, ws: &mut Workspace, input: &SubstepInput) {
+        ws.slip_threshold = SLIP_THRESHOLD * self.layout.dx / input.dt;
         let layout = self.layout;
         let boundary = self.boundary;
         let grid = &self.grid;
+        let carried = std::mem::take(&mut ws.carried_impulse);
         let out = NodeWriter::new(ws);
         self.for_each_node(|i| {
             let node = grid[i];
@@ -408,12 +453,10 @@ impl CpuSolver {
                 let c =
                     constraints::node_constraint(input.tools, &layout, &boundary, ijk, x, v_star);
                 *out.v_star.at(i) = v_star;
-                *out.free.at(i) = c.free;
-                *out.prescribed.at(i) = c.prescribed;
-                *out.normal.at(i) = c.normal;
-                *out.v.at(i) = c.free * v_star + c.prescribed;
+                out.constrain(i, &c, v_star, carried[i]);
             }
         });
+        ws.carried_impulse = carried;
     }
 
     /// Φ at `ws.v`; ∂E/∂v into `elastic_grad`, the projected ∇Φ into `grad`, and with
@@ -488,21 +531,30 @@ impl CpuSolver {
                 })
                 .sum::<f64>();
         }
+        let threshold = ws.slip_threshold;
         let out = NodeWriter::new(ws);
-        let kinetic = self.sum_nodes(|i| unsafe {
+        let nodal = self.sum_nodes(|i| unsafe {
             let m = *out.mass.at(i);
             if m <= 0.0 {
                 return 0.0;
             }
-            let dv = *out.v.at(i) - *out.v_star.at(i);
+            let v = *out.v.at(i);
+            let dv = v - *out.v_star.at(i);
             let free = *out.free.at(i);
-            *out.grad.at(i) = free * (dv * m + *out.elastic_grad.at(i));
+            let mut g = dv * m + *out.elastic_grad.at(i);
+            let mut d = Mat3::identity() * m;
+            let mut dissipation = 0.0;
+            if let Some(slip) = out.slip(i, threshold) {
+                let terms = slip.terms(&v);
+                g += terms.gradient;
+                d += terms.hessian;
+                dissipation = terms.energy;
+            }
+            *out.grad.at(i) = free * g;
             if hessian {
-                let d = if precondition {
-                    *out.block.at(i) + Mat3::identity() * m
-                } else {
-                    Mat3::identity() * m
-                };
+                if precondition {
+                    d += *out.block.at(i);
+                }
                 // Inverse on the free subspace: (S D S + I − S)⁻¹ restricted by S.
                 let restricted = free * d * free + (Mat3::identity() - free);
                 let inv = restricted
@@ -510,9 +562,9 @@ impl CpuSolver {
                     .unwrap_or_else(|| Mat3::identity() / m);
                 *out.block.at(i) = free * inv * free;
             }
-            0.5 * m as f64 * dv.norm_squared() as f64
+            0.5 * m as f64 * dv.norm_squared() as f64 + dissipation
         });
-        kinetic + elastic
+        nodal + elastic
     }
 
     /// Φ at velocities `v` (no derivatives); infinite where a step would crush a particle
@@ -535,14 +587,22 @@ impl CpuSolver {
                 parts.volume0[p] as f64 * energy_density(mat.model, mat.lame, &f)
             })
             .sum();
-        let kinetic = self.sum_nodes(|i| {
+        let nodal = self.sum_nodes(|i| {
             let m = ws.mass[i];
             if m <= 0.0 {
                 return 0.0;
             }
+            let slip = slip_of(
+                m,
+                ws.normal[i],
+                &ws.surface[i],
+                ws.slip_weight[i],
+                ws.slip_threshold,
+            );
             0.5 * m as f64 * (v[i] - ws.v_star[i]).norm_squared() as f64
+                + slip.map_or(0.0, |s| s.energy(&v[i]))
         });
-        kinetic + elastic
+        nodal + elastic
     }
 
     /// Warm start: of v* (the last step's velocities as the particles carried them, plus
@@ -695,11 +755,17 @@ impl CpuSolver {
                 unsafe { *product.at(i) += q * d };
             }
         });
+        let threshold = ws.slip_threshold;
         let out = NodeWriter::new(ws);
         self.for_each_node(|i| unsafe {
             let m = *out.mass.at(i);
             let free = *out.free.at(i);
-            *out.product.at(i) = free * (*out.product.at(i) + *out.direction.at(i) * m);
+            let d = *out.direction.at(i);
+            let mut q = *out.product.at(i) + d * m;
+            if let Some(slip) = out.slip(i, threshold) {
+                q += slip.terms(&*out.v.at(i)).hessian * d;
+            }
+            *out.product.at(i) = free * q;
         });
     }
 }
@@ -732,23 +798,21 @@ pub fn forcing_term(norm: f64, previous: Option<(f64, f64)>, goal: f64, loosest:
     eta.max(0.5 * goal / norm).min(loosest)
 }
 
-/// The velocity a node enters the grid update with: the solution `v` along its free
-/// components; along prescribed ones `unconstrained` (v* + dt·f/m, what the node would do
-/// without the constraint), so that contact sees the node arrive and records the tool's
-/// impulse. A single prescribed direction (contact, table, wall) takes `unconstrained` only
-/// while it approaches the surface: a node the solve's constraint holds back from leaving
-/// (an adhesive impulse, most often the f32 rounding of a stiff force divided by a small
-/// node mass) keeps the solution and is released in the next substep, when v* leaves.
+/// The slip term of a node of mass `m` with surface normal `normal` (zero: none), sliding
+/// on `surface` with friction weight `weight`.
 #[inline(always)]
-fn end_velocity(free: &Mat3, normal: &Vec3, v: &Vec3, unconstrained: &Vec3) -> Vec3 {
-    if normal.norm_squared() > 0.0 {
-        let (arriving, held) = (normal.dot(unconstrained), normal.dot(v));
-        return free * v + normal * arriving.min(held);
+fn slip_of(m: f32, normal: Vec3, surface: &Surface, weight: f32, threshold: f32) -> Option<Slip> {
+    if normal.norm_squared() == 0.0 {
+        return None;
     }
-    if free.trace() > 2.5 {
-        return *v;
-    }
-    *unconstrained
+    let slip = Slip {
+        normal,
+        surface: surface.velocity,
+        friction: weight,
+        drag: m * surface.drag / (1.0 - surface.drag),
+        threshold,
+    };
+    (!slip.is_none()).then_some(slip)
 }
 
 /// Raw pointers to the workspace's node arrays for the node loops, each of which writes
@@ -768,6 +832,8 @@ struct NodeWriter {
     free: SharedMut<Mat3>,
     prescribed: SharedMut<Vec3>,
     normal: SharedMut<Vec3>,
+    surface: SharedMut<Surface>,
+    slip_weight: SharedMut<f32>,
     block: SharedMut<Mat3>,
 }
 
@@ -788,6 +854,8 @@ impl NodeWriter {
             free: SharedMut(ws.free.as_mut_ptr()),
             prescribed: SharedMut(ws.prescribed.as_mut_ptr()),
             normal: SharedMut(ws.normal.as_mut_ptr()),
+            surface: SharedMut(ws.surface.as_mut_ptr()),
+            slip_weight: SharedMut(ws.slip_weight.as_mut_ptr()),
             block: SharedMut(ws.block.as_mut_ptr()),
         }
     }
@@ -815,6 +883,41 @@ impl NodeWriter {
         }
         *self.free.at(i) = Mat3::zeros();
         *self.block.at(i) = Mat3::zeros();
+        *self.surface.at(i) = Surface::still();
+        *self.slip_weight.at(i) = 0.0;
+    }
+
+    /// Sets node `i`'s constraint `c`, chosen at velocity `v`, and projects `v` onto it
+    /// into the iterate. Its friction weight is μ times the normal impulse `carried` over
+    /// from the last substep where that was one, else the impulse that stops `v` at the
+    /// surface (a node arriving), until the solve gives a better one.
+    ///
+    /// # Safety
+    /// No other thread may touch node `i` meanwhile.
+    unsafe fn constrain(&self, i: usize, c: &constraints::NodeConstraint, v: Vec3, carried: f32) {
+        let m = *self.mass.at(i);
+        let arrival = m * (c.surface.velocity - v).dot(&c.normal).max(0.0);
+        let impulse = if carried > 0.0 { carried } else { arrival };
+        *self.free.at(i) = c.free;
+        *self.prescribed.at(i) = c.prescribed;
+        *self.normal.at(i) = c.normal;
+        *self.surface.at(i) = c.surface;
+        *self.slip_weight.at(i) = c.surface.friction * impulse;
+        *self.v.at(i) = c.free * v + c.prescribed;
+    }
+
+    /// The slip term of node `i` (see `slip`), if it has one.
+    ///
+    /// # Safety
+    /// No other thread may write node `i` meanwhile.
+    unsafe fn slip(&self, i: usize, threshold: f32) -> Option<Slip> {
+        slip_of(
+            *self.mass.at(i),
+            *self.normal.at(i),
+            &*self.surface.at(i),
+            *self.slip_weight.at(i),
+            threshold,
+        )
     }
 }
 

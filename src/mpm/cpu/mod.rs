@@ -459,6 +459,17 @@ impl CpuSolver {
     }
 
     fn update_grid(&mut self, input: &SubstepInput) -> [ToolImpulse; MAX_TOOLS] {
+        self.update_grid_with(input, |_| None)
+    }
+
+    /// The grid update, where `solved` gives the velocity an implicit solve already settled
+    /// a node in contact at (`SolvedContact`): such a node takes it, and the momentum it
+    /// loses on the way is recorded as its tool's impulse.
+    fn update_grid_with(
+        &mut self,
+        input: &SubstepInput,
+        solved: impl Fn(usize) -> Option<SolvedContact> + Sync + Send,
+    ) -> [ToolImpulse; MAX_TOOLS] {
         let layout = self.layout;
         let boundary = self.boundary;
         let grid = SharedMut(self.grid.as_mut_ptr());
@@ -488,9 +499,18 @@ impl CpuSolver {
                         let ijk = layout.node_coords(b as usize, local);
                         let x = layout.node_position(ijk);
                         let mut v = Vec3::new(node[0], node[1], node[2]) / m + gravity * dt;
-                        v = match hold_node(tools, x, v, m, &mut impulses) {
-                            Some(held) => held,
-                            None => apply_tools(tools, x, v, m, &mut impulses),
+                        v = if let Some(settled) = solved(b as usize * NODES_PER_BLOCK + local) {
+                            if let Some(tool) = tools.get(settled.tool as usize) {
+                                let dp = ((v - settled.velocity) * m).cast::<f64>();
+                                let t = settled.tool as usize;
+                                record_contact(tool, t, x, settled.part, dp, &mut impulses);
+                            }
+                            settled.velocity
+                        } else {
+                            match hold_node(tools, x, v, m, &mut impulses) {
+                                Some(held) => held,
+                                None => apply_tools(tools, x, v, m, &mut impulses),
+                            }
                         };
                         v = apply_boundary(&layout, &boundary, ijk, x, v);
                         *node = [v.x, v.y, v.z, m];
@@ -689,20 +709,44 @@ fn apply_tools(
     let v_new = contact::resolve(tool.contact, v, v_tool, hit.normal, hit.tangent);
     // Momentum the tool takes from the tissue: the opposite of what it gives the node.
     let dp = ((v - v_new) * m).cast::<f64>();
+    record_contact(tool, t, x, hit.part, dp, impulses);
+    v_new
+}
+
+/// Adds the momentum `dp` that tool `t` takes from the node at `x` (touching tool part
+/// `part`) to the tool's impulse.
+#[inline(always)]
+fn record_contact(
+    tool: &ToolKinematics,
+    t: usize,
+    x: Vec3,
+    part: u8,
+    dp: nalgebra::Vector3<f64>,
+    impulses: &mut [ToolImpulse; MAX_TOOLS],
+) {
     let arm = (x - tool.translation).cast::<f64>();
     let imp = &mut impulses[t];
     let torque = arm.cross(&dp);
     imp.linear += dp;
     imp.angular += torque;
     imp.contact_nodes += 1;
-    if hit.part != 0 {
+    if part != 0 {
         // Jaw k turns by jaw_angle(k, θ) about the hinge (the tool's x axis): the opening θ
         // takes that share of the torque about it.
         let hinge = tool.rotation.column(0).into_owned().cast::<f64>();
-        let share = crate::tools::sdf::jaw_angle(hit.part, 1.0) as f64;
+        let share = crate::tools::sdf::jaw_angle(part, 1.0) as f64;
         imp.jaw_opening += share * torque.dot(&hinge);
     }
-    v_new
+}
+
+/// A node the implicit solve settled in contact with a surface: its velocity at the end of
+/// the step, and the tool it touches (index `tool`, part `part`), or an index past the
+/// tools for the table or a wall.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SolvedContact {
+    pub velocity: Vec3,
+    pub tool: u8,
+    pub part: u8,
 }
 
 /// Table plane and slip walls at the domain faces.

@@ -23,6 +23,8 @@ pub const IMPULSE_WORDS: usize = 16;
 
 pub struct GridUpdateStage {
     grid_update: wgpu::ComputePipeline,
+    /// The grid update after an implicit solve, which settles the nodes in contact itself.
+    grid_update_implicit: wgpu::ComputePipeline,
     reduce: wgpu::ComputePipeline,
 }
 
@@ -31,12 +33,19 @@ impl GridUpdateStage {
         let module = b.module("grid_update", SOURCE);
         GridUpdateStage {
             grid_update: b.pipeline(&module, "grid_update", false),
+            grid_update_implicit: b.pipeline(&module, "grid_update_implicit", false),
             reduce: b.pipeline(&module, "reduce_impulses", false),
         }
     }
 
     pub fn record(&self, pass: &mut wgpu::ComputePass, groups: &Groups) {
         pass.set_pipeline(&self.grid_update);
+        pass.dispatch_workgroups_indirect(groups.active_blocks, 0);
+    }
+
+    /// Records the grid update that follows `implicit.wgsl`'s `im_finish`.
+    pub fn record_implicit(&self, pass: &mut wgpu::ComputePass, groups: &Groups) {
+        pass.set_pipeline(&self.grid_update_implicit);
         pass.dispatch_workgroups_indirect(groups.active_blocks, 0);
     }
 

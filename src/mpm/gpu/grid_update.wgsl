@@ -12,6 +12,18 @@ var<workgroup> wg_val: array<f32, NODES_PER_BLOCK * IMPULSE_WORDS>;
 
 @compute @workgroup_size(NODES_PER_BLOCK)
 fn grid_update(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    update_block(wid, lid, false);
+}
+
+// After an implicit solve: a node the solve settled in contact (`im_finish` left its
+// velocity in `grid_v`, w ≠ 0) takes that velocity, friction included, and the momentum it
+// loses on the way is its tool's impulse (cpu `update_grid_with`).
+@compute @workgroup_size(NODES_PER_BLOCK)
+fn grid_update_implicit(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    update_block(wid, lid, true);
+}
+
+fn update_block(wid: vec3<u32>, lid: u32, settled_by_solve: bool) {
     if (lid == 0u) {
         wg_guard = select(0u, 1u, guard_tripped());
         atomicStore(&wg_contacts, 0u);
@@ -36,9 +48,27 @@ fn grid_update(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_
         let x = sim.origin_dx.xyz + vec3<f32>(ijk) * sim.origin_dx.w;
         let p = vec3<f32>(acc_load_p(at_node), acc_load_p(at_node + 1u), acc_load_p(at_node + 2u));
         var v = p / m + st.gravity.xyz * st.dt;
+        var settled = vec4<f32>(0.0);
+        if (settled_by_solve) {
+            settled = grid_v[node];
+        }
+        var handled = settled.w != 0.0;
+        if (settled.w > 0.0) {
+            let code = u32(settled.w) - 1u;
+            hit_tool = code / 8u;
+            let tool = tools[st.substep * sim.n_tools + hit_tool];
+            dp = (v - settled.xyz) * m;
+            dl = cross(x - tool.trans.xyz, dp);
+            if (code % 8u != 0u) {
+                jaw_opening = jaw_angle(code % 8u, 1.0) * dot(dl, tool.rot[0]);
+            }
+            atomicAdd(&wg_contacts, 1u);
+        }
+        if (handled) {
+            v = settled.xyz;
+        }
         // The grip of the first gripper that holds the node (cpu `hold_node`).
-        var held = false;
-        for (var t = 0u; t < sim.n_tools && !held; t++) {
+        for (var t = 0u; t < sim.n_tools && !handled; t++) {
             let tool = tools[st.substep * sim.n_tools + t];
             if (tool.shape.w < 0.0) {
                 continue;
@@ -62,14 +92,14 @@ fn grid_update(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_
             grip_lever = m * region.x;
             v = v_held;
             hit_tool = t;
-            held = true;
+            handled = true;
             atomicAdd(&wg_contacts, 1u);
         }
         // Nearest tool the node is inside of.
         var best_depth = 0.0;
         var best_hit: Hit;
         for (var t = 0u; t < sim.n_tools; t++) {
-            if (held) {
+            if (handled) {
                 break;
             }
             let tool = tools[st.substep * sim.n_tools + t];
@@ -83,7 +113,7 @@ fn grid_update(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_
                 best_hit = hit;
             }
         }
-        if (hit_tool != NO_TOOL && !held) {
+        if (hit_tool != NO_TOOL && !handled) {
             let tool = tools[st.substep * sim.n_tools + hit_tool];
             let v_tool = surface_velocity(tool, x, best_hit.part);
             let v_new = resolve(tool.kind.y == 1u, tool.aabb_min.w, tool.aabb_max.w, v, v_tool,

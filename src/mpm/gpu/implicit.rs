@@ -65,8 +65,8 @@ pub const SOURCE: &str = include_str!("implicit.wgsl");
 /// CG iterations recorded between two looks at whether CG has stopped.
 pub const CG_CHUNK: u32 = 8;
 
-/// Bytes per node of `ImNode` (11 vec4 and two mat3x3) and of the accumulators.
-const NODE_BYTES: u64 = 11 * 16 + 2 * 48;
+/// Bytes per node of `ImNode` (13 vec4 and two mat3x3) and of the accumulators.
+const NODE_BYTES: u64 = 13 * 16 + 2 * 48;
 const ACC_BYTES: u64 = 16 * 4;
 const SCALAR_WORDS: usize = 32;
 
@@ -483,7 +483,7 @@ impl GpuSolver {
         let counts = self.implicit_newton(s, &params, scales);
         self.implicit_pass(s, false, |pass, im, g| {
             nodes(pass, &im.pipelines.finish, g);
-            self.grid_update.record(pass, g);
+            self.grid_update.record_implicit(pass, g);
             self.g2p.record(pass, g);
             self.grid_update.record_reduce(pass);
         });

@@ -18,6 +18,13 @@ struct ImNode {
     // xyz: v − v* along the free components at the end of a substep; w: that substep's
     // epoch (bits), so that only the last substep's correction is read.
     correction: vec4<f32>,
+    // With one prescribed direction, the surface the node slides on (cpu `Surface`): xyz
+    // its velocity, w the friction weight λ = μ·N (N·s); and x μ, y drag, z the tool index
+    // (bits; NO_TOOL for the table or a wall), w the tool part (bits). `normal.w` holds the
+    // normal impulse the surface gave the node at the end of the substep, for the next
+    // substep's friction weight.
+    surface: vec4<f32>,
+    slip: vec4<f32>,
     free: mat3x3<f32>,
     // The diagonal Hessian block while evaluating, then the preconditioner.
     block: mat3x3<f32>,
@@ -535,10 +542,20 @@ struct Constraint {
     free: mat3x3<f32>,
     prescribed: vec3<f32>,
     normal: vec3<f32>,
+    // The surface a node with one prescribed direction slides on: its velocity, and μ,
+    // drag, tool index (bits) and tool part (bits) as in `ImNode.slip`.
+    surface: vec3<f32>,
+    slip: vec4<f32>,
+}
+
+// A fixed, frictionless surface (a wall).
+fn still_surface() -> vec4<f32> {
+    return vec4<f32>(0.0, 0.0, bitcast<f32>(NO_TOOL), 0.0);
 }
 
 fn fixed_at(v: vec3<f32>) -> Constraint {
-    return Constraint(mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0)), v, vec3<f32>(0.0));
+    return Constraint(mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0)), v, vec3<f32>(0.0),
+                      vec3<f32>(0.0), still_surface());
 }
 
 // Which components tools, the table and the walls prescribe (constraints.rs).
@@ -559,6 +576,8 @@ fn node_constraint(ijk: vec3<u32>, x: vec3<f32>, v_star: vec3<f32>) -> Constrain
     var normals: array<vec3<f32>, 4>;
     var count = 0u;
     var v = v_star;
+    var surface = vec3<f32>(0.0);
+    var slip = still_surface();
     var hit_tool = NO_TOOL;
     var best: Hit;
     for (var t = 0u; t < sim.n_tools; t++) {
@@ -580,10 +599,13 @@ fn node_constraint(ijk: vec3<u32>, x: vec3<f32>, v_star: vec3<f32>) -> Constrain
         }
         if (dot(v - v_tool, best.normal) < 0.0) {
             v = resolve(false, tool.aabb_min.w, tool.aabb_max.w, v, v_tool, best.normal, best.tangent);
-            if (dot(best.tangent, best.tangent) > 0.0) {
+            if (dot(best.tangent, best.tangent) > 0.0 || tool.aabb_max.w >= 1.0) {
                 return fixed_at(v);
             }
             normals[count] = best.normal;
+            surface = v_tool;
+            slip = vec4<f32>(tool.aabb_min.w, tool.aabb_max.w, bitcast<f32>(hit_tool),
+                             bitcast<f32>(best.part));
             count += 1u;
         }
     }
@@ -595,6 +617,9 @@ fn node_constraint(ijk: vec3<u32>, x: vec3<f32>, v_star: vec3<f32>) -> Constrain
         if (v.z < 0.0) {
             v.z = 0.0;
             normals[count] = vec3<f32>(0.0, 0.0, 1.0);
+            if (count == 0u) {
+                slip.x = sim.table.y;
+            }
             count += 1u;
         }
     }
@@ -612,14 +637,29 @@ fn node_constraint(ijk: vec3<u32>, x: vec3<f32>, v_star: vec3<f32>) -> Constrain
         }
     }
     if (count == 0u) {
-        return Constraint(ID3, vec3<f32>(0.0), vec3<f32>(0.0));
+        return Constraint(ID3, vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), still_surface());
     }
     if (count == 1u) {
         let n = normals[0];
         let nn = mat3x3<f32>(n * n.x, n * n.y, n * n.z);
-        return Constraint(ID3 - nn, n * dot(n, v), n);
+        return Constraint(ID3 - nn, n * dot(n, v), n, surface, slip);
     }
     return fixed_at(v);
+}
+
+// Node `n` of mass `m` under constraint `c` chosen at velocity `v` (cpu `NodeWriter::constrain`),
+// `v` projected onto it as the iterate; its friction weight is μ times the normal impulse
+// `carried` over from the last substep where that was one, else the impulse that stops `v`
+// at the surface.
+fn constrain(n: ptr<function, ImNode>, m: f32, c: Constraint, v: vec3<f32>, carried: f32) {
+    let arrival = m * max(dot(c.surface - v, c.normal), 0.0);
+    let impulse = select(arrival, carried, carried > 0.0);
+    (*n).free = c.free;
+    (*n).prescribed = vec4<f32>(c.prescribed, 0.0);
+    (*n).normal = vec4<f32>(c.normal, 0.0);
+    (*n).surface = vec4<f32>(c.surface, c.slip.x * impulse);
+    (*n).slip = c.slip;
+    (*n).v = vec4<f32>(c.free * v + c.prescribed, 0.0);
 }
 
 // One workgroup per active block: mass and v*, the constraints, v = S v* + prescribed and
@@ -637,6 +677,7 @@ fn im_prepare(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_i
     var node: ImNode;
     let zero = mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
     node.free = zero;
+    node.slip = still_surface();
     node.block = zero;
     node.correction = im_nodes[i].correction;
     node.v_star = vec4<f32>(0.0, 0.0, 0.0, m);
@@ -645,12 +686,12 @@ fn im_prepare(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_i
         let x = sim.origin_dx.xyz + vec3<f32>(ijk) * sim.origin_dx.w;
         let p = vec3<f32>(acc_load_p(at), acc_load_p(at + 1u), acc_load_p(at + 2u));
         let v_star = p / m + st.gravity.xyz * st.dt;
-        let c = node_constraint(ijk, x, v_star);
         node.v_star = vec4<f32>(v_star, m);
-        node.free = c.free;
-        node.prescribed = vec4<f32>(c.prescribed, 0.0);
-        node.normal = vec4<f32>(c.normal, 0.0);
-        node.v = vec4<f32>(c.free * v_star + c.prescribed, 0.0);
+        // The last substep's normal impulse (`im_finish`), where it touched the node.
+        let last = im_nodes[i];
+        let carried = select(0.0, last.normal.w,
+                             bitcast<u32>(last.correction.w) + 1u == atomicLoad(&im_scal[I_EPOCH]));
+        constrain(&node, m, node_constraint(ijk, x, v_star), v_star, carried);
         node.trial = node.prescribed;
     }
     im_nodes[i] = node;
@@ -665,7 +706,7 @@ fn im_prepare(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_i
 fn im_activate(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let b = active_blocks[wid.x];
     let i = b * NODES_PER_BLOCK + lid;
-    let n = im_nodes[i];
+    var n = im_nodes[i];
     let free_now = n.free[0][0] + n.free[1][1] + n.free[2][2];
     // Fully prescribed nodes have nothing left to constrain.
     if (n.v_star.w <= 0.0 || free_now < 0.5) {
@@ -677,10 +718,8 @@ fn im_activate(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_
     if (c.free[0][0] + c.free[1][1] + c.free[2][2] > free_now - 0.5) {
         return;
     }
-    im_nodes[i].free = c.free;
-    im_nodes[i].prescribed = vec4<f32>(c.prescribed, 0.0);
-    im_nodes[i].normal = vec4<f32>(c.normal, 0.0);
-    im_nodes[i].v = vec4<f32>(c.free * n.v.xyz + c.prescribed, 0.0);
+    constrain(&n, n.v_star.w, c, n.v.xyz, 0.0);
+    im_nodes[i] = n;
     atomicAdd(&im_scal[I_ACTIVATED], 1u);
 }
 
@@ -695,6 +734,55 @@ fn im_trial_correction(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_inv
         corr = n.correction.xyz;
     }
     im_nodes[i].trial = vec4<f32>(n.free * (n.v_star.xyz + corr) + n.prescribed.xyz, 0.0);
+}
+
+// ---- friction and drag of a node sliding on a surface (cpu `implicit::slip`) ----
+
+struct SlipTerms {
+    energy: f32,
+    gradient: vec3<f32>,
+    hessian: mat3x3<f32>,
+}
+
+fn outer(a: vec3<f32>, b: vec3<f32>) -> mat3x3<f32> {
+    return mat3x3<f32>(a * b.x, a * b.y, a * b.z);
+}
+
+// D, ∇D and ∇²D of node `n` at velocity `v`: λf₀(|u|) + ½κ|u|² of the tangential velocity u
+// relative to its surface; zero for a node without one prescribed direction.
+fn slip_terms(n: ImNode, v: vec3<f32>) -> SlipTerms {
+    var out: SlipTerms;
+    let normal = n.normal.xyz;
+    if (dot(normal, normal) == 0.0) {
+        return out;
+    }
+    let lambda = n.surface.w;
+    let kappa = n.v_star.w * n.slip.y / (1.0 - n.slip.y);
+    if (lambda <= 0.0 && kappa <= 0.0) {
+        return out;
+    }
+    let eps = SLIP_THRESHOLD * sim.origin_dx.w / st.dt;
+    let rel = v - n.surface.xyz;
+    let u = rel - normal * dot(normal, rel);
+    let s = length(u);
+    // f₀(s), f₁(s)/s and the coefficient of ûûᵀ, f₁′(s) − f₁(s)/s.
+    var f0 = s;
+    var f1_over_s = 1.0 / s;
+    var along = -1.0 / s;
+    if (s < eps) {
+        f0 = s * s / eps - s * s * s / (3.0 * eps * eps) + eps / 3.0;
+        f1_over_s = (2.0 - s / eps) / eps;
+        along = -s / (eps * eps);
+    }
+    var unit = vec3<f32>(0.0);
+    if (s > 0.0) {
+        unit = u / s;
+    }
+    out.energy = lambda * f0 + 0.5 * kappa * s * s;
+    out.gradient = u * (lambda * f1_over_s + kappa);
+    out.hessian = (ID3 - outer(normal, normal)) * (lambda * f1_over_s + kappa)
+        + outer(unit, unit) * (lambda * along);
+    return out;
 }
 
 // ---- energy at the iterate or the trial (line search, warm start) ----
@@ -727,8 +815,9 @@ fn im_kinetic(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_i
     let n = im_nodes[i];
     var k = 0.0;
     if (n.v_star.w > 0.0) {
-        let dv = node_velocity(i) - n.v_star.xyz;
-        k = 0.5 * n.v_star.w * dot(dv, dv);
+        let v = node_velocity(i);
+        let dv = v - n.v_star.xyz;
+        k = 0.5 * n.v_star.w * dot(dv, dv) + slip_terms(n, v).energy;
     }
     reduce_to_partials(lid, wid.x, k, 0.0);
 }
@@ -804,12 +893,13 @@ fn im_eval_nodes(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocatio
     var norm2 = 0.0;
     if (m > 0.0) {
         let dv = n.v.xyz - n.v_star.xyz;
-        let grad = n.free * (dv * m + acc_load3(i, 0u));
+        let slip = slip_terms(n, n.v.xyz);
+        let grad = n.free * (dv * m + acc_load3(i, 0u) + slip.gradient);
         im_nodes[i].grad = vec4<f32>(grad, 0.0);
         norm2 = dot(grad, grad);
-        kinetic = 0.5 * m * dot(dv, dv);
+        kinetic = 0.5 * m * dot(dv, dv) + slip.energy;
         if (HESSIAN) {
-            var d = ID3 * m;
+            var d = ID3 * m + slip.hessian;
             if (BLOCK_JACOBI) {
                 d += acc_load_block(i);
             }
@@ -877,12 +967,13 @@ fn im_product(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
 }
 
-// Per node: product = S(K d + m d); sums d·product.
+// Per node: product = S(K d + m d + ∇²D d); sums d·product.
 @compute @workgroup_size(NODES_PER_BLOCK)
 fn im_product_finish(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let i = active_node(wid.x, lid);
     let n = im_nodes[i];
-    let q = n.free * (acc_load3(i, 12u) + n.d.xyz * n.v_star.w);
+    let q = n.free * (acc_load3(i, 12u) + n.d.xyz * n.v_star.w
+        + slip_terms(n, n.v.xyz).hessian * n.d.xyz);
     let at = i * ACC_WORDS + 12u;
     atomicStore(&im_acc[at], q.x);
     atomicStore(&im_acc[at + 1u], q.y);
@@ -979,28 +1070,31 @@ fn im_accept(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_in
 
 // ---- the end of the solve ----
 
-// The velocity a node enters the grid update with (cpu `end_velocity`).
-fn end_velocity(free: mat3x3<f32>, normal: vec3<f32>, v: vec3<f32>, unconstrained: vec3<f32>) -> vec3<f32> {
-    if (dot(normal, normal) > 0.0) {
-        return free * v + normal * min(dot(normal, unconstrained), dot(normal, v));
-    }
-    if (free[0][0] + free[1][1] + free[2][2] > 2.5) {
-        return v;
-    }
-    return unconstrained;
-}
-
-// Per node: momentum (v − g dt)m and mass into the P2G accumulators for the grid update,
-// and v − v* along the free components kept for the next substep's warm start.
+// Per node: momentum (v − g dt)m and mass into the P2G accumulators for the grid update
+// (cpu `solve_velocities`: the solution for a free node, v* − (∂E/∂v)/m for a constrained
+// one), and v − v* along the free components kept for the next substep's warm start. A
+// node with one prescribed direction leaves the solution in `grid_v` for the grid update
+// (`grid_update_implicit`) with w: 1 + 8·tool + part, or −1 for the table or a wall; 0 for
+// every other node.
 @compute @workgroup_size(NODES_PER_BLOCK)
 fn im_finish(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let i = active_node(wid.x, lid);
     let n = im_nodes[i];
     let m = n.v_star.w;
     let epoch = bitcast<f32>(atomicLoad(&im_scal[I_EPOCH]));
+    var settled = vec4<f32>(0.0);
     if (m > 0.0) {
-        let unconstrained = n.v_star.xyz - acc_load3(i, 0u) / m;
-        let v = end_velocity(n.free, n.normal.xyz, n.v.xyz, unconstrained);
+        var v = n.v_star.xyz - acc_load3(i, 0u) / m;
+        if (n.free[0][0] + n.free[1][1] + n.free[2][2] > 2.5) {
+            v = n.v.xyz;
+        }
+        if (dot(n.normal.xyz, n.normal.xyz) > 0.0) {
+            let tool = bitcast<u32>(n.slip.z);
+            let code = select(f32(1u + 8u * tool + bitcast<u32>(n.slip.w)), -1.0, tool == NO_TOOL);
+            settled = vec4<f32>(n.v.xyz, code);
+        }
+        let reaction = (n.v.xyz - n.v_star.xyz) * m + acc_load3(i, 0u);
+        im_nodes[i].normal.w = max(dot(n.normal.xyz, reaction), 0.0);
         let p = (v - st.gravity.xyz * st.dt) * m;
         let at = NODE_WORDS * i;
         atomicStore(&grid_acc[at], p.x);
@@ -1010,4 +1104,5 @@ fn im_finish(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_in
     } else {
         im_nodes[i].correction = vec4<f32>(vec3<f32>(0.0), epoch);
     }
+    grid_v[i] = settled;
 }

@@ -21,6 +21,7 @@ use super::pack::{MESH_SLICER_KIND, SLICER_KIND, WGSL_STRUCTS};
 use super::readback::word;
 use super::resources::{Binding, ARGS_GROUP};
 use super::WG;
+use crate::mpm::cpu::implicit::slip::SLIP_THRESHOLD;
 use crate::mpm::crack::MIN_OFFSET_CELLS;
 use crate::mpm::damage::TORN;
 use crate::mpm::grid::{Node, BLOCK, NODES_PER_BLOCK, WALL_NODES};
@@ -47,6 +48,7 @@ fn prelude(float_p2g: bool, cutting: bool) -> String {
     }
     writeln!(out, "const J_MIN: f32 = {J_MIN:?};").unwrap();
     writeln!(out, "const TORN: f32 = {TORN:?};").unwrap();
+    writeln!(out, "const SLIP_THRESHOLD: f32 = {SLIP_THRESHOLD:?};").unwrap();
     // Cutting: whether particles carry cracks, and the constants of crack.rs / slicer.rs.
     writeln!(out, "const CUTTING: bool = {cutting};").unwrap();
     writeln!(out, "const SLICER_KIND: u32 = {SLICER_KIND}u;").unwrap();
