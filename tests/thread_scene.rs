@@ -569,16 +569,14 @@ fn meetings(
     near: f32,
 ) -> Vec<(usize, usize, f32)> {
     use dvrk_tissue_sim::rod::crossing::pair_crossed;
-    use dvrk_tissue_sim::rod::self_contact::closest_parameters;
+    use dvrk_tissue_sim::rod::self_contact::segment_distance;
     let n = before.len() - 1;
     let mut found = Vec::new();
     for a in 0..n {
         for b in a + gap..n {
-            let (s, t) = closest_parameters(before[a], before[a + 1], before[b], before[b + 1]);
-            let d = (before[b] + (before[b + 1] - before[b]) * t)
-                - (before[a] + (before[a + 1] - before[a]) * s);
-            if d.norm() <= near && pair_crossed(before, after, a, b, near / 4.0) {
-                found.push((a, b, d.norm()));
+            let d = segment_distance(before[a], before[a + 1], before[b], before[b + 1]);
+            if d <= near && pair_crossed(before, after, a, b, near / 4.0) {
+                found.push((a, b, d));
             }
         }
     }
