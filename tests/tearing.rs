@@ -178,6 +178,33 @@ fn opposed_grips(
     ]
 }
 
+/// The CPU solver of the trouser and notched-strip specimens (explicit MLS-MPM, no table, one
+/// substep a step: the tests step it themselves), with room for `tool_count` grips.
+fn specimen_solver(
+    layout: GridLayout,
+    particles: Particles,
+    materials: Vec<MaterialParams>,
+    tool_count: usize,
+) -> CpuSolver {
+    CpuSolver::new(SolverSetup {
+        layout,
+        particles,
+        materials,
+        boundary: Boundary { table: None },
+        max_speed: 50.0,
+        max_substeps: 1,
+        tool_count,
+        cutting: false,
+        p2g: P2gAtomics::Auto,
+        method: Method::MlsMpm,
+        pb_mpm: PbMpmParams {
+            iterations: 1,
+            relaxation: 1.0,
+        },
+        implicit: ImplicitParams::default(),
+    })
+}
+
 /// Runs the trouser tear at cell size `dx` (m) with toughness `toughness` (0: none) and
 /// Young's modulus `young` (Pa).
 fn trouser(dx: f32, toughness: f32, young: f64) -> Trouser {
@@ -242,23 +269,7 @@ fn trouser(dx: f32, toughness: f32, young: f64) -> Trouser {
     };
     let line = MaterialParams { toughness, ..sheet };
     let wave_speed = sheet.lame.p_wave_speed(1000.0);
-    let mut solver = CpuSolver::new(SolverSetup {
-        layout,
-        particles,
-        materials: vec![sheet, line],
-        boundary: Boundary { table: None },
-        max_speed: 50.0,
-        max_substeps: 1,
-        tool_count: 3,
-        cutting: false,
-        p2g: P2gAtomics::Auto,
-        method: Method::MlsMpm,
-        pb_mpm: PbMpmParams {
-            iterations: 1,
-            relaxation: 1.0,
-        },
-        implicit: ImplicitParams::default(),
-    });
+    let mut solver = specimen_solver(layout, particles, vec![sheet, line], 3);
     let dt = (0.5 * dx as f64 / wave_speed) as f32;
     let substeps = (PULL / SPEED / dt as f64).ceil() as usize;
     let grip = 0.002;
@@ -593,23 +604,7 @@ fn notched_strip(dx: f32) -> NotchedTear {
         toughness: NOTCH_TOUGHNESS,
     };
     let wave_speed = strip.lame.p_wave_speed(1000.0);
-    let mut solver = CpuSolver::new(SolverSetup {
-        layout,
-        particles,
-        materials: vec![strip],
-        boundary: Boundary { table: None },
-        max_speed: 50.0,
-        max_substeps: 1,
-        tool_count: 2,
-        cutting: false,
-        p2g: P2gAtomics::Auto,
-        method: Method::MlsMpm,
-        pb_mpm: PbMpmParams {
-            iterations: 1,
-            relaxation: 1.0,
-        },
-        implicit: ImplicitParams::default(),
-    });
+    let mut solver = specimen_solver(layout, particles, vec![strip], 2);
     let dt = (0.5 * dx as f64 / wave_speed) as f32;
     let substeps = (NOTCH_PULL / NOTCH_SPEED / dt as f64).ceil() as usize;
     let half = Vec3::new(0.5 * w + dx, 0.5 * NOTCH_GRIP, 0.5 * t + dx);
