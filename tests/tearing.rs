@@ -135,11 +135,6 @@ fn tear_front(p: &Particles, start: &[Vec3], tail: usize) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// A sticky box grip moving along z at `velocity` (m/s).
-fn sticky_box(centre: Vec3, half: Vec3, velocity: f64, t: f64, dx: f32) -> ToolKinematics {
-    moving_sticky_box(centre, half, Vector3::new(0.0, 0.0, velocity), t, dx)
-}
-
 /// A sticky box grip centred at `centre` at t = 0, moving at `velocity` (m/s).
 fn moving_sticky_box(
     centre: Vec3,
@@ -166,6 +161,48 @@ fn moving_sticky_box(
         &v,
         dx,
     )
+}
+
+/// Two sticky box grips of half extents `half`, centred at `centres` at t = 0, pulling the
+/// specimen apart: the first moves at `velocity` (m/s), the second at −`velocity`.
+fn opposed_grips(
+    centres: [Vec3; 2],
+    half: Vec3,
+    velocity: Vector3<f64>,
+    t: f64,
+    dx: f32,
+) -> [ToolKinematics; 2] {
+    [
+        moving_sticky_box(centres[0], half, velocity, t, dx),
+        moving_sticky_box(centres[1], half, -velocity, t, dx),
+    ]
+}
+
+/// The CPU solver of the trouser and notched-strip specimens (explicit MLS-MPM, no table, one
+/// substep a step: the tests step it themselves), with room for `tool_count` grips.
+fn specimen_solver(
+    layout: GridLayout,
+    particles: Particles,
+    materials: Vec<MaterialParams>,
+    tool_count: usize,
+) -> CpuSolver {
+    CpuSolver::new(SolverSetup {
+        layout,
+        particles,
+        materials,
+        boundary: Boundary { table: None },
+        max_speed: 50.0,
+        max_substeps: 1,
+        tool_count,
+        cutting: false,
+        p2g: P2gAtomics::Auto,
+        method: Method::MlsMpm,
+        pb_mpm: PbMpmParams {
+            iterations: 1,
+            relaxation: 1.0,
+        },
+        implicit: ImplicitParams::default(),
+    })
 }
 
 /// Runs the trouser tear at cell size `dx` (m) with toughness `toughness` (0: none) and
@@ -232,23 +269,7 @@ fn trouser(dx: f32, toughness: f32, young: f64) -> Trouser {
     };
     let line = MaterialParams { toughness, ..sheet };
     let wave_speed = sheet.lame.p_wave_speed(1000.0);
-    let mut solver = CpuSolver::new(SolverSetup {
-        layout,
-        particles,
-        materials: vec![sheet, line],
-        boundary: Boundary { table: None },
-        max_speed: 50.0,
-        max_substeps: 1,
-        tool_count: 3,
-        cutting: false,
-        p2g: P2gAtomics::Auto,
-        method: Method::MlsMpm,
-        pb_mpm: PbMpmParams {
-            iterations: 1,
-            relaxation: 1.0,
-        },
-        implicit: ImplicitParams::default(),
-    });
+    let mut solver = specimen_solver(layout, particles, vec![sheet, line], 3);
     let dt = (0.5 * dx as f64 / wave_speed) as f32;
     let substeps = (PULL / SPEED / dt as f64).ceil() as usize;
     let grip = 0.002;
@@ -266,26 +287,25 @@ fn trouser(dx: f32, toughness: f32, young: f64) -> Trouser {
             );
         }
         let time = s as f64 * dt as f64;
-        let tools = [
-            sticky_box(
+        // Leg A's grip rises, leg B's sinks.
+        let [leg_a, leg_b] = opposed_grips(
+            [
                 Vec3::new(-0.5 * t, -0.5 * w, LEG - 0.5 * grip),
-                half_leg,
-                SPEED,
-                time,
-                dx,
-            ),
-            sticky_box(
                 Vec3::new(-0.5 * t, 0.5 * w, t - LEG + 0.5 * grip),
-                half_leg,
-                -SPEED,
-                time,
-                dx,
-            ),
+            ],
+            half_leg,
+            Vector3::new(0.0, 0.0, SPEED),
+            time,
+            dx,
+        );
+        let tools = [
+            leg_a,
+            leg_b,
             // The tail's far end, held.
-            sticky_box(
+            moving_sticky_box(
                 Vec3::new(TAIL - 0.5 * grip, 0.0, 0.5 * t),
                 Vec3::new(0.5 * grip, w + dx, 0.5 * t + dx),
-                0.0,
+                Vector3::zeros(),
                 time,
                 dx,
             ),
@@ -584,23 +604,7 @@ fn notched_strip(dx: f32) -> NotchedTear {
         toughness: NOTCH_TOUGHNESS,
     };
     let wave_speed = strip.lame.p_wave_speed(1000.0);
-    let mut solver = CpuSolver::new(SolverSetup {
-        layout,
-        particles,
-        materials: vec![strip],
-        boundary: Boundary { table: None },
-        max_speed: 50.0,
-        max_substeps: 1,
-        tool_count: 2,
-        cutting: false,
-        p2g: P2gAtomics::Auto,
-        method: Method::MlsMpm,
-        pb_mpm: PbMpmParams {
-            iterations: 1,
-            relaxation: 1.0,
-        },
-        implicit: ImplicitParams::default(),
-    });
+    let mut solver = specimen_solver(layout, particles, vec![strip], 2);
     let dt = (0.5 * dx as f64 / wave_speed) as f32;
     let substeps = (NOTCH_PULL / NOTCH_SPEED / dt as f64).ceil() as usize;
     let half = Vec3::new(0.5 * w + dx, 0.5 * NOTCH_GRIP, 0.5 * t + dx);
@@ -608,22 +612,16 @@ fn notched_strip(dx: f32) -> NotchedTear {
     let mid_z = 0.5 * t;
     for s in 0..substeps {
         let time = s as f64 * dt as f64;
-        let tools = [
-            moving_sticky_box(
+        let tools = opposed_grips(
+            [
                 Vec3::new(mid_x, y0 + 0.5 * NOTCH_GRIP, mid_z),
-                half,
-                Vector3::new(0.0, -NOTCH_SPEED, 0.0),
-                time,
-                dx,
-            ),
-            moving_sticky_box(
                 Vec3::new(mid_x, y1 - 0.5 * NOTCH_GRIP, mid_z),
-                half,
-                Vector3::new(0.0, NOTCH_SPEED, 0.0),
-                time,
-                dx,
-            ),
-        ];
+            ],
+            half,
+            Vector3::new(0.0, -NOTCH_SPEED, 0.0),
+            time,
+            dx,
+        );
         let stats = solver.substep(&SubstepInput {
             dt,
             gravity: Vec3::zeros(),

@@ -21,12 +21,9 @@
 //! sliding in its plane) have no coplanarity instant to find; there self-contact's distance
 //! keeps them apart.
 
-use super::self_contact::SelfContacts;
+use super::self_contact::{segment_distance, SelfContacts};
 use super::state::Rod;
 use crate::mpm::Vec3;
-use nalgebra::Vector3;
-
-type DVec = Vector3<f64>;
 
 /// Distance, in diameters, between the centrelines at a coplanar instant below which a pair
 /// counts as meeting: far above the f64 rounding at the root (~1e-15 m), and small, since
@@ -144,34 +141,11 @@ fn meetings(from: [Vec3; 4], to: [Vec3; 4], meeting: f64) -> usize {
         .into_iter()
         .flatten()
         .filter(|&tau| {
+            // In f64: a crossing's distance at its root is ~1e-15 m.
             let p = at(tau);
             segment_distance(p[0], p[1], p[2], p[3]) <= meeting
         })
         .count()
-}
-
-/// Distance between segments p0–p1 and q0–q1 (Ericson, "Real-Time Collision Detection",
-/// §5.1.9, as `closest_parameters`, in f64: a crossing's distance at its root is ~1e-15 m).
-fn segment_distance(p0: DVec, p1: DVec, q0: DVec, q1: DVec) -> f64 {
-    let (d1, d2, r) = (p1 - p0, q1 - q0, p0 - q0);
-    let (a, e, f) = (d1.norm_squared(), d2.norm_squared(), d2.dot(&r));
-    let c = d1.dot(&r);
-    let b = d1.dot(&d2);
-    let denom = a * e - b * b;
-    let mut s = if denom > 1e-24 * a * e {
-        ((b * f - c * e) / denom).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let mut t = (b * s + f) / e;
-    if t < 0.0 {
-        t = 0.0;
-        s = (-c / a).clamp(0.0, 1.0);
-    } else if t > 1.0 {
-        t = 1.0;
-        s = ((b - c) / a).clamp(0.0, 1.0);
-    }
-    ((q0 + d2 * t) - (p0 + d1 * s)).norm()
 }
 
 /// The roots in [0, 1] of c₀ + c₁τ + c₂τ² + c₃τ³: each interval between the roots of the

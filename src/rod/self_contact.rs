@@ -41,6 +41,7 @@ use super::crossing::pair_crossed;
 use super::environment::friction_correction;
 use super::state::Rod;
 use crate::mpm::Vec3;
+use nalgebra::{RealField, Vector3};
 
 /// Reused buffers of the broad and narrow phase.
 #[derive(Clone, Debug, Default)]
@@ -333,37 +334,61 @@ fn cell_key(x: i64, y: i64, z: i64) -> u64 {
 }
 
 /// Parameters (s, t) ∈ [0, 1]² of the closest points of segments p0–p1 and q0–q1
-/// (Ericson, "Real-Time Collision Detection", §5.1.9).
-pub fn closest_parameters(p0: Vec3, p1: Vec3, q0: Vec3, q1: Vec3) -> (f32, f32) {
+/// (Ericson, "Real-Time Collision Detection", §5.1.9), in the precision of the points: f32
+/// for the contact passes, f64 for `crossing` (a crossing's distance at its root is
+/// ~1e-15 m, far below f32's resolution of the thread's coordinates).
+pub fn closest_parameters<T: RealField + Copy>(
+    p0: Vector3<T>,
+    p1: Vector3<T>,
+    q0: Vector3<T>,
+    q1: Vector3<T>,
+) -> (T, T) {
+    let (zero, one) = (T::zero(), T::one());
+    // Squared lengths up to `eps` are points. Lines count as parallel where a·e − b² is at
+    // most `eps`·a·e; a nonzero a·e − b² is at least about a rounding step of a·e (~1e-7·a·e in
+    // f32, ~1e-16·a·e in f64), so in either precision this turns away only a vanishing or
+    // negative denominator.
+    let eps: T = nalgebra::convert(1e-20);
     let (d1, d2, r) = (p1 - p0, q1 - q0, p0 - q0);
     let (a, e, f) = (d1.norm_squared(), d2.norm_squared(), d2.dot(&r));
-    const EPS: f32 = 1e-20;
-    if a <= EPS && e <= EPS {
-        return (0.0, 0.0);
+    if a <= eps && e <= eps {
+        return (zero, zero);
     }
-    if a <= EPS {
-        return (0.0, (f / e).clamp(0.0, 1.0));
+    if a <= eps {
+        return (zero, (f / e).clamp(zero, one));
     }
     let c = d1.dot(&r);
-    if e <= EPS {
-        return ((-c / a).clamp(0.0, 1.0), 0.0);
+    if e <= eps {
+        return ((-c / a).clamp(zero, one), zero);
     }
     let b = d1.dot(&d2);
     let denom = a * e - b * b;
-    let mut s = if denom > EPS * a * e {
-        ((b * f - c * e) / denom).clamp(0.0, 1.0)
+    let mut s = if denom > eps * a * e {
+        ((b * f - c * e) / denom).clamp(zero, one)
     } else {
-        0.0
+        zero
     };
     let mut t = (b * s + f) / e;
-    if t < 0.0 {
-        t = 0.0;
-        s = (-c / a).clamp(0.0, 1.0);
-    } else if t > 1.0 {
-        t = 1.0;
-        s = ((b - c) / a).clamp(0.0, 1.0);
+    if t < zero {
+        t = zero;
+        s = (-c / a).clamp(zero, one);
+    } else if t > one {
+        t = one;
+        s = ((b - c) / a).clamp(zero, one);
     }
     (s, t)
+}
+
+/// Distance between the centrelines of segments p0–p1 and q0–q1: between their closest
+/// points (`closest_parameters`).
+pub fn segment_distance<T: RealField + Copy>(
+    p0: Vector3<T>,
+    p1: Vector3<T>,
+    q0: Vector3<T>,
+    q1: Vector3<T>,
+) -> T {
+    let (s, t) = closest_parameters(p0, p1, q0, q1);
+    ((q0 + (q1 - q0) * t) - (p0 + (p1 - p0) * s)).norm()
 }
 
 /// Parameters (s, t) of the closest points of the lines p0 + s·d1 and q0 + t·d2, unclamped;
@@ -388,9 +413,7 @@ pub fn min_self_distance(rod: &Rod) -> f32 {
     let mut best = f32::INFINITY;
     for a in 0..rod.segments() {
         for b in a + gap..rod.segments() {
-            let (s, t) = closest_parameters(p[a], p[a + 1], p[b], p[b + 1]);
-            let d = (p[b] + (p[b + 1] - p[b]) * t) - (p[a] + (p[a + 1] - p[a]) * s);
-            best = best.min(d.norm());
+            best = best.min(segment_distance(p[a], p[a + 1], p[b], p[b + 1]));
         }
     }
     best
