@@ -6,16 +6,13 @@
 //! node are incompatible when the crack plane lies between them. In P2G the particle does
 //! not write an incompatible node (the crack face is traction free and carries no
 //! momentum), in G2P it reads its own velocity there (CPIC's ghost velocity), so momentum
-//! never crosses the cut, during the cut or after the blade has left. A node within half
-//! [`PLANE_RAMP_CELLS`] of the plane is written and read in part.
+//! never crosses the cut, during the cut or after the blade has left.
 //!
 //! The crack is one vector per particle, `n·d`: `n` the unit normal of the plane pointing
 //! from the plane towards the particle, `d` > 0 the particle's distance from it (m). A node
-//! at offset `r = xᵢ − xₚ` lies across the plane when `n·r < −d`; its share in the
-//! particle's transfers is 0 well across, 1 well on the particle's side, and linear over
-//! [`PLANE_RAMP_CELLS`] about the plane; the zero vector is "not cut". The plane turns and stretches with
-//! the material (its normal is a covector: ṅ = −Cᵀn), so that a cut spread open or carried
-//! away stays a cut.
+//! at offset `r = xᵢ − xₚ` is across the plane when `n·r < −d`, i.e. `crack·r < −|crack|²`;
+//! the zero vector is "not cut". The plane turns and stretches with the material (its normal
+//! is a covector: ṅ = −Cᵀn), so that a cut spread open or carried away stays a cut.
 
 use super::kernel::Stencil;
 use super::{Mat3, Vec3};
@@ -26,91 +23,29 @@ use rayon::prelude::*;
 /// gets a crack that tells its sides apart.
 pub const MIN_OFFSET_CELLS: f32 = 1e-3;
 
-/// Width of a cut's edge on the grid (cells): a node's share in a cut particle's transfers
-/// rises linearly from 0 at half this distance across the particle's crack plane to 1 at
-/// half this distance on the particle's side; a node on the plane has half. A step at the
-/// plane instead (share 1 on the particle's side, 0 across) makes a node on the plane an
-/// exact tie, and a blade on a grid plane (the shipped scenes: the blade plane y = 0 is a
-/// node plane) puts one in the stencil of most cut particles: the tie is decided by the
-/// particle's drift since the cut (the plane moves with the particle, the node does not), a
-/// few micrometres either way, so the node flips between coupling the faces and not from
-/// substep to substep, and those flips set the velocity gradients of the cut's faces (and
-/// the turn of their normals) differently on any two runs that round differently. The ramp
-/// makes the share continuous in the particle's position. It is centred on the plane as the
-/// step was: a ramp from 0 at the plane leaves PB-MPM's faces, pressed together, too little
-/// coupling, and they slide through each other (the shipped block one piece at 0.5 s).
-pub const PLANE_RAMP_CELLS: f32 = 0.05;
-
-/// Whether the point at offset `r` (m) from a particle lies across the particle's crack
-/// plane (the plane alone: `pieces` asks it of particle pairs).
+/// Whether a node at offset `r` (m) from a particle lies across the particle's crack.
 #[inline(always)]
 pub fn separates(crack: Vec3, r: Vec3) -> bool {
     crack.dot(&r) < -crack.norm_squared()
 }
 
-/// The share in a cut particle's transfers of the grid node at offset `r` (m) from it: 0
-/// across its crack plane by half [`PLANE_RAMP_CELLS`] or more, 1 as far on its side, linear
-/// between (see [`PLANE_RAMP_CELLS`]); 1 for the zero crack.
-#[inline(always)]
-pub fn node_share(crack: Vec3, r: Vec3, dx: f32) -> f32 {
-    if crack == Vec3::zeros() {
-        return 1.0;
-    }
-    let ramp = Ramp::new(crack, dx);
-    ramp.share(crack.dot(&r))
-}
-
-/// The share as a function of `crack·r`, set up once per particle: the node's distance
-/// from the plane on the particle's side is `s = n·r + d`, so `crack·r = d·s − d²`, and the
-/// share is `s/κ + 1/2`, clamped to [0, 1].
-#[derive(Clone, Copy, Debug)]
-struct Ramp {
-    /// `|crack|·(|crack| + κ/2)` (m²).
-    offset: f32,
-    /// `1 / (|crack|·κ)`, κ the ramp's width (1/m²).
-    inv_width: f32,
-    /// `crack·r` at and above which the share is 1: `|crack|·(κ/2 − |crack|)` (m²).
-    full: f32,
-}
-
-impl Ramp {
-    #[inline(always)]
-    fn new(crack: Vec3, dx: f32) -> Self {
-        let d = crack.norm();
-        let width = PLANE_RAMP_CELLS * dx;
-        Ramp {
-            offset: d * (d + 0.5 * width),
-            inv_width: 1.0 / (d * width),
-            full: d * (0.5 * width - d),
-        }
-    }
-
-    #[inline(always)]
-    fn share(&self, crack_r: f32) -> f32 {
-        if crack_r >= self.full {
-            1.0
-        } else {
-            ((crack_r + self.offset) * self.inv_width).max(0.0)
-        }
-    }
-}
-
 /// The side test of one cut particle against its 3×3×3 stencil, set up once per particle
-/// and transfer. `crack·r` for node (a, b, c) at `r = (abc − fx)·dx` is a sum of one term
-/// per axis, so the terms are computed once per axis and node, and the node's share follows
-/// from their sum (exactly [`node_share`]). The sum is least at a corner of the stencil, so
-/// when even the least one has the full share, every node has: most particles near the
-/// blade have the plane only beyond their stencil, and take the plain transfer.
+/// and transfer. `n·r` for node (a, b, c) at `r = (abc − fx)·dx` is a sum of one term per
+/// axis, so the terms are computed once per axis and node, and the node is across when
+/// their sum is below `−|crack|²` (exactly [`separates`]). The sum is least at a corner of
+/// the stencil, so when even the least one is not across, no node is: most particles near
+/// the blade have the plane only beyond their stencil, and take the plain transfer.
 #[derive(Clone, Copy, Debug)]
 pub struct StencilCut {
     /// `crack[axis]·(i − fx[axis])·dx` for stencil index i along each axis (m²).
     along: [[f32; 3]; 3],
-    ramp: Ramp,
+    /// `−|crack|²` (m²).
+    limit: f32,
 }
 
 impl StencilCut {
     /// The test for a particle with crack `crack` whose stencil base is `fx` cells behind
-    /// it; `None` when it is not cut or every node of its stencil has the full share.
+    /// it; `None` when it is not cut or its crack lies beyond every node of its stencil.
     #[inline(always)]
     pub fn new(crack: Vec3, fx: Vec3, dx: f32) -> Option<Self> {
         if crack == Vec3::zeros() {
@@ -124,23 +59,21 @@ impl StencilCut {
             }
             least += row[0].min(row[2]);
         }
-        let ramp = Ramp::new(crack, dx);
-        (least < ramp.full).then_some(StencilCut { along, ramp })
+        let limit = -crack.norm_squared();
+        (least < limit).then_some(StencilCut { along, limit })
     }
 
-    /// Stencil node (a, b, c)'s share in the particle's transfers (0 to 1).
+    /// Whether stencil node (a, b, c) lies across the crack.
     #[inline(always)]
-    pub fn share(&self, a: usize, b: usize, c: usize) -> f32 {
-        self.ramp
-            .share(self.along[0][a] + self.along[1][b] + self.along[2][c])
+    pub fn across(&self, a: usize, b: usize, c: usize) -> bool {
+        self.along[0][a] + self.along[1][b] + self.along[2][c] < self.limit
     }
 
     /// The weighted centre of the stencil nodes on the particle's side, in stencil units:
-    /// Σ wᵢ·shareᵢ·(a, b, c) / Σ wᵢ·shareᵢ (for the whole stencil it would be `s.fx`).
-    /// PB-MPM's P2G takes a cut particle's affine momentum about it
-    /// (`CpuSolver::transfer_to_grid`). Some node on the particle's side always has weight
-    /// (the stencil reaches at least half a cell beyond the particle on every axis, farther
-    /// than the ramp); `s.fx` is returned were none to.
+    /// Σ_kept wᵢ·(a, b, c) / Σ_kept wᵢ (for the whole stencil it would be `s.fx`). PB-MPM's
+    /// P2G takes a cut particle's affine momentum about it (`CpuSolver::transfer_to_grid`).
+    /// Some node on the particle's side always has weight (the stencil spans the particle
+    /// on every axis); `s.fx` is returned were none to.
     #[inline(always)]
     pub fn kept_centre(&self, s: &Stencil) -> Vec3 {
         let mut weight = 0.0f32;
@@ -149,11 +82,10 @@ impl StencilCut {
             for b in 0..3 {
                 let wab = s.w[a].x * s.w[b].y;
                 for c in 0..3 {
-                    let share = self.share(a, b, c);
-                    if share == 0.0 {
+                    if self.across(a, b, c) {
                         continue;
                     }
-                    let w = wab * s.w[c].z * share;
+                    let w = wab * s.w[c].z;
                     weight += w;
                     moment += Vec3::new(a as f32, b as f32, c as f32) * w;
                 }
@@ -361,64 +293,11 @@ mod tests {
         // Beyond a stencil's reach of the plane, and below the edge: uncut.
         assert_eq!(crack[2], Vec3::zeros());
         assert_eq!(crack[3], Vec3::zeros());
-        // A node across the plane has no share, one on the particle's side beyond the ramp
-        // the full share.
-        let dx = 0.002;
-        for (r, across) in [
-            (Vec3::new(0.0015, 0.0, 0.0), true),
-            (Vec3::new(0.0005, 0.002, 0.0), false),
-            (Vec3::new(-0.002, 0.0, 0.0), false),
-        ] {
-            assert_eq!(separates(crack[0], r), across, "{r:?}");
-            let share = if across { 0.0 } else { 1.0 };
-            assert_eq!(node_share(crack[0], r, dx), share, "{r:?}");
-        }
+        // A node just across the plane is cut off, one on the particle's side is not.
+        assert!(separates(crack[0], Vec3::new(0.0015, 0.0, 0.0)));
+        assert!(!separates(crack[0], Vec3::new(0.0005, 0.002, 0.0)));
+        assert!(!separates(crack[0], Vec3::new(-0.002, 0.0, 0.0)));
         assert!(!separates(Vec3::zeros(), Vec3::new(1.0, 0.0, 0.0)));
-        assert_eq!(node_share(Vec3::zeros(), Vec3::new(1.0, 0.0, 0.0), dx), 1.0);
-        // On the plane: half the share; a quarter of the ramp on either side: 3/4 and 1/4.
-        let width = PLANE_RAMP_CELLS * dx;
-        for (along, share) in [(0.0, 0.5), (-0.25 * width, 0.75), (0.25 * width, 0.25)] {
-            let r = Vec3::new(0.001 + along, 0.0, 0.0);
-            assert!(
-                (node_share(crack[0], r, dx) - share).abs() < 1e-3,
-                "{along}"
-            );
-        }
-    }
-
-    #[test]
-    fn a_node_on_the_crack_plane_has_a_share_continuous_in_the_drift() {
-        // The blade plane y = 0 through a node plane, the two faces' particles a quarter cell
-        // either side of it (as at 1 mm spacing, dx = 2 mm). However a particle has drifted
-        // since it was cut (the plane moves with it), the node on the plane has a share of
-        // one half plus the drift towards it over the ramp's width: nothing jumps there.
-        let dx = 0.002;
-        let node = Vec3::new(0.0, 0.0, 0.004);
-        let width = PLANE_RAMP_CELLS * dx;
-        for side in [-1.0f32, 1.0] {
-            let at_cut = node + Vec3::new(0.0, side * 0.25 * dx, 0.0005);
-            let crack = Vec3::new(0.0, side * 0.25 * dx, 0.0);
-            for drift in [-0.6 * width, -1e-5, -1e-7, 0.0, 1e-7, 1e-5, 0.4 * width] {
-                // `drift` towards the plane.
-                let x = at_cut - Vec3::new(0.0, side * drift, 0.0);
-                let share = node_share(crack, node - x, dx);
-                let expected = (0.5 + drift / width).clamp(0.0, 1.0);
-                assert!(
-                    (share - expected).abs() < 1e-3,
-                    "side {side}, drift {drift}: {share}"
-                );
-                // The stencil's test says the same of that node.
-                let g = x / dx;
-                let base = g.map(|v| (v - 0.5).floor());
-                let fx = g - base;
-                let ijk = (node / dx - base).map(|v| v.round() as usize);
-                let cut = StencilCut::new(crack, fx, dx).expect("the plane crosses the stencil");
-                assert!((cut.share(ijk.x, ijk.y, ijk.z) - share).abs() < 1e-4);
-            }
-            // A face pressed past the ramp towards the other shares the node fully.
-            let x = at_cut - Vec3::new(0.0, side * 0.6 * width, 0.0);
-            assert_eq!(node_share(crack, node - x, dx), 1.0);
-        }
     }
 
     #[test]
@@ -439,13 +318,10 @@ mod tests {
             let cut = StencilCut::new(crack, fx, dx);
             for (a, b, c) in (0..27).map(|k| (k / 9, (k / 3) % 3, k % 3)) {
                 let r = (Vec3::new(a as f32, b as f32, c as f32) - fx) * dx;
-                let node = node_share(crack, r, dx);
-                any |= node < 1.0;
+                let node = separates(crack, r);
+                any |= node;
                 if let Some(cut) = cut {
-                    let share = cut.share(a, b, c);
-                    assert!((share - node).abs() < 1e-4, "{crack:?} {fx:?} {a}{b}{c}");
-                } else {
-                    assert_eq!(node, 1.0, "{crack:?} {fx:?} {a}{b}{c}");
+                    assert_eq!(cut.across(a, b, c), node, "{crack:?} {fx:?} {a}{b}{c}");
                 }
             }
             assert_eq!(cut.is_some(), any, "{crack:?} {fx:?}");
@@ -478,14 +354,16 @@ mod tests {
             };
             cut_stencils += 1;
             let centre = cut.kept_centre(&s);
-            // Σ wᵢ·shareᵢ(i − centre) = 0 (that is what the centre is for), while about the
+            // Σ_kept wᵢ(i − centre) = 0 (that is what the centre is for), while about the
             // particle the kept nodes' moment points along the normal, away from the cut.
             let (mut about_centre, mut about_particle, mut kept) =
                 (Vec3::zeros(), Vec3::zeros(), 0.0);
             for (a, b, c) in (0..27).map(|k| (k / 9, (k / 3) % 3, k % 3)) {
                 let i = Vec3::new(a as f32, b as f32, c as f32);
-                let share = node_share(crack, (i - s.fx) * dx, dx);
-                let w = s.w[a].x * s.w[b].y * s.w[c].z * share;
+                if separates(crack, (i - s.fx) * dx) {
+                    continue;
+                }
+                let w = s.w[a].x * s.w[b].y * s.w[c].z;
                 kept += w;
                 about_centre += (i - centre) * w;
                 about_particle += (i - s.fx) * w;

@@ -95,8 +95,8 @@ fn axis_offsets(layout: &GridLayout, base: super::IVec3) -> [[usize; 3]; 3] {
 
 /// Spreads one particle's momentum over its stencil (P2G's inner loop): node i gets
 /// w·(`momentum` + Q·i) and w·`m`, with Q·i = a·q₀ + b·q₁ + c·q₂ built up axis by axis so
-/// that the inner loop only adds, each scaled by the node's `share` (0 for nodes across the
-/// particle's crack, see [`crack::StencilCut::share`]).
+/// that the inner loop only adds; nodes for which `across` holds (the far side of the
+/// particle's crack) get nothing.
 ///
 /// # Safety
 /// Every node `offs` addresses must lie in `grid`, and no other thread may write them
@@ -109,7 +109,7 @@ unsafe fn scatter(
     m: f32,
     momentum: Vec3,
     q: [Vec3; 3],
-    share: impl Fn(usize, usize, usize) -> f32,
+    across: impl Fn(usize, usize, usize) -> bool,
 ) {
     let mut qa = momentum;
     for a in 0..3 {
@@ -118,12 +118,11 @@ unsafe fn scatter(
             let wab = s.w[a].x * s.w[b].y;
             let mut qabc = qab;
             for c in 0..3 {
-                let share = share(a, b, c);
-                if share == 0.0 {
+                if across(a, b, c) {
                     qabc += q[2];
                     continue;
                 }
-                let w = wab * s.w[c].z * share;
+                let w = wab * s.w[c].z;
                 let contrib = qabc * w;
                 let node = &mut *grid.add(offs[0][a] + offs[1][b] + offs[2][c]);
                 node[0] += contrib.x;
@@ -139,16 +138,15 @@ unsafe fn scatter(
 }
 
 /// Gathers one particle's stencil (G2P's inner loop): Σ w·v, and B's columns
-/// [Σ a·wv, Σ b·wv, Σ c·wv]; at a node of `share` below 1 (near or across the particle's
-/// crack, see [`crack::StencilCut::share`]) the particle's own velocity `own` stands for the
-/// rest of the node's.
+/// [Σ a·wv, Σ b·wv, Σ c·wv]; at nodes for which `across` holds (the far side of the
+/// particle's crack) the particle's own velocity `own` stands for the node's.
 #[inline(always)]
 fn gather(
     grid: &[[f32; 4]],
     offs: &[[usize; 3]; 3],
     s: &Stencil,
     own: Vec3,
-    share: impl Fn(usize, usize, usize) -> f32,
+    across: impl Fn(usize, usize, usize) -> bool,
 ) -> (Vec3, [Vec3; 3]) {
     let mut v = Vec3::zeros();
     let (mut b0, mut b1, mut b2) = (Vec3::zeros(), Vec3::zeros(), Vec3::zeros());
@@ -159,11 +157,11 @@ fn gather(
             let mut sum_b = Vec3::zeros();
             for c in 0..3 {
                 let node = grid[offs[0][a] + offs[1][bb] + offs[2][c]];
-                let share = share(a, bb, c);
-                let mut node_v = Vec3::new(node[0], node[1], node[2]);
-                if share < 1.0 {
-                    node_v = node_v * share + own * (1.0 - share);
-                }
+                let node_v = if across(a, bb, c) {
+                    own
+                } else {
+                    Vec3::new(node[0], node[1], node[2])
+                };
                 let wv = node_v * (wab * s.w[c].z);
                 sum_b += wv;
                 b2 += wv * c as f32;
@@ -447,11 +445,11 @@ impl CpuSolver {
                         match cut {
                             Some(cut) => {
                                 scatter(grid, &offs, &s, m, momentum, [q0, q1, q2], |a, b, c| {
-                                    cut.share(a, b, c)
+                                    cut.across(a, b, c)
                                 })
                             }
                             None => {
-                                scatter(grid, &offs, &s, m, momentum, [q0, q1, q2], |_, _, _| 1.0)
+                                scatter(grid, &offs, &s, m, momentum, [q0, q1, q2], |_, _, _| false)
                             }
                         }
                     }
@@ -572,9 +570,9 @@ impl CpuSolver {
                         // without the side test (monomorphised apart).
                         let (mut v, [b0, b1, b2]) = match cut {
                             Some(cut) => {
-                                gather(grid, &offs, &s, vs[i], |a, b, c| cut.share(a, b, c))
+                                gather(grid, &offs, &s, vs[i], |a, b, c| cut.across(a, b, c))
                             }
-                            None => gather(grid, &offs, &s, vs[i], |_, _, _| 1.0),
+                            None => gather(grid, &offs, &s, vs[i], |_, _, _| false),
                         };
                         let b = Mat3::from_columns(&[b0, b1, b2]) - v * s.fx.transpose();
                         // APIC: C = B·D⁻¹ with D = dx²/4·I; offsets are in grid units.

@@ -103,17 +103,13 @@ fn is_cracked(crack: vec3<f32>) -> bool {
     return CUTTING && any(crack != vec3<f32>(0.0));
 }
 
-// The side test of one cut particle against its stencil (crack.rs `StencilCut`): crack·r
-// for node (a, b, c) is along[a].x + along[b].y + along[c].z; the node's share in the
-// particle's transfers rises linearly from 0 at half PLANE_RAMP_CELLS cells across the plane
-// to 1 as far on the particle's side (crack.rs `Ramp`). `crossed` is false when every node
-// has the full share (the least sum is at a stencil corner): the particle then takes the
-// plain transfer.
+// The side test of one cut particle against its stencil (crack.rs `StencilCut`): n·r for
+// node (a, b, c) is along[a].x + along[b].y + along[c].z, across when below limit = −|n·d|².
+// `crossed` is false when no node is across (the least sum is at a stencil corner): the
+// particle then takes the plain transfer.
 struct StencilCut {
     along: array<vec3<f32>, 3>,
-    offset: f32,
-    inv_width: f32,
-    full: f32,
+    limit: f32,
     crossed: bool,
 }
 
@@ -127,37 +123,25 @@ fn stencil_cut(crack: vec3<f32>, s: Stencil) -> StencilCut {
         cut.along[i] = crack * ((vec3<f32>(f32(i)) - s.fx) * sim.origin_dx.w);
     }
     let least = min(cut.along[0], cut.along[2]);
-    let d = length(crack);
-    let width = PLANE_RAMP_CELLS * sim.origin_dx.w;
-    cut.offset = d * (d + 0.5 * width);
-    cut.inv_width = 1.0 / (d * width);
-    cut.full = d * (0.5 * width - d);
-    cut.crossed = least.x + least.y + least.z < cut.full;
+    cut.limit = -dot(crack, crack);
+    cut.crossed = least.x + least.y + least.z < cut.limit;
     return cut;
 }
 
-fn cut_share(cut: StencilCut, a: u32, b: u32, c: u32) -> f32 {
-    if (!cut.crossed) {
-        return 1.0;
-    }
-    let crack_r = cut.along[a].x + cut.along[b].y + cut.along[c].z;
-    if (crack_r >= cut.full) {
-        return 1.0;
-    }
-    return max((crack_r + cut.offset) * cut.inv_width, 0.0);
+fn cut_across(cut: StencilCut, a: u32, b: u32, c: u32) -> bool {
+    return cut.crossed && cut.along[a].x + cut.along[b].y + cut.along[c].z < cut.limit;
 }
 
 // APIC scatter of one particle (the second half of cpu `particle_to_grid`): node i of the
 // stencil receives w_i · (momentum + q·(i − base)) and w_i · m, with momentum = m·v − q·fx
 // so that q·(i − base − fx) = q·(x_i − x_p)/dx. MLS-MPM's q carries the stress term,
-// PB-MPM's only m·C·dx. A cut particle writes nothing to the nodes across its crack, and
-// only its share to those near it.
+// PB-MPM's only m·C·dx. A cut particle writes nothing to the nodes across its crack.
 // acc_add_* come from the P2G accumulation variant.
 fn scatter_apic(s: Stencil, m: f32, v: vec3<f32>, q: mat3x3<f32>, crack: vec3<f32>) {
     scatter_apic_about(s, m, v, q, stencil_cut(crack, s), s.fx);
 }
 
-// The weighted centre Σ w_i·share_i·(a, b, c) / Σ w_i·share_i of the stencil nodes on a cut
+// The weighted centre Σ_kept w_i·(a, b, c) / Σ_kept w_i of the stencil nodes on a cut
 // particle's side, in stencil units (crack.rs `StencilCut::kept_centre`).
 fn kept_centre(cut: StencilCut, s: Stencil) -> vec3<f32> {
     var weight = 0.0;
@@ -166,11 +150,10 @@ fn kept_centre(cut: StencilCut, s: Stencil) -> vec3<f32> {
         for (var b = 0u; b < 3u; b++) {
             let wab = s.w[a].x * s.w[b].y;
             for (var c = 0u; c < 3u; c++) {
-                let share = cut_share(cut, a, b, c);
-                if (share == 0.0) {
+                if (cut_across(cut, a, b, c)) {
                     continue;
                 }
-                let w = wab * s.w[c].z * share;
+                let w = wab * s.w[c].z;
                 weight += w;
                 moment += vec3<f32>(f32(a), f32(b), f32(c)) * w;
             }
@@ -198,19 +181,18 @@ fn scatter_apic_about_kept(s: Stencil, m: f32, v: vec3<f32>, q: mat3x3<f32>, cra
 }
 
 // The scatter with the affine momentum about `centre` (stencil units): node i receives
-// w_i · (m·v + q·(i − centre)) and w_i · m, scaled by its share in `cut`.
+// w_i · (m·v + q·(i − centre)) and w_i · m, except the nodes across `cut`.
 fn scatter_apic_about(s: Stencil, m: f32, v: vec3<f32>, q: mat3x3<f32>, cut: StencilCut, centre: vec3<f32>) {
     let momentum = v * m - q * centre;
     let offs = node_offsets(s.base);
     for (var a = 0u; a < 3u; a++) {
         for (var b = 0u; b < 3u; b++) {
             for (var c = 0u; c < 3u; c++) {
-                let share = cut_share(cut, a, b, c);
-                if (share == 0.0) {
+                if (cut_across(cut, a, b, c)) {
                     continue;
                 }
                 let abc = vec3<f32>(f32(a), f32(b), f32(c));
-                let w = s.w[a].x * s.w[b].y * s.w[c].z * share;
+                let w = s.w[a].x * s.w[b].y * s.w[c].z;
                 let contrib = (momentum + q * abc) * w;
                 let i = NODE_WORDS * (offs[a].x + offs[b].y + offs[c].z);
                 acc_add_p(i, contrib.x);
@@ -246,9 +228,8 @@ fn gather(g: vec3<f32>, crack: vec3<f32>, own_v: vec3<f32>) -> Gather {
                 let w = s.w[a].x * s.w[b].y * s.w[c].z;
                 let abc = vec3<f32>(f32(a), f32(b), f32(c));
                 var node_v = grid_v[offs[a].x + offs[b].y + offs[c].z].xyz;
-                let share = cut_share(cut, a, b, c);
-                if (share < 1.0) {
-                    node_v = node_v * share + own_v * (1.0 - share);
+                if (cut_across(cut, a, b, c)) {
+                    node_v = own_v;
                 }
                 let vi = node_v * w;
                 let o = abc - s.fx;

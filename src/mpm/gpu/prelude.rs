@@ -21,7 +21,7 @@ use super::pack::{MESH_SLICER_KIND, SLICER_KIND, WGSL_STRUCTS};
 use super::readback::word;
 use super::resources::{Binding, ARGS_GROUP};
 use super::WG;
-use crate::mpm::crack::{MIN_OFFSET_CELLS, PLANE_RAMP_CELLS};
+use crate::mpm::crack::MIN_OFFSET_CELLS;
 use crate::mpm::damage::TORN;
 use crate::mpm::grid::{Node, BLOCK, NODES_PER_BLOCK, WALL_NODES};
 use crate::mpm::material::{J_MIN, ROTATION_ITERATIONS};
@@ -58,7 +58,6 @@ fn prelude(float_p2g: bool, cutting: bool) -> String {
     )
     .unwrap();
     writeln!(out, "const MIN_OFFSET_CELLS: f32 = {MIN_OFFSET_CELLS:?};").unwrap();
-    writeln!(out, "const PLANE_RAMP_CELLS: f32 = {PLANE_RAMP_CELLS:?};").unwrap();
     writeln!(
         out,
         "const ROTATION_ITERATIONS: i32 = {ROTATION_ITERATIONS};"
