@@ -100,11 +100,12 @@ fn scene_cut_agrees(scene: SceneOf, method: Method, p2g: P2gAtomics, position_to
         match (cut(a), cut(b)) {
             (true, true) => {
                 both += 1;
+                // The crack's length is the particle's distance from its plane.
+                worst_offset = worst_offset.max((a.norm() - b.norm()).abs());
                 // atan2 of sine and cosine: acos of an f32 cosine near 1 resolves no angle
                 // finer than about 3e-4 rad.
                 let (a, b) = (a.normalize(), b.normalize());
                 angles.push(a.cross(&b).norm().atan2(a.dot(&b)));
-                worst_offset = worst_offset.max((a.norm() - b.norm()).abs());
             }
             (false, false) => {}
             _ => only_one += 1,
