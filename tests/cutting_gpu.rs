@@ -6,6 +6,15 @@
 //! and positions agree within the bound the other agreement tests use for contact scenes
 //! (tests/gpu_agreement.rs). Without any GPU adapter the tests fail when `CI` is set and
 //! are skipped (with the reason printed) otherwise; here Mesa's llvmpipe is the adapter.
+//!
+//! With MLS-MPM the blade cuts a quarter millimetre off the grid's node plane y = 0, where
+//! the shipped scenes put it. On that plane the nodes lie on most cut particles' crack
+//! planes, and the crack's side test (a step) decides whether such a node joins the two
+//! faces by the sign of the particle's micrometre drift since the cut, which f32 atomics'
+//! summation order flips from run to run: the backends then agree only to 2–6e-3 rad,
+//! 3.8e-6 m of plane offset and 2–4e-5 m of position (README, "Cutting on the GPU"). Off
+//! the plane the same math agrees to about 1e-6 rad and 1e-7 m. PB-MPM stays on the plane:
+//! off it, its block is still in one piece at 0.2 s on both backends (README).
 
 use dvrk_tissue_sim::config::{self, Scene};
 use dvrk_tissue_sim::mpm::backend::{BackendChoice, P2gAtomics};
@@ -35,6 +44,11 @@ fn quick_cutting_scene(
     let keys = &mut scene.tools[0].keyframes;
     keys.truncate(2);
     keys[0].position[2] = 0.034;
+    if method == Method::MlsMpm {
+        for key in keys.iter_mut() {
+            key.position[1] += BLADE_OFF_NODE_PLANE;
+        }
+    }
     if let Some(z) = spine_end {
         keys[1].position[2] = z;
     }
@@ -60,6 +74,9 @@ fn cutting_scene(backend: BackendChoice, method: Method, p2g: P2gAtomics) -> Sce
 fn mesh_cutting_scene(backend: BackendChoice, method: Method, p2g: P2gAtomics) -> Scene {
     quick_cutting_scene("cutting_mesh.toml", Some(0.0221), backend, method, p2g)
 }
+
+/// How far the blade's plane lies from the node plane y = 0 with MLS-MPM (m; module docs).
+const BLADE_OFF_NODE_PLANE: f64 = 0.00025;
 
 /// Time (s) at which the edge has cut the block through.
 const CUT_THROUGH: f64 = 0.2;

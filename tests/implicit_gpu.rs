@@ -52,15 +52,25 @@ fn block_scene(e: f64, table: Table, tools: Vec<dvrk_tissue_sim::config::Tool>) 
     s
 }
 
-/// Steps `scene` `frames` frames on the CPU and the GPU; returns the largest position
-/// difference (m), the largest displacement from the start (m) and the solve counts of
-/// each backend summed over the frames.
-fn run_both(scene: &Scene, frames: usize) -> (f32, f32, SolveCounts, SolveCounts) {
+/// What `run_both` measured: the largest position difference and the largest displacement
+/// from the start (m), the solve counts of each backend summed over the frames, and the
+/// first tool's force of the last frame on each (N; zero without tools).
+struct Both {
+    diff: f32,
+    moved: f32,
+    cpu: SolveCounts,
+    gpu: SolveCounts,
+    forces: [nalgebra::Vector3<f64>; 2],
+}
+
+/// Steps `scene` `frames` frames on the CPU and the GPU.
+fn run_both(scene: &Scene, frames: usize) -> Both {
     let mut cpu = on(scene, BackendChoice::Cpu);
     let mut gpu = on(scene, BackendChoice::Gpu);
     let start = cpu.particles().x.clone();
     let (mut sc, mut sg) = (SolveCounts::default(), SolveCounts::default());
     let (mut wall_cpu, mut wall_gpu) = (0.0, 0.0);
+    let mut forces = [nalgebra::Vector3::zeros(); 2];
     for frame in 0..frames {
         let t = Instant::now();
         let rc = cpu.step_frame().unwrap();
@@ -81,6 +91,9 @@ fn run_both(scene: &Scene, frames: usize) -> (f32, f32, SolveCounts, SolveCounts
         );
         sc.add(rc.solve);
         sg.add(rg.solve);
+        if let (Some(c), Some(g)) = (rc.wrenches.first(), rg.wrenches.first()) {
+            forces = [c.force, g.force];
+        }
     }
     println!(
         "wall per frame: cpu {:.3} s, gpu {:.3} s ({})",
@@ -102,7 +115,13 @@ fn run_both(scene: &Scene, frames: usize) -> (f32, f32, SolveCounts, SolveCounts
         .zip(&start)
         .map(|(p, q)| (p - q).norm())
         .fold(0.0, f32::max);
-    (diff, moved, sc, sg)
+    Both {
+        diff,
+        moved,
+        cpu: sc,
+        gpu: sg,
+        forces,
+    }
 }
 
 /// Newton counts within one a frame of each other on average or within 10 %, whichever is
@@ -140,7 +159,13 @@ fn gpu_implicit_block_on_a_bonded_table_agrees_with_cpu() {
     // sags by ρgh²/(2E) ≈ 9 µm and rings; both backends solve the same Newton–CG.
     let scene = block_scene(2.0e4, bonded_table(0.002), vec![]);
     let frames = 3;
-    let (diff, moved, cpu, gpu) = run_both(&scene, frames);
+    let Both {
+        diff,
+        moved,
+        cpu,
+        gpu,
+        ..
+    } = run_both(&scene, frames);
     println!(
         "bonded block: positions differ by {diff:e} m (moved {moved:e} m); cpu {cpu:?} gpu {gpu:?}"
     );
@@ -178,12 +203,27 @@ fn gpu_implicit_sphere_pressing_on_a_resting_block_agrees_with_cpu() {
     };
     let scene = block_scene(5.0e4, table, vec![sphere]);
     let frames = 3;
-    let (diff, moved, cpu, gpu) = run_both(&scene, frames);
+    let Both {
+        diff,
+        moved,
+        cpu,
+        gpu,
+        forces: [force_cpu, force_gpu],
+    } = run_both(&scene, frames);
     println!(
-        "sphere press: positions differ by {diff:e} m (moved {moved:e} m); cpu {cpu:?} gpu {gpu:?}"
+        "sphere press: positions differ by {diff:e} m (moved {moved:e} m); cpu {cpu:?} gpu {gpu:?}; \
+         sphere force cpu {force_cpu:?} N, gpu {force_gpu:?} N"
     );
     assert!(moved > 1e-4, "the sphere pressed the block {moved} m");
     assert!(diff < 0.05 * moved, "positions differ by {diff} m");
+    // The force the grid update records from the nodes the solve settled on the sphere,
+    // friction included (`update_grid_with`, `grid_update_implicit`): measured 0.0573 N on
+    // the CPU and 0.0574 N on llvmpipe.
+    assert!(force_cpu.norm() > 0.0, "no force on the sphere");
+    assert!(
+        (force_cpu - force_gpu).norm() < 0.05 * force_cpu.norm(),
+        "sphere force cpu {force_cpu:?} N, gpu {force_gpu:?} N"
+    );
     assert_counts_comparable(frames, cpu, gpu);
     assert!(
         cpu.activated > 0 && gpu.activated > 0,
