@@ -209,7 +209,8 @@ impl RodSolver {
             // Gauss–Seidel passes push pairs one after another, and a pair pushed back may
             // push a neighbour through a third. The substep's start has no pair crossed:
             // where the move from there passes one through, it is scaled back (a fail-safe;
-            // without it the soft knot of config/knot.toml pulled 70 mm a side came undone).
+            // without it the soft laid knot of tests/scenes/knot_laid.toml pulled 70 mm a
+            // side came undone).
             if env.self_collision {
                 held_back +=
                     self.crossing_guard
@@ -247,8 +248,9 @@ impl RodSolver {
                         break;
                     }
                 }
-                // The restoring solves are free of contacts: they pulled 3-0 nylon in
-                // config/knot.toml through a bent joint in 639 substeps to 2.6 s. The pass above
+                // The restoring solves are free of contacts: they pulled 3-0 nylon in the
+                // laid knot (tests/scenes/knot_laid.toml) through a bent joint in 639
+                // substeps to 2.6 s. The pass above
                 // pushes such pairs back, one after another; where the move from the rounds'
                 // end still passes a pair through, it is scaled back too.
                 if env.self_collision {
