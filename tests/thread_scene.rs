@@ -494,23 +494,70 @@ fn a_tail_dragged_across_a_coil_does_not_pass_through_it() {
     );
 }
 
-/// The knot determinant of the thread's centreline, and how far (m) its knot reaches across
-/// the line of pull: from the ends' mean y down to its lowest y (the lobes lie at −y).
-fn knot_and_depth(world: &World) -> (u128, f32) {
+/// A knot scene's thread at one moment.
+#[derive(Debug)]
+struct KnotState {
+    /// Knot determinant of the centreline (1 unknotted, 3 overhand).
+    det: u128,
+    /// How far (m) the knot reaches across the line of pull of the laid knot: from the
+    /// ends' mean y down to its lowest y (its lobes lie at −y).
+    depth: f32,
+    /// The knotted part's extent in the top view (m, `knot_extent`).
+    extent: f32,
+}
+
+fn knot_state(world: &World) -> KnotState {
     let thread = &world.threads()[0];
     let points = &thread.rod.points;
     let ends = 0.5 * (points[0].y + points[points.len() - 1].y);
     let lowest = points.iter().map(|p| p.y).fold(f32::MAX, f32::min);
-    (thread.knot_determinant(), ends - lowest)
+    KnotState {
+        det: thread.knot_determinant(),
+        depth: ends - lowest,
+        extent: knot_extent(points),
+    }
 }
 
-/// What a knot scene showed: the determinant and depth at the start, at each of `until`
-/// (det, depth), and the largest |elongation| of any frame. Frame by frame it asserts that
-/// no pair of segments within four diameters passes through another (by `check`).
+/// The extent in the top view (m) of the knotted part of `points`: the larger side of the
+/// x–y bounding box of the points from the first to the last segment that crosses another
+/// in that view (zero where none crosses).
+fn knot_extent(points: &[Vector3<f32>]) -> f32 {
+    let cross = |a: Vector3<f32>, b: Vector3<f32>, c: Vector3<f32>| {
+        (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x)
+    };
+    let n = points.len() - 1;
+    let (mut first, mut last) = (usize::MAX, 0);
+    for i in 0..n {
+        for j in i + 2..n {
+            let (p, q, r, s) = (points[i], points[i + 1], points[j], points[j + 1]);
+            if cross(p, q, r) * cross(p, q, s) < 0.0 && cross(r, s, p) * cross(r, s, q) < 0.0 {
+                first = first.min(i);
+                last = last.max(j + 1);
+            }
+        }
+    }
+    if first > last {
+        return 0.0;
+    }
+    let knot = &points[first..=last];
+    let side = |f: fn(&Vector3<f32>) -> f32| {
+        let (lo, hi) = knot
+            .iter()
+            .map(f)
+            .fold((f32::MAX, f32::MIN), |(lo, hi), v| (lo.min(v), hi.max(v)));
+        hi - lo
+    };
+    side(|p| p.x).max(side(|p| p.y))
+}
+
+/// What a knot scene showed: its thread at the start and at each of `until`, the largest
+/// |elongation| of any frame, and the world at the end. Frame by frame it asserts that no
+/// pair of segments within four diameters passes through another (by `check`).
 struct KnotPull {
-    start: (u128, f32),
-    checks: Vec<(f64, (u128, f32))>,
+    start: KnotState,
+    checks: Vec<(f64, KnotState)>,
     largest_elongation: f64,
+    world: World,
 }
 
 fn pull_knot(scene: &config::Scene, start: u128, until: &[f64], check: Check) -> KnotPull {
@@ -518,8 +565,8 @@ fn pull_knot(scene: &config::Scene, start: u128, until: &[f64], check: Check) ->
     let rod = &world.threads()[0].rod;
     let gap = dvrk_tissue_sim::rod::self_contact::SelfContacts::chain_gap(rod);
     let diameter = 2.0 * rod.material.radius;
-    let at_start = knot_and_depth(&world);
-    assert_eq!(at_start.0, start, "knot determinant at the start");
+    let at_start = knot_state(&world);
+    assert_eq!(at_start.det, start, "knot determinant at the start");
     let mut largest_elongation = 0.0_f64;
     let mut checks = Vec::new();
     for &until in until {
@@ -540,12 +587,13 @@ fn pull_knot(scene: &config::Scene, start: u128, until: &[f64], check: Check) ->
             );
             largest_elongation = largest_elongation.max(thread.elongation().abs());
         }
-        checks.push((until, knot_and_depth(&world)));
+        checks.push((until, knot_state(&world)));
     }
     KnotPull {
         start: at_start,
         checks,
         largest_elongation,
+        world,
     }
 }
 
@@ -616,11 +664,11 @@ fn knot_variant_stays_an_overhand_knot(
 ) {
     let pull = pull_knot(&knot_variant(replacements, name), 3, &KNOT_TIMES, check);
     println!(
-        "{label}: laid {:?}; (time s, (det, depth m)): {:?}; largest |elongation| {:.2e}",
+        "{label}: laid {:?}; (time s, knot): {:?}; largest |elongation| {:.2e}",
         pull.start, pull.checks, pull.largest_elongation
     );
-    for (t, (det, _)) in &pull.checks {
-        assert_eq!(*det, 3, "knot determinant at {t} s");
+    for (t, knot) in &pull.checks {
+        assert_eq!(knot.det, 3, "knot determinant at {t} s");
     }
     assert!(
         pull.largest_elongation < 1e-2,
@@ -680,9 +728,10 @@ fn laid_knot_pulled_70_mm_a_side_stays_an_overhand_knot() {
 #[test]
 fn laid_knot_pulled_tight_and_pulled_again_stays_an_overhand_knot() {
     let KnotPull {
-        start: (laid, laid_depth),
+        start,
         checks,
         largest_elongation,
+        ..
     } = pull_knot(
         &config::load(&laid_knot_path()).unwrap_or_else(|e| panic!("{e}")),
         3,
@@ -690,20 +739,21 @@ fn laid_knot_pulled_tight_and_pulled_again_stays_an_overhand_knot() {
         Check::Sides,
     );
     println!(
-        "laid: det {laid}, depth {laid_depth:.4} m; (time s, (det, depth m)): {checks:?}; \
+        "laid: {start:?}; (time s, knot): {checks:?}; \
          largest |elongation| {largest_elongation:.2e}"
     );
-    for (t, (det, _)) in &checks {
-        assert_eq!(*det, 3, "knot determinant at {t} s");
+    for (t, knot) in &checks {
+        assert_eq!(knot.det, 3, "knot determinant at {t} s");
     }
     // Measured: 40.2 mm laid, 21.6 mm tightened, 17.0 mm after the last pull, 15.9 mm at
     // the end of the hold.
-    let tightened_depth = checks[0].1 .1;
+    let laid_depth = start.depth;
+    let tightened_depth = checks[0].1.depth;
     assert!(
         tightened_depth < 0.6 * laid_depth,
         "the pull closes the lobes: depth {tightened_depth} m of {laid_depth} m laid"
     );
-    let final_depth = checks[2].1 .1;
+    let final_depth = checks[2].1.depth;
     assert!(
         final_depth < tightened_depth,
         "the last pull closes them further: depth {final_depth} m, {tightened_depth} m before"
@@ -712,38 +762,6 @@ fn laid_knot_pulled_tight_and_pulled_again_stays_an_overhand_knot() {
         largest_elongation < 1e-3,
         "largest elongation {largest_elongation}"
     );
-}
-
-/// The extent in the top view (m) of the knotted part of `points`: the larger side of the
-/// x–y bounding box of the points from the first to the last segment that crosses another
-/// in that view (zero where none crosses).
-fn knot_extent(points: &[Vector3<f32>]) -> f32 {
-    let cross = |a: Vector3<f32>, b: Vector3<f32>, c: Vector3<f32>| {
-        (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x)
-    };
-    let n = points.len() - 1;
-    let (mut first, mut last) = (usize::MAX, 0);
-    for i in 0..n {
-        for j in i + 2..n {
-            let (p, q, r, s) = (points[i], points[i + 1], points[j], points[j + 1]);
-            if cross(p, q, r) * cross(p, q, s) < 0.0 && cross(r, s, p) * cross(r, s, q) < 0.0 {
-                first = first.min(i);
-                last = last.max(j + 1);
-            }
-        }
-    }
-    if first > last {
-        return 0.0;
-    }
-    let knot = &points[first..=last];
-    let side = |f: fn(&Vector3<f32>) -> f32| {
-        let (lo, hi) = knot
-            .iter()
-            .map(f)
-            .fold((f32::MAX, f32::MIN), |(lo, hi), v| (lo.min(v), hi.max(v)));
-        hi - lo
-    };
-    side(|p| p.x).max(side(|p| p.y))
 }
 
 /// `config/knot.toml`, the headline of issue 18's knot: two keyframed grippers tie an
@@ -758,54 +776,31 @@ fn knot_toml_ties_an_overhand_knot_in_a_straight_thread_and_it_holds() {
     // Before the tuck, the tail through the loop, A on the standing part, the pull's end,
     // the last pull's end, the hold's end.
     const TIMES: [f64; 6] = [6.5, 8.65, 11.5, 13.15, 13.95, 14.65];
-    let mut world = World::new(&shipped("knot.toml"));
-    let rod = &world.threads()[0].rod;
-    let gap = dvrk_tissue_sim::rod::self_contact::SelfContacts::chain_gap(rod);
-    let diameter = 2.0 * rod.material.radius;
-    assert_eq!(
-        world.threads()[0].knot_determinant(),
-        1,
-        "straight at the start"
-    );
-    let mut largest_elongation = 0.0_f64;
-    let mut checks = Vec::new();
-    for until in TIMES {
-        while world.time() < until - 1e-9 {
-            let before = world.threads()[0].rod.points.clone();
-            world.step_frame().expect("frame");
-            let thread = &world.threads()[0];
-            assert!(thread.rod.is_finite());
-            let crossed = crossings(&before, &thread.rod.points, gap, 4.0 * diameter);
-            assert!(
-                crossed.is_empty(),
-                "at {:.3} s segments (a, b, distance before in m) crossed: {crossed:?}",
-                world.time()
-            );
-            largest_elongation = largest_elongation.max(thread.elongation().abs());
-        }
-        let thread = &world.threads()[0];
-        checks.push((
-            until,
-            thread.knot_determinant(),
-            knot_extent(&thread.rod.points),
-        ));
-    }
-    let thread = &world.threads()[0];
+    let KnotPull {
+        checks,
+        largest_elongation,
+        world,
+        ..
+    } = pull_knot(&shipped("knot.toml"), 1, &TIMES, Check::Sides);
+    let extents: Vec<(f64, u128, f32)> =
+        checks.iter().map(|(t, k)| (*t, k.det, k.extent)).collect();
     println!(
-        "(time s, det, knot extent m): {checks:?}; largest |elongation| {largest_elongation:.2e}"
+        "(time s, det, knot extent m): {extents:?}; largest |elongation| {largest_elongation:.2e}"
     );
     assert_eq!(
-        checks[0].1, 1,
+        checks[0].1.det, 1,
         "not knotted before the tail goes through the loop"
     );
-    for (t, det, _) in &checks[1..] {
-        assert_eq!(*det, 3, "knot determinant at {t} s");
+    for (t, knot) in &checks[1..] {
+        assert_eq!(knot.det, 3, "knot determinant at {t} s");
     }
+    let thread = &world.threads()[0];
     assert!(
         thread.held_by(0) && thread.held_by(1),
         "both grippers hold the thread at the end"
     );
-    let (before_pull, pulled, pulled_again) = (checks[2].2, checks[3].2, checks[4].2);
+    let (before_pull, pulled, pulled_again) =
+        (checks[2].1.extent, checks[3].1.extent, checks[4].1.extent);
     assert!(
         pulled < before_pull && pulled_again <= pulled,
         "the pulls close the knot: {before_pull} m, then {pulled} m, then {pulled_again} m"

@@ -250,9 +250,9 @@ impl RodSolver {
                 }
                 // The restoring solves are free of contacts: they pulled 3-0 nylon in the
                 // laid knot (tests/scenes/knot_laid.toml) through a bent joint in 639
-                // substeps to 2.6 s. The pass above
-                // pushes such pairs back, one after another; where the move from the rounds'
-                // end still passes a pair through, it is scaled back too.
+                // substeps to 2.6 s. The pass above pushes such pairs back, one after
+                // another; where the move from the rounds' end still passes a pair through,
+                // it is scaled back too.
                 if env.self_collision {
                     held_back += self.crossing_guard.keep_sides(
                         rod,
