@@ -6,9 +6,13 @@
 //! there is one and a software one otherwise: that is how CI tests the GPU path. The choice
 //! and its reason are logged with the adapter's name, API, device type and whether it has
 //! f32 atomics.
+//!
+//! Every adapter comes from one wgpu instance kept for the life of the process
+//! ([`instance`]); each world opens (and, dropped, closes) only its own device on it.
 
 use super::GpuError;
 use crate::mpm::backend::BackendChoice;
+use std::sync::OnceLock;
 use wgpu::{Adapter, DeviceType};
 
 /// A device and queue on the chosen adapter.
@@ -53,17 +57,35 @@ fn describe(a: &Adapter) -> String {
     )
 }
 
-/// Every adapter wgpu finds on Vulkan, Metal and DX12 (not GL: it has no compute storage
-/// atomics worth using), best first.
+/// The process's wgpu instance on Vulkan, Metal and DX12 (not GL: it has no compute storage
+/// atomics worth using), made on first use and never dropped.
+///
+/// An instance per world made the Vulkan loader load and unload the driver once per world,
+/// and NVIDIA's (580, on an H100) takes static TLS (`libnvidia-tls.so`) at each load that
+/// glibc does not give back at the unload: the 31st load in a process failed with "cannot
+/// allocate memory in static TLS block", the loader found no driver, and that world and every
+/// later one failed with "no GPU adapter exists". Kept, the driver is loaded once. Devices
+/// are still per world: a dropped world frees its device and buffers on this instance.
+pub fn instance() -> &'static wgpu::Instance {
+    static INSTANCE: OnceLock<wgpu::Instance> = OnceLock::new();
+    INSTANCE.get_or_init(|| {
+        wgpu::Instance::new(&wgpu::InstanceDescriptor {
+            backends: wgpu::Backends::PRIMARY,
+            ..Default::default()
+        })
+    })
+}
+
+/// Every adapter the process's [`instance`] finds, best first.
 pub fn adapters() -> Vec<Adapter> {
-    let instance = wgpu::Instance::new(&wgpu::InstanceDescriptor {
-        backends: wgpu::Backends::PRIMARY,
-        ..Default::default()
-    });
-    let mut list = instance.enumerate_adapters(wgpu::Backends::PRIMARY);
+    let mut list = instance().enumerate_adapters(wgpu::Backends::PRIMARY);
     list.sort_by_key(|a| preference(a.get_info().device_type));
     list
 }
+
+/// The first adapter this process opened a device on (see [`describe`]), so that an adapter
+/// that stops being listed is not reported as a machine without one.
+static OPENED: OnceLock<String> = OnceLock::new();
 
 /// Picks the adapter `choice` asks for: `Ok(None)` means "use the CPU backend".
 pub fn select(choice: BackendChoice) -> Result<Option<GpuContext>, GpuError> {
@@ -89,7 +111,12 @@ pub fn select(choice: BackendChoice) -> Result<Option<GpuContext>, GpuError> {
         }
         (_, None) => match list.first() {
             Some(a) => (a, "gpu asked for and only a software adapter exists"),
-            None => return Err(GpuError::NoAdapter),
+            None => {
+                return Err(match OPENED.get() {
+                    Some(earlier) => GpuError::AdapterGone(earlier.clone()),
+                    None => GpuError::NoAdapter,
+                })
+            }
         },
     };
     let ctx = open(adapter)?;
@@ -139,7 +166,8 @@ pub fn open(adapter: &Adapter) -> Result<GpuContext, GpuError> {
         required_limits: adapter.limits(),
         ..Default::default()
     }))
-    .map_err(|e| GpuError::Device(e.to_string()))?;
+    .map_err(|e| GpuError::Device(format!("on adapter {}: {e}", describe(adapter))))?;
+    OPENED.get_or_init(|| describe(adapter));
     Ok(GpuContext {
         device,
         queue,

@@ -87,10 +87,21 @@ pub const IMPLICIT_WITH_CUTTING: &str = "solver.method = \"implicit\" in a scene
 pub enum GpuError {
     #[error(
         "backend \"gpu\" asked for, but no GPU adapter exists (no Vulkan, Metal or DX12 \
-         driver found; on Debian/Ubuntu `apt-get install mesa-vulkan-drivers` provides the \
-         llvmpipe software adapter)"
+         driver found; VK_LOADER_DEBUG=error shows why the Vulkan loader found none; on \
+         Debian/Ubuntu `apt-get install mesa-vulkan-drivers` provides the llvmpipe software \
+         adapter)"
     )]
     NoAdapter,
+    /// The adapter list came back empty after this process had opened a device on the
+    /// adapter named (the driver no longer lists it: the GPU fell off, or the driver ran out
+    /// of something), which a missing driver does not explain.
+    #[error(
+        "backend \"gpu\" asked for, but the GPU adapter this process opened before, {0}, is \
+         no longer listed by its driver (lost device or driver failure); restart the process"
+    )]
+    AdapterGone(String),
+    /// An adapter exists but a device could not be opened on it (the adapter and wgpu's
+    /// error are in the message), or the device cannot do what the scene asks for.
     #[error("could not open the GPU device: {0}")]
     Device(String),
     #[error("scene too large for the GPU backend: {0}")]
