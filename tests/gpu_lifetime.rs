@@ -7,7 +7,6 @@
 //! Without any GPU adapter the test fails when `CI` is set and is skipped (with the reason
 //! printed) otherwise; on a plain CI machine Mesa's llvmpipe (software Vulkan) is the adapter.
 
-use dvrk_tissue_sim::config::builders::*;
 use dvrk_tissue_sim::config::{Hold, Scene, Table};
 use dvrk_tissue_sim::mpm::backend::{BackendChoice, P2gAtomics};
 use dvrk_tissue_sim::mpm::gpu::adapter;
@@ -22,29 +21,14 @@ const CYCLES: usize = 30;
 /// Every `IMPLICIT_EVERY`th of them solves implicitly (where the adapter has f32 atomics).
 const IMPLICIT_EVERY: usize = 5;
 
-/// A 6 × 6 × 4 mm block (1152 particles at dx = 1 mm) on a bonded table, on the GPU.
+/// `support::small_block_scene` of 5 kPa on a bonded table, on the GPU.
 fn block(method: Method) -> Scene {
-    let mut s = scene(
-        "lifetime-block",
-        60.0,
-        domain(
-            [-0.008, -0.008, 0.0],
-            [0.016, 0.016, 0.014],
-            0.001,
-            [0.0, 0.0, -9.81],
-        ),
-        Some(Table {
-            height: 0.002,
-            hold: Hold::Bonded,
-            friction: 0.5,
-        }),
-        vec![tissue(
-            [0.0, 0.0, 0.004],
-            [0.006, 0.006, 0.004],
-            material(5000.0, 0.45, 1000.0, 0.0),
-        )],
-        vec![],
-    );
+    let table = Table {
+        height: 0.002,
+        hold: Hold::Bonded,
+        friction: 0.5,
+    };
+    let mut s = support::small_block_scene("lifetime-block", 5000.0, table, vec![]);
     s.solver.method = method;
     s.solver.backend = BackendChoice::Gpu;
     s

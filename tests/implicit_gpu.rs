@@ -28,26 +28,9 @@ fn on(scene: &Scene, backend: BackendChoice) -> World {
     w
 }
 
-/// A 6 × 6 × 4 mm block of `e` Pa, ν 0.45 (1152 particles), on a table at z = 2 mm
-/// (bonded or resting) under gravity, dx = 1 mm.
+/// `support::small_block_scene` solved implicitly.
 fn block_scene(e: f64, table: Table, tools: Vec<dvrk_tissue_sim::config::Tool>) -> Scene {
-    let mut s = scene(
-        "implicit-block",
-        60.0,
-        domain(
-            [-0.008, -0.008, 0.0],
-            [0.016, 0.016, 0.014],
-            0.001,
-            [0.0, 0.0, -9.81],
-        ),
-        Some(table),
-        vec![tissue(
-            [0.0, 0.0, 0.004],
-            [0.006, 0.006, 0.004],
-            material(e, 0.45, 1000.0, 0.0),
-        )],
-        tools,
-    );
+    let mut s = support::small_block_scene("implicit-block", e, table, tools);
     s.solver.method = Method::Implicit;
     s
 }
@@ -124,17 +107,18 @@ fn run_both(scene: &Scene, frames: usize) -> Both {
     }
 }
 
-/// Newton counts within one a frame of each other on average or within 10 %, whichever is
+/// Newton counts within one a frame of each other on average or within 15 %, whichever is
 /// more, CG within a factor. The GPU's f32 atomics sum in an order that changes from run to
-/// run, and with it where a residual crosses its tolerance: four runs of the sphere press
-/// on llvmpipe (Mesa 25.0) took 74–81 Newton iterations against the CPU's 78, with positions
-/// within 1.1e-5 m.
+/// run, and with it where a residual crosses its tolerance: the sphere press with its
+/// active-set rounds on llvmpipe (Mesa 25.0, other builds running) took 121–139 Newton
+/// iterations against the CPU's 124 in the 14 of 19 runs read, positions within 3.5e-6 –
+/// 8.2e-6 m; 10 % (112–136) failed four of the 19.
 fn assert_counts_comparable(frames: usize, cpu: SolveCounts, gpu: SolveCounts) {
     assert!(
         cpu.newton > 0 && gpu.newton > 0 && cpu.cg > 0 && gpu.cg > 0,
         "cpu {cpu:?} gpu {gpu:?}"
     );
-    let newton_slack = frames.max(cpu.newton as usize / 10);
+    let newton_slack = frames.max(cpu.newton as usize * 15 / 100);
     assert!(
         cpu.newton.abs_diff(gpu.newton) as usize <= newton_slack,
         "Newton cpu {} gpu {}",
