@@ -107,20 +107,19 @@ fn run_both(scene: &Scene, frames: usize) -> Both {
     }
 }
 
-/// Newton counts within one a frame of each other on average or within 25 %, whichever is
-/// more, CG within 1.5×: a check that the GPU does the CPU's work, not an accuracy bound
-/// (the positions are). The GPU's f32 atomics sum in an order that changes from run to run,
-/// and with it where a residual crosses its tolerance: the sphere press with its active-set
-/// rounds on llvmpipe (Mesa 25.0) took 121–142 Newton iterations against the CPU's 124 and
-/// 10,102–13,982 CG iterations against 12,508 in the 34 of 36 runs read, positions within
-/// 3.5e-6 – 8.2e-6 m; 10 % (112–136) failed four of the first 19, and one of the 36 failed
-/// the position bound (its figure not read).
+/// Newton counts within one a frame of each other on average or within 10 %, whichever is
+/// more, CG within 1.5×. The GPU's f32 atomics sum in an order that changes from run to run,
+/// and with it where a residual crosses its tolerance. Since the active-set rounds the
+/// sphere press spreads wider than this bound allows: on llvmpipe (Mesa 25.0) it took
+/// 121–142 Newton iterations against the CPU's 124 in 34 runs read (116–130 in 8 runs
+/// before the process kept one wgpu instance), so about one run in seven fails here: a
+/// known flake, open until the GPU solve's sums are made order-independent.
 fn assert_counts_comparable(frames: usize, cpu: SolveCounts, gpu: SolveCounts) {
     assert!(
         cpu.newton > 0 && gpu.newton > 0 && cpu.cg > 0 && gpu.cg > 0,
         "cpu {cpu:?} gpu {gpu:?}"
     );
-    let newton_slack = frames.max(cpu.newton as usize / 4);
+    let newton_slack = frames.max(cpu.newton as usize / 10);
     assert!(
         cpu.newton.abs_diff(gpu.newton) as usize <= newton_slack,
         "Newton cpu {} gpu {}",
