@@ -6,12 +6,12 @@
 //! Split of the work. Every array the solve touches lives on the device: per node (of the
 //! active blocks) v*, the iterate, the trial, ∇Φ, the Newton step, the CG vectors, the
 //! constraint projection, the preconditioner and the warm-start correction; per particle
-//! the 9×9 velocity-gradient stiffness (324 B). Sums (energies, norms, dot products) are
-//! two-level reductions: each workgroup leaves its sum in a partials buffer, one workgroup
-//! adds them up (compensated f32) into a scalar. The conjugate gradients keep their
-//! scalars (rz, α, β, the iteration count, a done flag) on the device: one CG iteration is
-//! nine dispatches (product clear, particle scatter, node finish, sum, α, update, sum, β,
-//! direction) and reads nothing back; the host records `CG_CHUNK` iterations, then reads
+//! the 9×9 velocity-gradient stiffness and the 3×3 matrix its scatter multiplies (360 B).
+//! Sums (energies, norms, dot products) are two-level reductions: each workgroup leaves its
+//! sum in a partials buffer, one workgroup adds them up (compensated f32) into a scalar.
+//! The conjugate gradients keep their scalars (rz, α, β, the iteration count, a done flag)
+//! on the device: one CG iteration is ten dispatches (product clear, particle product,
+//! particle scatter, node finish, sum, α, update, sum, β, direction) and reads nothing back; the host records `CG_CHUNK` iterations, then reads
 //! the 128-byte scalar block to see whether CG has stopped (iterations past the stop are
 //! recorded but return at once). Newton and the line search stay on the host, as in the
 //! CPU solver, because each decision (forcing term, Armijo test, stopping) needs Φ or ‖∇Φ‖:
@@ -33,12 +33,12 @@
 //!   that grew (the count, the evaluation) + 1 for the round that grew none;
 //! - submissions without a readback: about 4 + 3N (warm-start choices, CG start, trial
 //!   steps, acceptance, the end);
-//! - dispatches: about 30 + Σₖ (72·⌈Cₖ/CG_CHUNK⌉ + 5Lₖ + 11); a chunk always records its 8
+//! - dispatches: about 33 + Σₖ (80·⌈Cₖ/CG_CHUNK⌉ + 5Lₖ + 12); a chunk always records its 8
 //!   iterations, those past CG's stop return at once.
 //!
 //! For a substep of 9 Newton iterations with ~19 CG iterations and ~1 trial each (the
 //! sphere-press agreement scene's) that is about 58 readbacks, 30 other submissions and
-//! 2,100 dispatches. On a
+//! 2,300 dispatches. On a
 //! discrete GPU a submit-and-wait round trip costs some 20–50 µs and a dispatch a few µs,
 //! so such a substep is latency bound at a few milliseconds before any arithmetic; the
 //! arithmetic per CG iteration is one pass over the particles' stiffness (324 B each) and a
@@ -47,10 +47,21 @@
 //! (the slope and the line search's first trial folded into the last CG chunk, Newton's
 //! stopping test on the device) are the next step where latency dominates.
 //!
-//! Requires f32 atomics (`SHADER_FLOAT32_ATOMIC`): the Hessian product's scatter spans
-//! more than the fixed-point accumulators' range on stiff tissue (a product of
-//! V₀dt²E/dx²·|d| reaches hundreds of the fixed-point momentum unit). Without them, and in
-//! scenes that cut, the solver refuses implicit (`auto` then takes the CPU).
+//! Order-independent sums: the result is the same from run to run. The particle scatters
+//! (P2G's momentum and mass, ∇Φ, the diagonal blocks, the Hessian product) add 64-bit
+//! fixed-point integers (two u32 atomics each), in a unit set from a bound on the
+//! contributions that a first pass over the particles raises, so that each scatter is two
+//! particle passes (`implicit.wgsl` `fixed_add` has the range and resolution); the
+//! reductions add per-workgroup partials in a fixed tree, the node workgroups in the active
+//! blocks' increasing index (`sparse.wgsl` `compact`). With f32 atomics the sums changed
+//! with the order the invocations ran in: on llvmpipe the sphere-press agreement scene took
+//! 121–142 Newton iterations from run to run, where the fixed-point solve takes the same
+//! count every run.
+//!
+//! Requires f32 atomics (`SHADER_FLOAT32_ATOMIC`) for group 0's accumulators, which the
+//! solve stores the grid update's mass and momentum into, and at most [`MAX_PARTICLES`]
+//! particles. Without them, and in scenes that cut, the solver refuses implicit (`auto`
+//! then takes the CPU).
 
 use super::resources::Resources;
 use super::{GpuSolver, Groups};
@@ -65,9 +76,17 @@ pub const SOURCE: &str = include_str!("implicit.wgsl");
 /// CG iterations recorded between two looks at whether CG has stopped.
 pub const CG_CHUNK: u32 = 8;
 
-/// Bytes per node of `ImNode` (13 vec4 and two mat3x3) and of the accumulators.
+/// Bytes per node of `ImNode` (13 vec4 and two mat3x3) and of the accumulators (16
+/// two-word fixed-point sums, then the finished product's 3 f32 and a word of padding).
 const NODE_BYTES: u64 = 13 * 16 + 2 * 48;
-const ACC_BYTES: u64 = 16 * 4;
+const ACC_BYTES: u64 = 36 * 4;
+/// Words per particle of the stiffness buffer: the 9×9 stiffness, then the scatter's 3×3.
+const STIFF_WORDS: u64 = 90;
+
+/// The most particles the implicit solve takes: a node's fixed-point sum takes one
+/// contribution of at most 2^40 units per particle, so 2^22 particles keep it below 2^62
+/// (`implicit.wgsl` `fixed_add`).
+pub const MAX_PARTICLES: usize = 1 << 22;
 const SCALAR_WORDS: usize = 32;
 
 // Words of the scalar block (implicit.wgsl `I_*` and the sum slots).
@@ -88,6 +107,9 @@ const SLOT_SLOPE: u32 = 22;
 const SLOT_MASS: u32 = 24;
 
 struct Pipelines {
+    p2g_clear: wgpu::ComputePipeline,
+    /// The P2G pass that raises the bounds, then the one that scatters.
+    p2g_bound: wgpu::ComputePipeline,
     p2g: wgpu::ComputePipeline,
     prepare: wgpu::ComputePipeline,
     trial_correction: wgpu::ComputePipeline,
@@ -97,11 +119,13 @@ struct Pipelines {
     eval_clear: wgpu::ComputePipeline,
     /// [without, with] the Hessian.
     eval: [wgpu::ComputePipeline; 2],
+    eval_scatter: [wgpu::ComputePipeline; 2],
     eval_nodes: [wgpu::ComputePipeline; 2],
     cg_init: wgpu::ComputePipeline,
     cg_start: wgpu::ComputePipeline,
     product_clear: wgpu::ComputePipeline,
     product: wgpu::ComputePipeline,
+    product_scatter: wgpu::ComputePipeline,
     product_finish: wgpu::ComputePipeline,
     cg_alpha: wgpu::ComputePipeline,
     cg_update: wgpu::ComputePipeline,
@@ -174,7 +198,11 @@ impl ImplicitStages {
         let (nodes, particles, blocks) = sizes;
         let node_buffer = storage(device, "implicit nodes", nodes as u64 * NODE_BYTES);
         let acc = storage(device, "implicit accumulators", nodes as u64 * ACC_BYTES);
-        let stiffness = storage(device, "implicit stiffness", particles as u64 * 81 * 4);
+        let stiffness = storage(
+            device,
+            "implicit stiffness",
+            particles as u64 * STIFF_WORDS * 4,
+        );
         let groups = particles.div_ceil(super::WG as usize).max(blocks).max(1);
         let partials = storage(device, "implicit partials", 2 * groups as u64 * 4);
         let scalars = storage(device, "implicit scalars", (SCALAR_WORDS * 4) as u64);
@@ -258,18 +286,25 @@ impl ImplicitStages {
             )
         };
         let pipelines = Pipelines {
-            p2g: make("im_p2g", &[]),
+            p2g_clear: make("im_p2g_clear", &[]),
+            p2g_bound: make("im_p2g", &[("BOUND_PASS", 1.0)]),
+            p2g: make("im_p2g", &[("BOUND_PASS", 0.0)]),
             prepare: make("im_prepare", &[]),
             trial_correction: make("im_trial_correction", &[]),
             energy: [select("im_energy", false), select("im_energy", true)],
             kinetic: [select("im_kinetic", false), select("im_kinetic", true)],
             eval_clear: make("im_eval_clear", &[]),
             eval: [eval("im_eval", false), eval("im_eval", true)],
+            eval_scatter: [
+                eval("im_eval_scatter", false),
+                eval("im_eval_scatter", true),
+            ],
             eval_nodes: [eval("im_eval_nodes", false), eval("im_eval_nodes", true)],
             cg_init: make("im_cg_init", &[]),
             cg_start: make("im_cg_start", &[("SLOT", SLOT_RZ0 as f64)]),
             product_clear: make("im_product_clear", &[]),
             product: make("im_product", &[]),
+            product_scatter: make("im_product_scatter", &[]),
             product_finish: make("im_product_finish", &[]),
             cg_alpha: make("im_cg_alpha", &[("SLOT", SLOT_PAP as f64)]),
             cg_update: make("im_cg_update", &[]),
@@ -332,6 +367,7 @@ impl ImplicitStages {
         let p = &self.pipelines;
         nodes(pass, &p.eval_clear, g);
         particles(pass, &p.eval[hessian as usize], g);
+        particles(pass, &p.eval_scatter[hessian as usize], g);
         single(pass, &p.sum_elastic);
         nodes(pass, &p.eval_nodes[hessian as usize], g);
         single(pass, &p.sum_kinetic);
@@ -341,6 +377,7 @@ impl ImplicitStages {
         let p = &self.pipelines;
         nodes(pass, &p.product_clear, g);
         particles(pass, &p.product, g);
+        particles(pass, &p.product_scatter, g);
         nodes(pass, &p.product_finish, g);
         single(pass, &p.sum_pap);
         single(pass, &p.cg_alpha);
@@ -449,6 +486,8 @@ impl GpuSolver {
                 self.sparse.record(pass, g);
                 pass.set_bind_group(1, &im.bind_group, &[]);
                 let p = &im.pipelines;
+                nodes(pass, &p.p2g_clear, g);
+                particles(pass, &p.p2g_bound, g);
                 particles(pass, &p.p2g, g);
                 nodes(pass, &p.prepare, g);
                 single(pass, &p.sum_mass);

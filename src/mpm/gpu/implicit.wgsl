@@ -1,7 +1,11 @@
 // Backward-Euler MLS-MPM (cpu `implicit`): the node and particle kernels of the Newton–CG
 // solve on the grid velocities. Group 1 holds the solve's own buffers (implicit.rs); the
 // host drives Newton and the line search, the conjugate gradients run on the device with
-// their scalars in `im_scal`. Needs f32 atomics (the solver refuses implicit without them).
+// their scalars in `im_scal`. Every sum is order-independent, so the solve gives the same
+// result from run to run: the particles scatter in 64-bit fixed point (`fixed_add`), the
+// node and particle reductions add per-workgroup partials in a fixed tree over the active
+// blocks in increasing index (sparse.wgsl `compact`). Built on the f32-atomics variant of
+// group 0 (`im_prepare` and `im_finish` store the grid update's mass and momentum as f32).
 
 struct ImNode {
     // xyz: v* = p/m + g dt; w: the node mass.
@@ -31,17 +35,24 @@ struct ImNode {
 }
 
 @group(1) @binding(0) var<storage, read_write> im_nodes: array<ImNode>;
-// Per node ACC_WORDS f32 accumulators: ∂E/∂v (0..3), the diagonal Hessian block (3..12),
-// the Hessian product (12..15).
-@group(1) @binding(1) var<storage, read_write> im_acc: array<atomic<f32>>;
-// Per particle: the 9×9 velocity-gradient stiffness (hessian.rs), column-major.
+// Per node ACC_WORDS words: sums scattered from the particles in 64-bit fixed point, value k
+// in words 2k (low) and 2k + 1 (high) (`fixed_add`): the P2G momentum (0..3) and mass (3)
+// until `im_prepare`, then ∂E/∂v (0..3), the diagonal Hessian block (3..12) and the Hessian
+// product (12..15); words PRODUCT_WORD.. hold the finished product (f32 bits).
+@group(1) @binding(1) var<storage, read_write> im_acc: array<atomic<u32>>;
+// Per particle STIFF_STRIDE words: the 9×9 velocity-gradient stiffness (hessian.rs),
+// column-major, then at SCATTER_Q the 3×3 matrix q (column-major) whose products q·∇wᵢ the
+// particle's second pass scatters.
 @group(1) @binding(2) var<storage, read_write> im_stiff: array<f32>;
 // Per workgroup reduction partials: two regions of arrayLength/2 entries.
 @group(1) @binding(3) var<storage, read_write> im_partials: array<f32>;
 // Scalars (f32 as bits, or u32): the I_* words below.
 @group(1) @binding(4) var<storage, read_write> im_scal: array<atomic<u32>>;
 
-const ACC_WORDS: u32 = 16u;
+const ACC_WORDS: u32 = 36u;
+const PRODUCT_WORD: u32 = 32u;
+const STIFF_STRIDE: u32 = 90u;
+const SCATTER_Q: u32 = 81u;
 const I_COUNT: u32 = 0u;
 const I_DONE: u32 = 1u;
 const I_ITER: u32 = 2u;
@@ -54,6 +65,13 @@ const I_RZ: u32 = 8u;
 const I_CG_ALPHA: u32 = 9u;
 const I_BETA: u32 = 10u;
 const I_ACTIVATED: u32 = 11u;
+// Bounds on the scattered contributions' magnitude (f32 bits, raised by atomicMax), one per
+// fixed-point sum: P2G momentum and mass, ∂E/∂v, the diagonal blocks, the Hessian product.
+const B_MOMENTUM: u32 = 26u;
+const B_MASS: u32 = 27u;
+const B_GRAD: u32 = 28u;
+const B_BLOCK: u32 = 29u;
+const B_PRODUCT: u32 = 30u;
 
 // Which sum `im_sum` writes (its two regions to SLOT and SLOT + 1), over node or particle
 // workgroups; which velocity the energy kernels read; whether `im_eval*` build the Hessian
@@ -63,6 +81,8 @@ override OVER_NODES: bool = true;
 override SELECT_TRIAL: bool = false;
 override HESSIAN: bool = false;
 override BLOCK_JACOBI: bool = true;
+// `im_p2g`: the pass that raises the bounds (true) or the one that scatters.
+override BOUND_PASS: bool = false;
 
 const ID3 = mat3x3<f32>(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0));
 
@@ -474,7 +494,7 @@ fn store_stiffness(p: u32, mat: Material, f: mat3x3<f32>, f_n: mat3x3<f32>, volu
             }
         }
     }
-    let base = p * 81u;
+    let base = p * STIFF_STRIDE;
     for (var r = 0u; r < 3u; r++) {
         for (var s = 0u; s < 3u; s++) {
             for (var j = 0u; j < 9u; j++) {
@@ -490,7 +510,7 @@ fn store_stiffness(p: u32, mat: Material, f: mat3x3<f32>, f_n: mat3x3<f32>, volu
 
 // K·vec(g) unflattened.
 fn stiffness_times(p: u32, g: mat3x3<f32>) -> mat3x3<f32> {
-    let base = p * 81u;
+    let base = p * STIFF_STRIDE;
     var out = mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
     for (var i = 0u; i < 9u; i++) {
         var s = 0.0;
@@ -502,20 +522,163 @@ fn stiffness_times(p: u32, g: mat3x3<f32>) -> mat3x3<f32> {
     return out;
 }
 
-fn acc_add3(i: u32, word: u32, v: vec3<f32>) {
-    let at = i * ACC_WORDS + word;
-    atomicAdd(&im_acc[at], v.x);
-    atomicAdd(&im_acc[at + 1u], v.y);
-    atomicAdd(&im_acc[at + 2u], v.z);
+// ---- order-independent scatters: 64-bit fixed point ----
+//
+// f32 atomics add in the order the invocations happen to run, so their sums, and the Newton
+// and CG counts that follow, would change from run to run. The particle scatters add
+// integers instead, which associate. Each sum's unit is 2^(e − FIXED_BITS), 2^e the power of
+// two above a bound on its contributions' magnitude that a first pass over the same
+// particles raised (atomicMax of f32 bits: order-independent too), so a contribution is at
+// most 2^FIXED_BITS units and is resolved to 2^−FIXED_BITS of the bound (f32 atomics resolve
+// 2^−24 of each partial sum). A node takes one contribution per particle and the solver
+// takes at most 2^22 particles (implicit.rs `MAX_PARTICLES`), so a sum stays below 2^62
+// units: it cannot overflow. The 64 bits are two u32 atomics: atomicAdd on the low word
+// returns the old value, so the carry into the high word is exact.
+
+const FIXED_BITS: i32 = 40;
+const TWO_32: f32 = 4294967296.0;
+// 2^(FIXED_BITS + 1): a recomputed contribution a rounding above its bound still fits.
+const FIXED_CLAMP: f32 = 2199023255552.0;
+
+fn pow2(k: i32) -> f32 {
+    return bitcast<f32>(u32(k + 127) << 23u);
 }
 
-fn acc_load3(i: u32, word: u32) -> vec3<f32> {
-    let at = i * ACC_WORDS + word;
-    return vec3<f32>(atomicLoad(&im_acc[at]), atomicLoad(&im_acc[at + 1u]), atomicLoad(&im_acc[at + 2u]));
+// A pass's running bound: the largest |component| and, to catch a non-finite one, their sum.
+struct Bound {
+    largest: f32,
+    total: f32,
 }
 
-fn acc_load_block(i: u32) -> mat3x3<f32> {
-    return mat3x3<f32>(acc_load3(i, 3u), acc_load3(i, 6u), acc_load3(i, 9u));
+fn bound1(b: ptr<function, Bound>, x: f32) {
+    (*b).largest = max((*b).largest, abs(x));
+    (*b).total += abs(x);
+}
+
+fn bound3(b: ptr<function, Bound>, v: vec3<f32>) {
+    let a = abs(v);
+    (*b).largest = max((*b).largest, max(a.x, max(a.y, a.z)));
+    (*b).total += a.x + a.y + a.z;
+}
+
+// Raises bound `slot` to `b`; to NaN's bits (above every finite bound) where a contribution
+// was not finite, which makes the sum read NaN as an f32 atomic sum would.
+fn raise_bound(slot: u32, b: Bound) {
+    var bits = bitcast<u32>(b.largest);
+    if (!is_finite(b.total)) {
+        bits = 0x7fc00000u;
+    }
+    if (bits > atomicLoad(&im_scal[slot])) {
+        atomicMax(&im_scal[slot], bits);
+    }
+}
+
+// e with bound < 2^e (from the f32 exponent), kept where 2^(e ± FIXED_BITS) is a normal f32.
+fn bound_exponent(slot: u32) -> i32 {
+    let bits = atomicLoad(&im_scal[slot]);
+    return clamp(i32((bits >> 23u) & 0xffu) - 126, -80, 128);
+}
+
+// Units per unit of the quantity of the sum with bound `slot`.
+fn fixed_scale(slot: u32) -> f32 {
+    return pow2(FIXED_BITS - bound_exponent(slot));
+}
+
+// The quantity per unit of that sum; NaN where a contribution was not finite.
+fn fixed_unit(slot: u32) -> f32 {
+    if (atomicLoad(&im_scal[slot]) >= 0x7f800000u) {
+        return bitcast<f32>(0x7fc00000u);
+    }
+    return pow2(bound_exponent(slot) - FIXED_BITS);
+}
+
+// Adds x (times `scale`, rounded to a whole unit) to value v of node i.
+fn fixed_add(i: u32, v: u32, x: f32, scale: f32) {
+    let y = clamp(round(x * scale), -FIXED_CLAMP, FIXED_CLAMP);
+    if (y == 0.0) {
+        return;
+    }
+    // |y| = hi·2^32 + lo exactly (|y| is a whole number below 2^42 with at most 24
+    // significant bits), then the two's complement of y.
+    let a = abs(y);
+    let a_hi = floor(a / TWO_32);
+    var lo = u32(a - a_hi * TWO_32);
+    var hi = u32(a_hi);
+    if (y < 0.0) {
+        lo = ~lo + 1u;
+        hi = ~hi + select(0u, 1u, lo == 0u);
+    }
+    let at = i * ACC_WORDS + 2u * v;
+    let old = atomicAdd(&im_acc[at], lo);
+    hi += select(0u, 1u, old + lo < old);
+    if (hi != 0u) {
+        atomicAdd(&im_acc[at + 1u], hi);
+    }
+}
+
+fn fixed_add3(i: u32, v: u32, x: vec3<f32>, scale: f32) {
+    fixed_add(i, v, x.x, scale);
+    fixed_add(i, v + 1u, x.y, scale);
+    fixed_add(i, v + 2u, x.z, scale);
+}
+
+// Value v of node i in the quantity's units (`fixed_unit`).
+fn fixed_load(i: u32, v: u32, unit: f32) -> f32 {
+    let at = i * ACC_WORDS + 2u * v;
+    var lo = atomicLoad(&im_acc[at]);
+    var hi = atomicLoad(&im_acc[at + 1u]);
+    let negative = (hi & 0x80000000u) != 0u;
+    if (negative) {
+        lo = ~lo + 1u;
+        hi = ~hi + select(0u, 1u, lo == 0u);
+    }
+    let magnitude = (f32(hi) * TWO_32 + f32(lo)) * unit;
+    return select(magnitude, -magnitude, negative);
+}
+
+fn fixed_load3(i: u32, v: u32, unit: f32) -> vec3<f32> {
+    return vec3<f32>(fixed_load(i, v, unit), fixed_load(i, v + 1u, unit), fixed_load(i, v + 2u, unit));
+}
+
+// Zeroes values first..first + count of node i.
+fn acc_clear(i: u32, first: u32, count: u32) {
+    for (var k = 2u * first; k < 2u * (first + count); k++) {
+        atomicStore(&im_acc[i * ACC_WORDS + k], 0u);
+    }
+}
+
+// The finished Hessian product of node i (`im_product_finish`).
+fn product_load(i: u32) -> vec3<f32> {
+    let at = i * ACC_WORDS + PRODUCT_WORD;
+    return vec3<f32>(bitcast<f32>(atomicLoad(&im_acc[at])), bitcast<f32>(atomicLoad(&im_acc[at + 1u])),
+                     bitcast<f32>(atomicLoad(&im_acc[at + 2u])));
+}
+
+fn store_q(p: u32, q: mat3x3<f32>) {
+    let at = p * STIFF_STRIDE + SCATTER_Q;
+    for (var c = 0u; c < 3u; c++) {
+        for (var r = 0u; r < 3u; r++) {
+            im_stiff[at + 3u * c + r] = q[c][r];
+        }
+    }
+}
+
+fn load_q(p: u32) -> mat3x3<f32> {
+    let at = p * STIFF_STRIDE + SCATTER_Q;
+    var q: mat3x3<f32>;
+    for (var c = 0u; c < 3u; c++) {
+        q[c] = vec3<f32>(im_stiff[at + 3u * c], im_stiff[at + 3u * c + 1u], im_stiff[at + 3u * c + 2u]);
+    }
+    return q;
+}
+
+// Raises bound `slot` over the contributions q·∇wₖ of the stencil `g`.
+fn raise_bound_q(slot: u32, g: Grads, q: mat3x3<f32>) {
+    var b: Bound;
+    for (var k = 0u; k < 27u; k++) {
+        bound3(&b, q * g.grad[k]);
+    }
+    raise_bound(slot, b);
 }
 
 fn active_node(wid: u32, lid: u32) -> u32 {
@@ -524,7 +687,19 @@ fn active_node(wid: u32, lid: u32) -> u32 {
 
 // ---- P2G without stress, and the nodes' start ----
 
-// APIC momentum and mass only (cpu `particle_to_grid(None, …)`).
+// One workgroup per active block: zeroes the P2G sums; resets their bounds.
+@compute @workgroup_size(NODES_PER_BLOCK)
+fn im_p2g_clear(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    if (wid.x == 0u && lid == 0u) {
+        atomicStore(&im_scal[B_MOMENTUM], 0u);
+        atomicStore(&im_scal[B_MASS], 0u);
+    }
+    acc_clear(active_node(wid.x, lid), 0u, 4u);
+}
+
+// APIC momentum and mass only (cpu `particle_to_grid(None, …)`; common.wgsl
+// `scatter_apic` without a crack), in two passes: BOUND_PASS raises the bounds of the
+// momentum and mass contributions, the other pass scatters them.
 @compute @workgroup_size(WG)
 fn im_p2g(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = gid.x;
@@ -535,7 +710,32 @@ fn im_p2g(@builtin(global_invocation_id) gid: vec3<u32>) {
     let m = pconst[p].x;
     let s = make_stencil(grid_pos(part.x.xyz));
     let q = part.c * (m * sim.origin_dx.w);
-    scatter_apic(s, m, part.v.xyz, q, vec3<f32>(0.0));
+    let momentum = part.v.xyz * m - q * s.fx;
+    let offs = node_offsets(s.base);
+    let scale_p = fixed_scale(B_MOMENTUM);
+    let scale_m = fixed_scale(B_MASS);
+    var bound_p: Bound;
+    var bound_m: Bound;
+    for (var a = 0u; a < 3u; a++) {
+        for (var b = 0u; b < 3u; b++) {
+            for (var c = 0u; c < 3u; c++) {
+                let w = s.w[a].x * s.w[b].y * s.w[c].z;
+                let contrib = (momentum + q * vec3<f32>(f32(a), f32(b), f32(c))) * w;
+                if (BOUND_PASS) {
+                    bound3(&bound_p, contrib);
+                    bound1(&bound_m, w * m);
+                } else {
+                    let i = offs[a].x + offs[b].y + offs[c].z;
+                    fixed_add3(i, 0u, contrib, scale_p);
+                    fixed_add(i, 3u, w * m, scale_m);
+                }
+            }
+        }
+    }
+    if (BOUND_PASS) {
+        raise_bound(B_MOMENTUM, bound_p);
+        raise_bound(B_MASS, bound_m);
+    }
 }
 
 struct Constraint {
@@ -673,7 +873,9 @@ fn im_prepare(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_i
     let b = active_blocks[wid.x];
     let i = b * NODES_PER_BLOCK + lid;
     let at = NODE_WORDS * i;
-    let m = acc_load_m(at + 3u);
+    let m = fixed_load(i, 3u, fixed_unit(B_MASS));
+    // The mass for the grid update (`grid_update_implicit`).
+    atomicStore(&grid_acc[at + 3u], m);
     var node: ImNode;
     let zero = mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
     node.free = zero;
@@ -684,7 +886,7 @@ fn im_prepare(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_i
     if (m > 0.0) {
         let ijk = node_coords(b, lid);
         let x = sim.origin_dx.xyz + vec3<f32>(ijk) * sim.origin_dx.w;
-        let p = vec3<f32>(acc_load_p(at), acc_load_p(at + 1u), acc_load_p(at + 2u));
+        let p = fixed_load3(i, 0u, fixed_unit(B_MOMENTUM));
         let v_star = p / m + st.gravity.xyz * st.dt;
         node.v_star = vec4<f32>(v_star, m);
         // The last substep's normal impulse (`im_finish`), where it touched the node.
@@ -826,14 +1028,16 @@ fn im_kinetic(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_i
 
 @compute @workgroup_size(NODES_PER_BLOCK)
 fn im_eval_clear(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
-    let i = active_node(wid.x, lid);
-    for (var k = 0u; k < 12u; k++) {
-        atomicStore(&im_acc[i * ACC_WORDS + k], 0.0);
+    if (wid.x == 0u && lid == 0u) {
+        atomicStore(&im_scal[B_GRAD], 0u);
+        atomicStore(&im_scal[B_BLOCK], 0u);
     }
+    acc_clear(active_node(wid.x, lid), 0u, 12u);
 }
 
-// Per particle: V₀Ψ, the elastic gradient V₀dt·P Fₙᵀ ∇wᵢ scattered, and with HESSIAN the
-// stiffness (and the preconditioner's diagonal blocks).
+// Per particle, the first pass: V₀Ψ, q = V₀dt·P Fₙᵀ (whose products q·∇wᵢ are the elastic
+// gradient) kept for `im_eval_scatter`, and with HESSIAN the stiffness; raises the bounds of
+// the gradient's and the diagonal blocks' contributions.
 @compute @workgroup_size(WG)
 fn im_eval(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgroup_id) wid: vec3<u32>,
            @builtin(local_invocation_index) lid: u32) {
@@ -851,36 +1055,67 @@ fn im_eval(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgroup_id)
         let f = ID3 + h;
         e = pc.y * energy_density(mat, h);
         let q = first_piola(mat, f) * transpose(f_n) * (pc.y * dt);
-        for (var k = 0u; k < 27u; k++) {
-            acc_add3(g.idx[k], 0u, q * g.grad[k]);
-        }
+        store_q(p, q);
+        raise_bound_q(B_GRAD, g, q);
         if (HESSIAN) {
             store_stiffness(p, mat, f, f_n, pc.y * dt * dt);
             if (BLOCK_JACOBI) {
-                let base = p * 81u;
-                for (var k = 0u; k < 27u; k++) {
-                    let d = g.grad[k];
-                    // Block (a, b) = Σ_c Σ_c' K[a + 3c][b + 3c'] d_c d_c'.
-                    var blk = mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
-                    for (var a = 0u; a < 3u; a++) {
-                        for (var bb = 0u; bb < 3u; bb++) {
-                            var s = 0.0;
-                            for (var c = 0u; c < 3u; c++) {
-                                for (var cc = 0u; cc < 3u; cc++) {
-                                    s += im_stiff[base + (a + 3u * c) * 9u + bb + 3u * cc] * d[c] * d[cc];
-                                }
-                            }
-                            blk[bb][a] = s;
-                        }
-                    }
-                    acc_add3(g.idx[k], 3u, blk[0]);
-                    acc_add3(g.idx[k], 6u, blk[1]);
-                    acc_add3(g.idx[k], 9u, blk[2]);
+                // |block entry| ≤ max |K| (Σ_c |∂wᵢ/∂x_c|)².
+                var b: Bound;
+                for (var k = 0u; k < 81u; k++) {
+                    bound1(&b, im_stiff[p * STIFF_STRIDE + k]);
                 }
+                var reach = 0.0;
+                for (var k = 0u; k < 27u; k++) {
+                    let d = abs(g.grad[k]);
+                    reach = max(reach, d.x + d.y + d.z);
+                }
+                b.largest *= reach * reach;
+                b.total *= reach * reach;
+                raise_bound(B_BLOCK, b);
             }
         }
     }
     reduce_to_partials(lid, wid.x, e, 0.0);
+}
+
+// Per particle, the second pass: the elastic gradient q·∇wᵢ scattered, and with HESSIAN
+// the preconditioner's diagonal blocks.
+@compute @workgroup_size(WG)
+fn im_eval_scatter(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let p = gid.x;
+    if (p >= sim.n_particles) {
+        return;
+    }
+    let g = stencil_gradients(particles[p].x.xyz);
+    let q = load_q(p);
+    let scale = fixed_scale(B_GRAD);
+    for (var k = 0u; k < 27u; k++) {
+        fixed_add3(g.idx[k], 0u, q * g.grad[k], scale);
+    }
+    if (HESSIAN && BLOCK_JACOBI) {
+        let scale_block = fixed_scale(B_BLOCK);
+        let base = p * STIFF_STRIDE;
+        for (var k = 0u; k < 27u; k++) {
+            let d = g.grad[k];
+            // Block (a, b) = Σ_c Σ_c' K[a + 3c][b + 3c'] d_c d_c'.
+            var blk = mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+            for (var a = 0u; a < 3u; a++) {
+                for (var bb = 0u; bb < 3u; bb++) {
+                    var s = 0.0;
+                    for (var c = 0u; c < 3u; c++) {
+                        for (var cc = 0u; cc < 3u; cc++) {
+                            s += im_stiff[base + (a + 3u * c) * 9u + bb + 3u * cc] * d[c] * d[cc];
+                        }
+                    }
+                    blk[bb][a] = s;
+                }
+            }
+            fixed_add3(g.idx[k], 3u, blk[0], scale_block);
+            fixed_add3(g.idx[k], 6u, blk[1], scale_block);
+            fixed_add3(g.idx[k], 9u, blk[2], scale_block);
+        }
+    }
 }
 
 // Per node: the projected ∇Φ, with HESSIAN the preconditioner; sums ½m|v − v*|² and |∇Φ|².
@@ -894,14 +1129,15 @@ fn im_eval_nodes(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocatio
     if (m > 0.0) {
         let dv = n.v.xyz - n.v_star.xyz;
         let slip = slip_terms(n, n.v.xyz);
-        let grad = n.free * (dv * m + acc_load3(i, 0u) + slip.gradient);
+        let grad = n.free * (dv * m + fixed_load3(i, 0u, fixed_unit(B_GRAD)) + slip.gradient);
         im_nodes[i].grad = vec4<f32>(grad, 0.0);
         norm2 = dot(grad, grad);
         kinetic = 0.5 * m * dot(dv, dv) + slip.energy;
         if (HESSIAN) {
             var d = ID3 * m + slip.hessian;
             if (BLOCK_JACOBI) {
-                d += acc_load_block(i);
+                let unit = fixed_unit(B_BLOCK);
+                d += mat3x3<f32>(fixed_load3(i, 3u, unit), fixed_load3(i, 6u, unit), fixed_load3(i, 9u, unit));
             }
             // Inverse on the free subspace: (S D S + I − S)⁻¹ restricted by S.
             let restricted = n.free * d * n.free + (ID3 - n.free);
@@ -942,13 +1178,14 @@ fn im_cg_start() {
 
 @compute @workgroup_size(NODES_PER_BLOCK)
 fn im_product_clear(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
-    let i = active_node(wid.x, lid);
-    for (var k = 12u; k < 15u; k++) {
-        atomicStore(&im_acc[i * ACC_WORDS + k], 0.0);
+    if (wid.x == 0u && lid == 0u) {
+        atomicStore(&im_scal[B_PRODUCT], 0u);
     }
+    acc_clear(active_node(wid.x, lid), 12u, 3u);
 }
 
-// Per particle: the stiffness part of H·d (gather, 9×9, scatter).
+// Per particle, the first pass of the stiffness part of H·d: gather, 9×9, q kept for
+// `im_product_scatter`; raises the bound of its contributions.
 @compute @workgroup_size(WG)
 fn im_product(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = gid.x;
@@ -962,8 +1199,22 @@ fn im_product(@builtin(global_invocation_id) gid: vec3<u32>) {
         dg += mat3x3<f32>(d * g.grad[k].x, d * g.grad[k].y, d * g.grad[k].z);
     }
     let q = stiffness_times(p, dg);
+    store_q(p, q);
+    raise_bound_q(B_PRODUCT, g, q);
+}
+
+// Per particle, the second pass: q·∇wᵢ scattered.
+@compute @workgroup_size(WG)
+fn im_product_scatter(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let p = gid.x;
+    if (p >= sim.n_particles || cg_done()) {
+        return;
+    }
+    let g = stencil_gradients(particles[p].x.xyz);
+    let q = load_q(p);
+    let scale = fixed_scale(B_PRODUCT);
     for (var k = 0u; k < 27u; k++) {
-        acc_add3(g.idx[k], 12u, q * g.grad[k]);
+        fixed_add3(g.idx[k], 12u, q * g.grad[k], scale);
     }
 }
 
@@ -972,12 +1223,12 @@ fn im_product(@builtin(global_invocation_id) gid: vec3<u32>) {
 fn im_product_finish(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let i = active_node(wid.x, lid);
     let n = im_nodes[i];
-    let q = n.free * (acc_load3(i, 12u) + n.d.xyz * n.v_star.w
+    let q = n.free * (fixed_load3(i, 12u, fixed_unit(B_PRODUCT)) + n.d.xyz * n.v_star.w
         + slip_terms(n, n.v.xyz).hessian * n.d.xyz);
-    let at = i * ACC_WORDS + 12u;
-    atomicStore(&im_acc[at], q.x);
-    atomicStore(&im_acc[at + 1u], q.y);
-    atomicStore(&im_acc[at + 2u], q.z);
+    let at = i * ACC_WORDS + PRODUCT_WORD;
+    atomicStore(&im_acc[at], bitcast<u32>(q.x));
+    atomicStore(&im_acc[at + 1u], bitcast<u32>(q.y));
+    atomicStore(&im_acc[at + 2u], bitcast<u32>(q.z));
     reduce_to_partials(lid, wid.x, dot(n.d.xyz, q), 0.0);
 }
 
@@ -1007,7 +1258,7 @@ fn im_cg_update(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation
     if (!cg_done()) {
         let n = im_nodes[i];
         let alpha = scal_f(I_CG_ALPHA);
-        let r = n.r.xyz - acc_load3(i, 12u) * alpha;
+        let r = n.r.xyz - product_load(i) * alpha;
         let z = n.block * r;
         im_nodes[i].step = vec4<f32>(n.step.xyz + n.d.xyz * alpha, 0.0);
         im_nodes[i].r = vec4<f32>(r, 0.0);
@@ -1084,7 +1335,8 @@ fn im_finish(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_in
     let epoch = bitcast<f32>(atomicLoad(&im_scal[I_EPOCH]));
     var settled = vec4<f32>(0.0);
     if (m > 0.0) {
-        var v = n.v_star.xyz - acc_load3(i, 0u) / m;
+        let elastic = fixed_load3(i, 0u, fixed_unit(B_GRAD));
+        var v = n.v_star.xyz - elastic / m;
         if (n.free[0][0] + n.free[1][1] + n.free[2][2] > 2.5) {
             v = n.v.xyz;
         }
@@ -1093,7 +1345,7 @@ fn im_finish(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_in
             let code = select(f32(1u + 8u * tool + bitcast<u32>(n.slip.w)), -1.0, tool == NO_TOOL);
             settled = vec4<f32>(n.v.xyz, code);
         }
-        let reaction = (n.v.xyz - n.v_star.xyz) * m + acc_load3(i, 0u);
+        let reaction = (n.v.xyz - n.v_star.xyz) * m + elastic;
         im_nodes[i].normal.w = max(dot(n.normal.xyz, reaction), 0.0);
         let p = (v - st.gravity.xyz * st.dt) * m;
         let at = NODE_WORDS * i;

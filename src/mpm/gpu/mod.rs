@@ -113,11 +113,10 @@ pub enum GpuError {
 /// Workgroup size of the per-particle and per-block stages.
 const WG: u32 = 64;
 
-/// The sizes of a frame's dispatches: workgroups over the particles and over the domain's
-/// blocks, and the indirect arguments (one workgroup per active block).
+/// The sizes of a frame's dispatches: workgroups over the particles, and the indirect
+/// arguments (one workgroup per active block).
 struct Groups<'a> {
     particles: u32,
-    blocks: u32,
     active_blocks: &'a wgpu::Buffer,
 }
 
@@ -182,6 +181,12 @@ fn check_limits(device: &wgpu::Device, setup: &SolverSetup) -> Result<(), GpuErr
     if n.div_ceil(WG as usize) > max_groups || blocks > max_groups {
         return Err(GpuError::TooLarge(format!(
             "{n} particles / {blocks} blocks exceed {max_groups} workgroups per dispatch"
+        )));
+    }
+    if setup.method == Method::Implicit && n > implicit::MAX_PARTICLES {
+        return Err(GpuError::TooLarge(format!(
+            "{n} particles for the implicit solve, which takes at most {}",
+            implicit::MAX_PARTICLES
         )));
     }
     if setup.tool_count > MAX_TOOLS {
@@ -418,7 +423,6 @@ impl GpuSolver {
     fn groups(&self) -> Groups<'_> {
         Groups {
             particles: self.n.div_ceil(WG).max(1),
-            blocks: (self.layout.block_count() as u32).div_ceil(WG),
             active_blocks: &self.res.args,
         }
     }

@@ -1,6 +1,6 @@
 //! Host side of `sparse.wgsl`: the active-block list of a substep (its length is the
-//! indirect dispatch size of the clear and grid-update stages) and the clear of those
-//! blocks.
+//! indirect dispatch size of the clear and grid-update stages; its order, increasing block
+//! index, the same from run to run) and the clear of those blocks.
 
 use super::prelude::StageBuilder;
 use super::Groups;
@@ -34,7 +34,7 @@ impl SparseStage {
         pass.set_pipeline(&self.mark);
         pass.dispatch_workgroups(groups.particles, 1, 1);
         pass.set_pipeline(&self.compact);
-        pass.dispatch_workgroups(groups.blocks, 1, 1);
+        pass.dispatch_workgroups(1, 1, 1);
         self.record_clear(pass, groups);
     }
 

@@ -35,18 +35,46 @@ fn mark(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
 }
 
-// One invocation per block of the domain: appends flagged blocks to the active list (the
-// count is the x of the indirect arguments) and clears the flag for the next substep.
-@compute @workgroup_size(WG)
-fn compact(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let b = gid.x;
-    if (b >= sim.nodes.w) {
-        return;
+// Invocations of `compact`'s single workgroup.
+const COMPACT_WG: u32 = 256u;
+var<workgroup> wg_scan: array<u32, COMPACT_WG>;
+
+// One workgroup: the flagged blocks listed in increasing block index (an exclusive scan of
+// the flags; invocation t takes the t-th contiguous run of blocks), the count in the
+// indirect arguments' x, the flags cleared for the next substep. The list is the same from
+// run to run, and with it the order of every per-block partial sum (implicit.wgsl); an
+// atomic append would order the blocks as the workgroups happened to run.
+@compute @workgroup_size(COMPACT_WG)
+fn compact(@builtin(local_invocation_index) lid: u32) {
+    let n = sim.nodes.w;
+    let run = (n + COMPACT_WG - 1u) / COMPACT_WG;
+    let start = min(lid * run, n);
+    let end = min(start + run, n);
+    var count = 0u;
+    for (var b = start; b < end; b++) {
+        count += select(0u, 1u, atomicLoad(&block_flags[b]) != 0u);
     }
-    if (atomicLoad(&block_flags[b]) != 0u) {
-        atomicStore(&block_flags[b], 0u);
-        let i = atomicAdd(&args[0], 1u);
-        active_blocks[i] = b;
+    wg_scan[lid] = count;
+    workgroupBarrier();
+    for (var s = 1u; s < COMPACT_WG; s *= 2u) {
+        var sum = wg_scan[lid];
+        if (lid >= s) {
+            sum += wg_scan[lid - s];
+        }
+        workgroupBarrier();
+        wg_scan[lid] = sum;
+        workgroupBarrier();
+    }
+    var at = wg_scan[lid] - count;
+    for (var b = start; b < end; b++) {
+        if (atomicLoad(&block_flags[b]) != 0u) {
+            atomicStore(&block_flags[b], 0u);
+            active_blocks[at] = b;
+            at += 1u;
+        }
+    }
+    if (lid == COMPACT_WG - 1u) {
+        atomicStore(&args[0], wg_scan[lid]);
     }
 }
 
