@@ -687,7 +687,7 @@ fn knot_variant_stays_an_overhand_knot(
 /// undone while tightening (det 1 at 2.6 s): the length restoration after the contact
 /// rounds pulled the taut strand through a bent joint of the other, deeper than the side
 /// test recognised. It must hold through the tightening, the last pull and the hold.
-/// Largest |elongation| measured 3.7e-3 (a tension EA·ε ≈ 0.45 N in the tightened nylon
+/// Largest |elongation| measured 2.3e-3 (a tension EA·ε ≈ 0.28 N in the tightened nylon
 /// knot; whether its bending or the contacts hold it is not traced).
 #[test]
 fn laid_knot_in_3_0_nylon_stays_an_overhand_knot() {
@@ -702,22 +702,22 @@ fn laid_knot_in_3_0_nylon_stays_an_overhand_knot() {
     );
 }
 
-/// Issue 18: the soft laid knot pulled 70 mm a side instead of 50 (and 5 mm
+/// Issue 18: the soft laid knot pulled 70 mm a side instead of 55 (and 5 mm
 /// more each at 3.0–3.5 s) came undone (det 1 at 2.6 s) through a pair that turned nearly
 /// parallel within a substep. It must hold. Checked by the determinant only: frame to
 /// frame, the straight way from one frame's points to the next (a proxy for the 32 substeps
 /// between them, each of which the solver checks) has segments 65 and 66 meet 97 at 3.050 s
-/// while the knot stays one (not traced further). Largest |elongation| measured 6.7e-3 (see
+/// while the knot stays one (not traced further). Largest |elongation| measured 1.2e-3 (see
 /// the README: the fail-safe that keeps the strands apart here also holds part of the knot
 /// back).
 #[test]
 fn laid_knot_pulled_70_mm_a_side_stays_an_overhand_knot() {
     knot_variant_stays_an_overhand_knot(
         &[
-            ("[0.0997,", "[0.1197,"),
-            ("[0.1047,", "[0.1247,"),
-            ("[-0.0977,", "[-0.1177,"),
-            ("[-0.1027,", "[-0.1227,"),
+            ("[0.1047,", "[0.1197,"),
+            ("[0.1097,", "[0.1247,"),
+            ("[-0.1027,", "[-0.1177,"),
+            ("[-0.1077,", "[-0.1227,"),
         ],
         "knot_70mm.toml",
         Check::Determinant,
@@ -751,7 +751,7 @@ fn laid_knot_pulled_tight_and_pulled_again_stays_an_overhand_knot() {
     for (t, knot) in &checks {
         assert_eq!(knot.det, 3, "knot determinant at {t} s");
     }
-    // Measured: 40.2 mm laid, 21.6 mm tightened, 17.0 mm after the last pull, 15.9 mm at
+    // Measured: 40.2 mm laid, 22.7 mm tightened, 18.0 mm after the last pull, 17.2 mm at
     // the end of the hold.
     let laid_depth = start.depth;
     let tightened_depth = checks[0].1.depth;
@@ -781,7 +781,7 @@ fn laid_knot_pulled_tight_and_pulled_again_stays_an_overhand_knot() {
 fn knot_toml_ties_an_overhand_knot_and_pulls_it_tight() {
     // Before the tuck, the tail through the loop, A on the standing part, the tightening's
     // end, the last pull's end, the hold's end.
-    const TIMES: [f64; 6] = [6.5, 8.65, 12.2, 15.05, 15.85, 16.55];
+    const TIMES: [f64; 6] = [6.5, 8.65, 12.2, 15.05, 15.95, 16.65];
     let KnotPull {
         checks,
         largest_elongation,
@@ -810,8 +810,8 @@ fn knot_toml_ties_an_overhand_knot_and_pulls_it_tight() {
     );
     let [before, tightened, pulled_again, held] =
         [&checks[2].1, &checks[3].1, &checks[4].1, &checks[5].1];
-    // Measured: 204 mm of thread in the knot before the pull, 64 mm tightened, 54 mm after
-    // the last pull and at the end of the hold; 59.8, 17.9, 14.7 and 14.6 mm across the top
+    // Measured: 190 mm of thread in the knot before the pull, 42 mm tightened, 36 mm after
+    // the last pull and at the end of the hold; 54.1, 11.4, 9.5 and 9.4 mm across the top
     // view.
     assert!(
         tightened.length < 0.4 * before.length && tightened.extent < 0.5 * before.extent,
