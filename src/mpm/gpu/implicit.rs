@@ -105,6 +105,10 @@ const SLOT_PAP: u32 = 18;
 const SLOT_RR: u32 = 20;
 const SLOT_SLOPE: u32 = 22;
 const SLOT_MASS: u32 = 24;
+// Which sums `im_clear` zeroes (implicit.wgsl `CLEAR_*`).
+const CLEAR_P2G: f64 = 0.0;
+const CLEAR_EVAL: f64 = 1.0;
+const CLEAR_PRODUCT: f64 = 2.0;
 
 struct Pipelines {
     p2g_clear: wgpu::ComputePipeline,
@@ -286,14 +290,14 @@ impl ImplicitStages {
             )
         };
         let pipelines = Pipelines {
-            p2g_clear: make("im_p2g_clear", &[]),
+            p2g_clear: make("im_clear", &[("CLEAR", CLEAR_P2G)]),
             p2g_bound: make("im_p2g", &[("BOUND_PASS", 1.0)]),
             p2g: make("im_p2g", &[("BOUND_PASS", 0.0)]),
             prepare: make("im_prepare", &[]),
             trial_correction: make("im_trial_correction", &[]),
             energy: [select("im_energy", false), select("im_energy", true)],
             kinetic: [select("im_kinetic", false), select("im_kinetic", true)],
-            eval_clear: make("im_eval_clear", &[]),
+            eval_clear: make("im_clear", &[("CLEAR", CLEAR_EVAL)]),
             eval: [eval("im_eval", false), eval("im_eval", true)],
             eval_scatter: [
                 eval("im_eval_scatter", false),
@@ -302,7 +306,7 @@ impl ImplicitStages {
             eval_nodes: [eval("im_eval_nodes", false), eval("im_eval_nodes", true)],
             cg_init: make("im_cg_init", &[]),
             cg_start: make("im_cg_start", &[("SLOT", SLOT_RZ0 as f64)]),
-            product_clear: make("im_product_clear", &[]),
+            product_clear: make("im_clear", &[("CLEAR", CLEAR_PRODUCT)]),
             product: make("im_product", &[]),
             product_scatter: make("im_product_scatter", &[]),
             product_finish: make("im_product_finish", &[]),

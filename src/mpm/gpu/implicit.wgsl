@@ -687,14 +687,30 @@ fn active_node(wid: u32, lid: u32) -> u32 {
 
 // ---- P2G without stress, and the nodes' start ----
 
-// One workgroup per active block: zeroes the P2G sums; resets their bounds.
+// Which sums `im_clear` zeroes (the Rust side's `CLEAR_*`): the P2G momentum and mass,
+// Φ's gradient and diagonal blocks, or the Hessian product.
+override CLEAR: u32 = 0u;
+const CLEAR_P2G: u32 = 0u;
+const CLEAR_EVAL: u32 = 1u;
+const CLEAR_PRODUCT: u32 = 2u;
+
+// One workgroup per active block: zeroes the node values of the sums CLEAR names and
+// resets their bounds, before a pass accumulates them again.
 @compute @workgroup_size(NODES_PER_BLOCK)
-fn im_p2g_clear(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
-    if (wid.x == 0u && lid == 0u) {
-        atomicStore(&im_scal[B_MOMENTUM], 0u);
-        atomicStore(&im_scal[B_MASS], 0u);
+fn im_clear(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    // (first value, value count, first bound slot, bound count)
+    var span = vec4<u32>(0u, 4u, B_MOMENTUM, 2u);
+    if (CLEAR == CLEAR_EVAL) {
+        span = vec4<u32>(0u, 12u, B_GRAD, 2u);
+    } else if (CLEAR == CLEAR_PRODUCT) {
+        span = vec4<u32>(12u, 3u, B_PRODUCT, 1u);
     }
-    acc_clear(active_node(wid.x, lid), 0u, 4u);
+    if (wid.x == 0u && lid == 0u) {
+        for (var b = span.z; b < span.z + span.w; b++) {
+            atomicStore(&im_scal[b], 0u);
+        }
+    }
+    acc_clear(active_node(wid.x, lid), span.x, span.y);
 }
 
 // APIC momentum and mass only (cpu `particle_to_grid(None, …)`; common.wgsl
@@ -1026,15 +1042,6 @@ fn im_kinetic(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_i
 
 // ---- Φ, its gradient and the Hessian at the iterate ----
 
-@compute @workgroup_size(NODES_PER_BLOCK)
-fn im_eval_clear(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
-    if (wid.x == 0u && lid == 0u) {
-        atomicStore(&im_scal[B_GRAD], 0u);
-        atomicStore(&im_scal[B_BLOCK], 0u);
-    }
-    acc_clear(active_node(wid.x, lid), 0u, 12u);
-}
-
 // Per particle, the first pass: V₀Ψ, q = V₀dt·P Fₙᵀ (whose products q·∇wᵢ are the elastic
 // gradient) kept for `im_eval_scatter`, and with HESSIAN the stiffness; raises the bounds of
 // the gradient's and the diagonal blocks' contributions.
@@ -1174,14 +1181,6 @@ fn im_cg_start() {
     atomicStore(&im_scal[I_RZ], atomicLoad(&im_scal[SLOT]));
     atomicStore(&im_scal[I_DONE], 0u);
     atomicStore(&im_scal[I_ITER], 0u);
-}
-
-@compute @workgroup_size(NODES_PER_BLOCK)
-fn im_product_clear(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
-    if (wid.x == 0u && lid == 0u) {
-        atomicStore(&im_scal[B_PRODUCT], 0u);
-    }
-    acc_clear(active_node(wid.x, lid), 12u, 3u);
 }
 
 // Per particle, the first pass of the stiffness part of H·d: gather, 9×9, q kept for
