@@ -54,6 +54,8 @@ pub struct SelfContacts {
     large: Vec<u32>,
     pairs: Vec<(u32, u32)>,
     candidates: Vec<Candidate>,
+    /// Whether the last `project` swept the candidates from the chain's far end.
+    backward: bool,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -220,10 +222,21 @@ impl SelfContacts {
     /// pushed apart only when closer than `least` diameters, and then to that distance;
     /// pairs that crossed always go back to a diameter. Returns the number of active
     /// contacts.
-    pub fn project(&self, rod: &mut Rod, start: &[Vec3], mu: f32, least: f32) -> u32 {
+    ///
+    /// Successive calls sweep the pairs in opposite orders (symmetric Gauss–Seidel). A
+    /// sweep always in chain order leaves every pass's last word to the pairs further
+    /// along, and that bias pumped thread through a tight knot: the knot of config/knot.toml
+    /// pulled on at 10 mm/s ran along the standing part towards the higher segment numbers
+    /// (its crossings from segments 62–79 to 134–145 within 0.5 s), and with the thread's
+    /// numbering reversed it ran the other way, off the tail. Alternating, it stays and
+    /// jams (tests/thread_scene.rs, `knot_toml_pulled_hard_jams_where_it_was_tied`).
+    pub fn project(&mut self, rod: &mut Rod, start: &[Vec3], mu: f32, least: f32) -> u32 {
         let diameter = 2.0 * rod.material.radius;
         let mut active = 0;
-        for c in &self.candidates {
+        self.backward = !self.backward;
+        let count = self.candidates.len();
+        for k in 0..count {
+            let c = &self.candidates[if self.backward { count - 1 - k } else { k }];
             let (a, b) = (c.a as usize, c.b as usize);
             let p = &rod.points;
             let (s, t) = closest_parameters(p[a], p[a + 1], p[b], p[b + 1]);
