@@ -34,8 +34,12 @@
 //!    parallel (no line parameters). It is tested once per broad phase, and again in the
 //!    passes for pairs within two diameters, which a neighbour's push may have moved through.
 //!
-//! Segments fewer than `2 + 4r/l` apart along the chain never collide: their rest distance
-//! is below a diameter, and the bending stiffness keeps the thread from folding that tight.
+//! Segments fewer than `1 + ⌈4r/l⌉` apart along the chain never collide: the chain between
+//! them is shorter than two diameters, so that bent gently they touch. Segments two apart
+//! do collide where segments are two diameters long or longer: a knot pulled hard folds the
+//! thread tighter than a segment (config/knot.toml pulled to 85 mm a side closes its knot
+//! to six segments of 2 mm), and with them left out its strands passed through each other
+//! there (the knot came undone at 16.5 s; tests/thread_scene.rs).
 
 use super::crossing::pair_crossed;
 use super::environment::friction_correction;
@@ -92,7 +96,7 @@ impl SelfContacts {
             .rest_lengths
             .iter()
             .fold(f32::INFINITY, |a, &b| a.min(b));
-        2 + (4.0 * rod.material.radius / shortest).ceil() as usize
+        1 + (4.0 * rod.material.radius / shortest).ceil() as usize
     }
 
     /// Candidate pairs for the substep from `start` to the rod's current points.
