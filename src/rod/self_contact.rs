@@ -44,7 +44,7 @@
 use super::crossing::pair_crossed;
 use super::environment::friction_correction;
 use super::state::Rod;
-use crate::mpm::Vec3;
+use crate::math::Vec3;
 use nalgebra::{RealField, Vector3};
 
 /// Reused buffers of the broad and narrow phase.

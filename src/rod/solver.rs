@@ -9,7 +9,7 @@ use super::environment::{
 };
 use super::self_contact::SelfContacts;
 use super::state::{Quat, Rod};
-use crate::mpm::Vec3;
+use crate::math::Vec3;
 use nalgebra::Vector6;
 use serde::{Deserialize, Serialize};
 
