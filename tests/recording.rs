@@ -54,7 +54,7 @@ fn write_input_bag(path: &Path, topic_arm: &str) {
     let scene = dvrk_tissue_sim::config::load(&root().join(SMALL)).unwrap();
     let setup = dvrk_tissue_sim::sim::build_setup(&scene).unwrap();
     let layout = OutputLayout::new(&scene, &setup, "/");
-    let (recorder, mut tap) = Recorder::create(path, layout, 1.0).unwrap();
+    let (recorder, mut tap) = Recorder::create(path, layout, 1.0, false).unwrap();
     for k in 5..=37u32 {
         let mut q = [0.0, 0.0, 0.12, 0.0, 0.0, 0.0];
         q[2] += 0.0005 * (k - 4) as f64;
@@ -382,7 +382,7 @@ fn bad_bags_are_refused_with_clear_errors() {
         let scene = dvrk_tissue_sim::config::load(&root().join(SMALL)).unwrap();
         let setup = dvrk_tissue_sim::sim::build_setup(&scene).unwrap();
         let layout = OutputLayout::new(&scene, &setup, "/");
-        let (recorder, mut tap) = Recorder::create(&outputs_only, layout, 1.0).unwrap();
+        let (recorder, mut tap) = Recorder::create(&outputs_only, layout, 1.0, false).unwrap();
         tap.send(FrameRecord {
             start: 0.0,
             inputs: vec![],

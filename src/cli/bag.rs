@@ -18,17 +18,24 @@ enum BagCommand {
     Recover {
         /// The unfinished bag.
         input: PathBuf,
-        /// The rebuilt bag (must not exist yet).
+        /// The rebuilt bag (must not exist yet, unless --force).
         output: PathBuf,
+        /// Replace OUTPUT if it exists (a symlink there is replaced, never followed).
+        #[arg(long)]
+        force: bool,
     },
 }
 
 pub fn run(args: BagArgs) -> Result<()> {
     match args.command {
-        BagCommand::Recover { input, output } => {
+        BagCommand::Recover {
+            input,
+            output,
+            force,
+        } => {
             let unfinished = recover::is_unfinished(&input)
                 .with_context(|| format!("cannot read {}", input.display()))?;
-            let r = recover::recover(&input, &output)?;
+            let r = recover::recover(&input, &output, force)?;
             println!(
                 "recovered {} messages on {} topics through t = {:.3} s into {}",
                 r.messages,

@@ -47,6 +47,10 @@ pub struct RunArgs {
     /// scripted run's outputs at the scene's rates in simulated time.
     #[arg(long, value_name = "OUT.mcap")]
     record: Option<PathBuf>,
+    /// Replace the --record file if it exists (by default an existing file is refused; a
+    /// symlink there is replaced, never followed).
+    #[arg(long, requires = "record")]
+    force: bool,
     /// Close a chunk of the --record bag, synced to disk, at least every S simulated
     /// seconds: a killed run or a power loss loses at most that span (`bag recover` reads
     /// the rest back).
@@ -68,7 +72,9 @@ pub fn run(args: RunArgs) -> Result<()> {
             args.print_every.max(1),
             &args.solver,
             snapshots,
-            args.record.as_deref().map(|path| (path, args.record_chunk)),
+            args.record
+                .as_deref()
+                .map(|path| (path, args.record_chunk, args.force)),
         );
     }
     let path = args.scene;
@@ -79,6 +85,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         seconds: args.seconds,
         snapshots,
         record: args.record,
+        record_replace: args.force,
         record_chunk: args.record_chunk,
         replay: args.replay,
     };
@@ -125,7 +132,7 @@ fn run_headless(
     print_every: u32,
     solver: &SolverOverrides,
     snapshots: Option<SnapshotSchedule>,
-    record: Option<(&Path, f64)>,
+    record: Option<(&Path, f64, bool)>,
 ) -> Result<()> {
     let scene = solver.load(path)?;
     let world = World::try_new(&scene).context("choosing the solver backend")?;
@@ -152,7 +159,13 @@ fn run_headless(
     setup.snapshots = snapshots;
     let recorder = match record {
         None => None,
-        Some((bag, chunk_every)) => Some(attach_recorder(&mut setup, &scene, bag, chunk_every)?),
+        Some((bag, chunk_every, replace)) => Some(attach_recorder(
+            &mut setup,
+            &scene,
+            bag,
+            chunk_every,
+            replace,
+        )?),
     };
     let mut sim = FrameLoop::new(setup, None);
     let start = Instant::now();
@@ -294,6 +307,7 @@ fn attach_recorder(
     scene: &dvrk_tissue_sim::config::Scene,
     bag: &Path,
     chunk_every: f64,
+    replace: bool,
 ) -> Result<ros::recorder::Recorder> {
     let outputs = &scene.outputs;
     setup.surface = Some(
@@ -306,7 +320,7 @@ fn attach_recorder(
         .context("tissue surface for the recording")?,
     );
     let layout = ros::outputs::OutputLayout::new(scene, setup, "/");
-    let (recorder, tap) = ros::recorder::Recorder::create(bag, layout, chunk_every)?;
+    let (recorder, tap) = ros::recorder::Recorder::create(bag, layout, chunk_every, replace)?;
     setup.recorder = Some(Box::new(tap));
     println!("recording to {}", bag.display());
     Ok(recorder)

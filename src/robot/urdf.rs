@@ -127,9 +127,11 @@ pub fn expand_xacro(
 }
 
 /// A temporary copy of a dvrk_model package's description files with `$(find dvrk_model)`
-/// resolved to the copy, removed when dropped.
+/// resolved to the copy, removed when dropped. The folder has an unpredictable name and is
+/// created new (`tempfile`), so nothing planted in the temporary folder is written through.
 struct PackageCopy {
-    root: PathBuf,
+    /// The copy's folder, held for its removal on drop.
+    _folder: tempfile::TempDir,
     /// The file to expand, inside the copy.
     input: PathBuf,
 }
@@ -138,24 +140,20 @@ const FIND_DVRK_MODEL: &str = "$(find dvrk_model)";
 
 impl PackageCopy {
     fn new(package: &Path, input: &Path) -> std::io::Result<PackageCopy> {
-        use std::sync::atomic::{AtomicUsize, Ordering};
-        static COUNT: AtomicUsize = AtomicUsize::new(0);
         if !package.is_dir() {
             return Err(std::io::Error::new(
                 std::io::ErrorKind::NotFound,
                 "dvrk_model: not a folder",
             ));
         }
-        let root = std::env::temp_dir().join(format!(
-            "dvrk-tissue-sim-xacro-{}-{}",
-            std::process::id(),
-            COUNT.fetch_add(1, Ordering::Relaxed)
-        ));
+        let root = tempfile::Builder::new()
+            .prefix("dvrk-tissue-sim-xacro-")
+            .tempdir()?;
+        let package_copy = root.path().join("dvrk_model");
         let mut copy = PackageCopy {
-            input: root.join("input.urdf.xacro"),
-            root,
+            input: root.path().join("input.urdf.xacro"),
+            _folder: root,
         };
-        let package_copy = copy.root.join("dvrk_model");
         copy_resolved(package, &package_copy, &package_copy)?;
         let package = package.canonicalize()?;
         let input = input.canonicalize()?;
@@ -167,12 +165,6 @@ impl PackageCopy {
             }
         }
         Ok(copy)
-    }
-}
-
-impl Drop for PackageCopy {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.root);
     }
 }
 

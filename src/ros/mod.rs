@@ -15,6 +15,7 @@ pub mod recover;
 pub mod replay;
 pub mod schema;
 pub mod session;
+pub mod shutdown;
 pub mod sim_clock;
 pub mod status;
 

@@ -234,7 +234,8 @@ pub fn domain_id_from_env() -> Result<u16, NodeError> {
     }
 }
 
-/// Runs the node on `scene` until Ctrl-C (or `settings.seconds` of simulated time).
+/// Runs the node on `scene` until SIGINT, SIGTERM or SIGHUP (see [`crate::ros::shutdown`]),
+/// or `settings.seconds` of simulated time.
 pub fn run_node(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeError> {
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
@@ -408,12 +409,12 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
     let main = async {
         let mut tick = tokio::time::interval(Duration::from_millis(2));
         tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
-        let ctrl_c = tokio::signal::ctrl_c();
-        tokio::pin!(ctrl_c);
+        let stop = crate::ros::shutdown::polite_stop();
+        tokio::pin!(stop);
         loop {
             tokio::select! {
-                _ = &mut ctrl_c => {
-                    tracing::info!("Ctrl-C: shutting down");
+                signal = &mut stop => {
+                    tracing::info!("{signal}: shutting down");
                     break;
                 }
                 _ = tick.tick() => {}

@@ -73,9 +73,38 @@ pub fn io_cause(e: &std::io::Error, path: &Path) -> String {
             format!("the directory {} does not exist", dir.display())
         }
         ErrorKind::IsADirectory => "it is a directory".to_owned(),
+        ErrorKind::AlreadyExists => {
+            "it already exists (choose another file, or pass --force to replace it)".to_owned()
+        }
         _ => return e.to_string(),
     };
     format!("{cause} ({e})")
+}
+
+/// Creates the file at `path`, which must not exist: never overwrites one, and never
+/// follows a symlink planted there, dangling or not (O_CREAT | O_EXCL). An existing path
+/// fails with `ErrorKind::AlreadyExists`; [`remove_for_overwrite`] clears it first when the
+/// user asked to overwrite.
+pub fn create_new_file(path: &Path) -> std::io::Result<File> {
+    std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(path)
+}
+
+/// Removes what is at `path` so that [`create_new_file`] may create it: a file or a symlink
+/// (the link itself, never what it points to). A directory is refused; nothing there is
+/// fine.
+pub fn remove_for_overwrite(path: &Path) -> std::io::Result<()> {
+    match std::fs::symlink_metadata(path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        Err(e) => Err(e),
+        Ok(m) if m.is_dir() => Err(std::io::Error::new(
+            std::io::ErrorKind::IsADirectory,
+            "it is a directory",
+        )),
+        Ok(_) => std::fs::remove_file(path),
+    }
 }
 
 /// The I/O error behind a bag error, if there is one.
@@ -196,11 +225,13 @@ pub struct Recorder {
 
 impl Recorder {
     /// Creates `path` and starts the writer thread for a scene's `layout`; chunks are closed
-    /// (and synced to disk) at least every `chunk_every` simulated seconds.
+    /// (and synced to disk) at least every `chunk_every` simulated seconds. An existing file
+    /// at `path` is refused unless `replace` is set (see [`create_new_file`]).
     pub fn create(
         path: &Path,
         layout: OutputLayout,
         chunk_every: f64,
+        replace: bool,
     ) -> Result<(Recorder, RecordTap), RecordError> {
         if !(chunk_every.is_finite() && chunk_every > 0.0) {
             return Err(RecordError::ChunkSpan(chunk_every));
@@ -209,7 +240,10 @@ impl Recorder {
             path: path.to_owned(),
             source,
         };
-        let file = File::create(path).map_err(create)?;
+        if replace {
+            remove_for_overwrite(path).map_err(create)?;
+        }
+        let file = create_new_file(path).map_err(create)?;
         let synced = file.try_clone().map_err(create)?;
         let write_error = |e: mcap::McapError| RecordError::Write {
             path: path.to_owned(),

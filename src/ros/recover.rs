@@ -30,7 +30,7 @@ pub enum RecoverError {
     },
     #[error("{} is not an MCAP file (no MCAP header at its start)", path.display())]
     NotMcap { path: PathBuf },
-    #[error("{} already exists: choose another output file", path.display())]
+    #[error("{} already exists: choose another output file, or pass --force to replace it", path.display())]
     Exists { path: PathBuf },
     #[error("cannot create {}: {}", path.display(), crate::ros::recorder::io_cause(source, path))]
     Create {
@@ -78,29 +78,51 @@ fn header_profile(file: &mut File) -> std::io::Result<Option<String>> {
     Ok(String::from_utf8(profile).ok())
 }
 
-/// Copies every readable message of `input` into a new finished bag at `output` (which
-/// must not exist yet).
-pub fn recover(input: &Path, output: &Path) -> Result<Recovered, RecoverError> {
+/// How a bag reader bounds what a record may claim: a record cannot be longer than the file
+/// holding it, so a length field beyond the file's size is refused before anything is
+/// allocated for it (a hostile 61-byte file may claim 2⁶⁴ − 1 bytes). Chunks are checked
+/// whole before they are decompressed, under the same bound.
+pub fn reader_options(file_len: u64) -> LinearReaderOptions {
+    LinearReaderOptions::default()
+        .with_record_length_limit(usize::try_from(file_len).unwrap_or(usize::MAX))
+        .with_prevalidate_chunk_crcs(true)
+}
+
+/// Copies every readable message of `input` into a new finished bag at `output`. The bag is
+/// written under a temporary name beside `output` and renamed only when complete, so a
+/// failure leaves nothing behind; `output` must not exist unless `replace` is set (and a
+/// symlink there is replaced, never followed).
+pub fn recover(input: &Path, output: &Path, replace: bool) -> Result<Recovered, RecoverError> {
     let open = |source| RecoverError::Open {
         path: input.to_owned(),
         source,
     };
     let mut file = File::open(input).map_err(open)?;
+    let file_len = file.metadata().map_err(open)?.len();
     let profile =
         header_profile(&mut file)
             .map_err(open)?
             .ok_or_else(|| RecoverError::NotMcap {
                 path: input.to_owned(),
             })?;
-    if output.exists() {
+    if !replace && std::fs::symlink_metadata(output).is_ok() {
         return Err(RecoverError::Exists {
             path: output.to_owned(),
         });
     }
-    let out = File::create(output).map_err(|source| RecoverError::Create {
+    let create = |source| RecoverError::Create {
         path: output.to_owned(),
         source,
-    })?;
+    };
+    let folder = match output.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let partial = tempfile::Builder::new()
+        .prefix(".bag-recover-")
+        .suffix(".mcap.partial")
+        .tempfile_in(folder)
+        .map_err(create)?;
     let write = |source| RecoverError::Write {
         path: output.to_owned(),
         source,
@@ -112,7 +134,7 @@ pub fn recover(input: &Path, output: &Path) -> Result<Recovered, RecoverError> {
             env!("CARGO_PKG_VERSION"),
             " bag recover"
         ))
-        .create(BufWriter::with_capacity(1 << 20, out))
+        .create(BufWriter::with_capacity(1 << 20, partial.as_file()))
         .map_err(write)?;
     let mut recovered = Recovered {
         messages: 0,
@@ -122,7 +144,7 @@ pub fn recover(input: &Path, output: &Path) -> Result<Recovered, RecoverError> {
     };
     let mut topics = std::collections::BTreeSet::new();
     // An unfinished file has no closing magic; its cut-off chunk ends the reading.
-    let options = LinearReaderOptions::default().with_skip_end_magic(true);
+    let options = reader_options(file_len).with_skip_end_magic(true);
     for message in mcap::io::MessageReader::new_with_options(BufReader::new(file), options) {
         match message {
             Ok(message) => {
@@ -145,5 +167,23 @@ pub fn recover(input: &Path, output: &Path) -> Result<Recovered, RecoverError> {
         .into_inner()
         .flush()
         .map_err(|e| write(mcap::McapError::Io(e)))?;
+    partial
+        .as_file()
+        .sync_all()
+        .map_err(|e| write(mcap::McapError::Io(e)))?;
+    let placed = if replace {
+        partial.persist(output).map(|_| ())
+    } else {
+        partial.persist_noclobber(output).map(|_| ())
+    };
+    placed.map_err(|e| {
+        if e.error.kind() == std::io::ErrorKind::AlreadyExists {
+            RecoverError::Exists {
+                path: output.to_owned(),
+            }
+        } else {
+            create(e.error)
+        }
+    })?;
     Ok(recovered)
 }

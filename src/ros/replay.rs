@@ -92,10 +92,12 @@ pub fn load(
     layout: &OutputLayout,
     namespace: &str,
 ) -> Result<Replay, ReplayError> {
-    let file = File::open(path).map_err(|source| ReplayError::Open {
+    let open = |source| ReplayError::Open {
         path: path.to_owned(),
         source,
-    })?;
+    };
+    let file = File::open(path).map_err(open)?;
+    let options = crate::ros::recover::reader_options(file.metadata().map_err(open)?.len());
     let inputs_of_scene: Vec<InputTopic> = input_topics(scene, namespace);
     let outputs_of_scene: BTreeSet<String> = layout
         .topics()
@@ -106,7 +108,9 @@ pub fn load(
     let mut inputs = VecDeque::new();
     let mut end = 0u64;
     let mut messages = 0u64;
-    for (index, message) in mcap::io::MessageReader::new(BufReader::new(file)).enumerate() {
+    for (index, message) in
+        mcap::io::MessageReader::new_with_options(BufReader::new(file), options).enumerate()
+    {
         let message = message.map_err(|source| {
             if crate::ros::recover::is_unfinished(path).unwrap_or(false) {
                 ReplayError::Unfinished {

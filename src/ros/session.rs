@@ -23,12 +23,15 @@ pub struct NodeSettings {
     pub name: String,
     /// Absolute namespace (`/` for none); every topic but `/tf` lives under it.
     pub namespace: String,
-    /// Stop after this much simulated time (s); `None` runs until Ctrl-C.
+    /// Stop after this much simulated time (s); `None` runs until SIGINT, SIGTERM or SIGHUP.
     pub seconds: Option<f64>,
     /// Pictures during the run (taken on the simulation thread, which pauses for each).
     pub snapshots: Option<SnapshotSchedule>,
-    /// Record inputs and outputs to this MCAP file.
+    /// Record inputs and outputs to this MCAP file (which must not exist, unless
+    /// `record_replace`).
     pub record: Option<PathBuf>,
+    /// Replace an existing file at `record` (a symlink there is replaced, never followed).
+    pub record_replace: bool,
     /// Longest span of simulated time (s) between two chunks of the bag closed on disk.
     pub record_chunk: f64,
     /// Drive the arms from this bag's inputs (the input topics are not subscribed).
@@ -81,7 +84,8 @@ pub fn prepare(
     let recorder = match &settings.record {
         None => None,
         Some(path) => {
-            let (recorder, tap) = Recorder::create(path, layout, settings.record_chunk)?;
+            let (recorder, tap) =
+                Recorder::create(path, layout, settings.record_chunk, settings.record_replace)?;
             setup.recorder = Some(Box::new(tap));
             tracing::info!("recording to {}", path.display());
             Some(recorder)
@@ -139,10 +143,9 @@ pub fn run_headless(scene: &Scene, settings: &NodeSettings) -> Result<HeadlessRu
             }
         });
         tokio::pin!(replay);
-        let ctrl_c = tokio::signal::ctrl_c();
         tokio::select! {
-            _ = ctrl_c => {
-                tracing::info!("Ctrl-C: stopping the replay");
+            signal = crate::ros::shutdown::polite_stop() => {
+                tracing::info!("{signal}: stopping the replay");
                 stop.store(true, Ordering::Relaxed);
                 (&mut replay).await
             }
