@@ -9,6 +9,7 @@
 //! benchmarks and stress sweeps are the binary's (`src/cli/`).
 
 pub mod config;
+pub mod files;
 pub mod math;
 pub mod mpm;
 pub mod output;

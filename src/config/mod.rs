@@ -64,7 +64,7 @@ pub fn from_str(text: &str, path: &Path) -> Result<Scene, SceneError> {
 
 /// Reads, parses and validates a scene file.
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
+    let text = crate::files::read_regular(path).map_err(|source| SceneError::Io {
         path: path.to_owned(),
         source,
     })?;

@@ -65,7 +65,7 @@ pub fn load_urdf(path: &Path, dvrk_model: Option<&Path>) -> Result<urdf_rs::Robo
     let text = if path.extension().is_some_and(|e| e == "xacro") {
         expand_xacro("xacro", path, dvrk_model)?
     } else {
-        std::fs::read_to_string(path).map_err(|source| UrdfError::Read {
+        crate::files::read_regular(path).map_err(|source| UrdfError::Read {
             path: path.to_owned(),
             source,
         })?

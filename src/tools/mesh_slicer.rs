@@ -103,7 +103,7 @@ fn closest_on_segment(p: Vec3, [a, b]: [Vec3; 2]) -> Vec3 {
 impl BladeMesh {
     /// Reads and checks a blade OBJ file.
     pub fn load(path: &Path) -> Result<Self, BladeError> {
-        let text = std::fs::read_to_string(path).map_err(|e| BladeError {
+        let text = crate::files::read_regular(path).map_err(|e| BladeError {
             path: path.to_owned(),
             line: None,
             message: format!("cannot read the blade mesh: {e}"),

@@ -3,6 +3,7 @@
 //! back from the last vertex read) and `l` polylines. Every other statement (`vt`, `vn`, `o`,
 //! `g`, `s`, `usemtl`, `mtllib`, comments) is skipped: a blade has no texture or material.
 
+use crate::files::excerpt;
 use crate::math::Vec3;
 
 /// What an OBJ file holds, with the line each face and polyline came from (for messages).
@@ -23,6 +24,9 @@ pub struct ObjError {
     pub message: String,
 }
 
+/// Characters of a bad word quoted in an error (the file may not be an OBJ file at all).
+const EXCERPT: usize = 40;
+
 /// Parses OBJ text.
 pub fn parse(text: &str) -> Result<Obj, ObjError> {
     let mut obj = Obj::default();
@@ -40,8 +44,12 @@ pub fn parse(text: &str) -> Result<Obj, ObjError> {
                     .by_ref()
                     .take(3)
                     .map(|w| {
-                        w.parse::<f32>()
-                            .map_err(|_| error(format!("vertex coordinate {w:?} is not a number")))
+                        w.parse::<f32>().map_err(|_| {
+                            error(format!(
+                                "vertex coordinate \"{}\" is not a number",
+                                excerpt(w, EXCERPT)
+                            ))
+                        })
                     })
                     .collect::<Result<_, _>>()?;
                 if coords.len() != 3 || coords.iter().any(|c| !c.is_finite()) {
@@ -77,7 +85,12 @@ pub fn parse(text: &str) -> Result<Obj, ObjError> {
                 obj.polylines.push((points, line));
             }
             "vt" | "vn" | "vp" | "o" | "g" | "s" | "usemtl" | "mtllib" => {}
-            other => return Err(error(format!("unknown statement {other:?}"))),
+            other => {
+                return Err(error(format!(
+                    "unknown statement \"{}\"",
+                    excerpt(other, EXCERPT)
+                )))
+            }
         }
     }
     Ok(obj)
@@ -87,9 +100,12 @@ pub fn parse(text: &str) -> Result<Obj, ObjError> {
 /// given the vertices read so far.
 fn vertex_index(word: &str, vertices_so_far: usize) -> Result<u32, String> {
     let first = word.split('/').next().unwrap_or("");
-    let index: i64 = first
-        .parse()
-        .map_err(|_| format!("vertex reference {word:?} is not an index"))?;
+    let index: i64 = first.parse().map_err(|_| {
+        format!(
+            "vertex reference \"{}\" is not an index",
+            excerpt(word, EXCERPT)
+        )
+    })?;
     let resolved = match index {
         i if i > 0 => i - 1,
         i if i < 0 => vertices_so_far as i64 + i,
