@@ -1,35 +1,35 @@
-//! //! Tearing: a per-particle scalar damage d ∈ [0, 1] that takes the tension out of
-//! //! material strained past its toughness G_c (J/m², scene key `material.toughness`).
-//! //!
-//! //! **Split.** The strain energy density (J/m³) of either model is a shear part ψ_μ ≥ 0 plus a
-//! //! volume part ψ_λ ≥ 0 (see [`super::material`]):
-//! //! Neo-Hookean ψ_μ = μ/2 (tr FᵀF − 3) − μ ln J, ψ_λ = λ/2 (ln J)²;
-//! //! fixed-corotated ψ_μ = μ‖F − R‖², ψ_λ = λ/2 (J − 1)².
-//! //! Tension is the shear part and, when the particle is dilated (J > 1), the volume part
-//! //! (Amor et al. 2009's volumetric–deviatoric split): ψ⁺ = ψ_μ + [J > 1] ψ_λ,
-//! //! ψ⁻ = [J ≤ 1] ψ_λ. Damage degrades only the tension:
-//! //! ψ = (1 − d) ψ⁺ + ψ⁻, τ = (1 − d) τ⁺ + τ⁻,
-//! //! so fully damaged material still resists being compressed but carries no tension and no
-//! //! shear.
-//! //!
-//! //! **Evolution.** Damage is driven by the largest tensile energy density seen, Y = max ψ⁺
-//! //! (J/m³), with an exponential softening law
-//! //! d(Y) = 0 for Y ≤ Y₀, d(Y) = 1 − exp(−(Y − Y₀)/Y_f) above,
-//! //! and never decreases (d ← max(d, d(ψ⁺))). Its dissipation rate is −∂ψ/∂d·ḋ = ψ⁺ ḋ, so
-//! //! a particle damaged from 0 to 1 dissipates ∫ Y dd = ∫_{Y₀}^∞ Y e^{−(Y−Y₀)/Y_f} dY / Y_f
-//! //! = Y₀ + Y_f per unit volume.
-//! //!
-//! //! **Crack band** (Bažant & Oh 1983). Damage localises in a band of material one cell wide,
-//! //! h = dx, so the energy a unit area of crack dissipates is (Y₀ + Y_f)·h. Setting
-//! //! Y₀ = Y_f = G_c / (2h) makes it G_c whatever the cell size: the tear's energy balance,
-//! //! and with it the tearing force, does not depend on dx. There is no separate strength:
-//! //! the process zone is the cell at the crack tip, the limit of linear elastic fracture
-//! //! mechanics, where a cell at the tip of a crack with energy release rate G holds an
-//! //! energy density of about G/h, and it begins to fail when that reaches Y₀ (G ≈ G_c/2) and
-//! //! is through when G reaches G_c.
-//! //!
-//! //! **GPU.** `gpu/damage.wgsl` is this module line for line; MLS-MPM's P2G calls it for a
-//! //! material with toughness and keeps the damage in each particle's position w.
+//! Tearing: a per-particle scalar damage d ∈ [0, 1] that takes the tension out of
+//! material strained past its toughness G_c (J/m², scene key `material.toughness`).
+//!
+//! **Split.** The strain energy density (J/m³) of either model is a shear part ψ_μ ≥ 0 plus a
+//! volume part ψ_λ ≥ 0 (see [`super::material`]):
+//! Neo-Hookean ψ_μ = μ/2 (tr FᵀF − 3) − μ ln J, ψ_λ = λ/2 (ln J)²;
+//! fixed-corotated ψ_μ = μ‖F − R‖², ψ_λ = λ/2 (J − 1)².
+//! Tension is the shear part and, when the particle is dilated (J > 1), the volume part
+//! (Amor et al. 2009's volumetric–deviatoric split): ψ⁺ = ψ_μ + \[J > 1\] ψ_λ,
+//! ψ⁻ = \[J ≤ 1\] ψ_λ. Damage degrades only the tension:
+//! ψ = (1 − d) ψ⁺ + ψ⁻, τ = (1 − d) τ⁺ + τ⁻,
+//! so fully damaged material still resists being compressed but carries no tension and no
+//! shear.
+//!
+//! **Evolution.** Damage is driven by the largest tensile energy density seen, Y = max ψ⁺
+//! (J/m³), with an exponential softening law
+//! d(Y) = 0 for Y ≤ Y₀, d(Y) = 1 − exp(−(Y − Y₀)/Y_f) above,
+//! and never decreases (d ← max(d, d(ψ⁺))). Its dissipation rate is −∂ψ/∂d·ḋ = ψ⁺ ḋ, so
+//! a particle damaged from 0 to 1 dissipates ∫ Y dd = ∫_{Y₀}^∞ Y e^{−(Y−Y₀)/Y_f} dY / Y_f
+//! = Y₀ + Y_f per unit volume.
+//!
+//! **Crack band** (Bažant & Oh 1983). Damage localises in a band of material one cell wide,
+//! h = dx, so the energy a unit area of crack dissipates is (Y₀ + Y_f)·h. Setting
+//! Y₀ = Y_f = G_c / (2h) makes it G_c whatever the cell size: the tear's energy balance,
+//! and with it the tearing force, does not depend on dx. There is no separate strength:
+//! the process zone is the cell at the crack tip, the limit of linear elastic fracture
+//! mechanics, where a cell at the tip of a crack with energy release rate G holds an
+//! energy density of about G/h, and it begins to fail when that reaches Y₀ (G ≈ G_c/2) and
+//! is through when G reaches G_c.
+//!
+//! **GPU.** `gpu/damage.wgsl` is this module line for line; MLS-MPM's P2G calls it for a
+//! material with toughness and keeps the damage in each particle's position w.
 //!
 //! **Torn material** (d ≥ 0.99) carries no tension and no shear but still resists
 //! compression; its deformation gradient keeps only a volume compression (its stretch costs

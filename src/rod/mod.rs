@@ -29,7 +29,7 @@
 //!   24 µm.
 //! - **Held points**: any number of points may have inverse mass 0 (pinned ends, grasps),
 //!   adjacent or not. The diagonal blocks are formed as the products J·W·Jᵀ (the frame part as
-//!   wq·[d3]×[d3]×ᵀ, not wq·(I − d3·d3ᵀ), which differs by wq·(|d3|² − 1)·I ≈ 5e12 × 1e-7) and
+//!   wq·\[d3\]×\[d3\]×ᵀ, not wq·(I − d3·d3ᵀ), which differs by wq·(|d3|² − 1)·I ≈ 5e12 × 1e-7) and
 //!   d3 is normalised in f64, so the system stays positive definite under rounding: a piece of
 //!   chain held at both ends has only its axial compliance (~1e5) as pivot.
 //! - **Tension**: `Rod::tension[j]` is segment j's axial force in newtons from the
