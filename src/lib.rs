@@ -8,6 +8,7 @@
 //!
 //! # Contents
 //!
+//! - [`math`]: the vector and matrix aliases every folder shares.
 //! - [`config`]: scene files (serde model, validation naming key, value and range) and
 //!   scenes built in code.
 //! - [`mpm`]: the tissue. The method (MLS-MPM, PIC, PB-MPM, the implicit solver), the time
@@ -23,10 +24,10 @@
 //!   [`tools::slicer`] and [`tools::mesh_slicer`] are the blades.
 //! - [`rod`]: the suture thread: Cosserat rod, direct solve, contact, length in contact, its
 //!   analytic checks and cost; [`rod::self_contact`] and [`rod::crossing`] keep it from
-//!   passing through itself.
-//! - [`thread_body`]: a thread in the world: grasps, outputs, knots and the tied knot of
-//!   `config/knot.toml`.
-//! - [`world`]: one scene's simulation, stepped a frame at a time.
+//!   passing through itself; [`rod::knot`] tells a knot from its centreline.
+//! - [`world`]: one scene's simulation, stepped a frame at a time;
+//!   [`world::thread_body`] is a thread in the world: grasps, outputs, knots and the tied
+//!   knot of `config/knot.toml`.
 //! - [`sleep`]: skipping idle work: sleep, occupied blocks, absent features.
 //! - [`robot`]: PSM kinematics, dVRK's URDFs ([`robot::urdf`]), joints, IK, teleoperation.
 //! - [`sim`]: the frame loop, arm state machines and scene assembly, transport-agnostic.
@@ -41,6 +42,7 @@
 //! stability matrix.
 
 pub mod config;
+pub mod math;
 pub mod mpm;
 pub mod output;
 pub mod robot;
@@ -48,7 +50,6 @@ pub mod rod;
 pub mod ros;
 pub mod sim;
 pub mod sleep;
-pub mod thread_body;
 pub mod tools;
 pub mod validation;
 pub mod world;

@@ -34,7 +34,7 @@
 //! | no tools | 314432 | 567.671 | — | — | — |
 //! | gripper, needle, probe parked | 314432 | 578.774 | no tools | 1.020 | ≤ 1.05 |
 
-use crate::mpm::Vec3;
+use crate::math::Vec3;
 use serde::{Deserialize, Serialize};
 
 /// `[sleep]` in a scene file.

@@ -8,7 +8,7 @@
 //! the substeps, `environment` adds the table, tools and grasps a frame meets and
 //! `self_contact` keeps the thread from passing through itself, and `crossing` scales back the
 //! length restoration after the contacts wherever it would pull a strand through another.
-//! The thread in a scene (grasps, outputs, knots) is [`crate::thread_body`].
+//! The thread in a scene (grasps, outputs, knots) is [`crate::world::thread_body`].
 //!
 //! # The rod
 //!
@@ -121,6 +121,7 @@ pub mod constraints;
 pub mod crossing;
 pub mod direct;
 pub mod environment;
+pub mod knot;
 pub mod material;
 pub mod self_contact;
 pub mod solver;

@@ -3,7 +3,7 @@
 //! ([`grasp`]). The world steps each thread once per frame alongside the tissue, through
 //! [`RodSolver::step_frame_in`] with one [`RodEnvironment`] per frame.
 //!
-//! `knot` tells whether its centreline is knotted.
+//! [`crate::rod::knot`] tells whether its centreline is knotted.
 //!
 //! # A thread in a scene
 //!
@@ -30,7 +30,7 @@
 //!   `[outputs] thread_rate_hz`, only while subscribed, and in bags; `snapshot` draws threads as
 //!   tubes. The headless summary prints each thread's elongation, ends and grasped points, and
 //!   its knot: `summary: knot thread <name>: det <d> (<the simplest knot with it>)`.
-//! - **Knots** ([`knot`]): `knot_determinant(points)` is |Δ(−1)| (the Alexander polynomial at
+//! - **Knots** ([`crate::rod::knot`]): `knot_determinant(points)` is |Δ(−1)| (the Alexander polynomial at
 //!   −1, from the Fox colouring matrix of a projection, an exact integer Bareiss determinant)
 //!   of the centreline closed up on a sphere ten times its extent: 1 unknotted, 3 overhand
 //!   (trefoil), 5 figure-eight, 9 square or granny.
@@ -78,12 +78,11 @@
 //! and pulled 70 mm a side (`cargo test --release --test thread_scene knot -- --nocapture`).
 
 pub mod grasp;
-pub mod knot;
 
 use crate::config::thread::RestShape;
 use crate::config::{Scene, Thread};
+use crate::math::Vec3;
 use crate::mpm::grid::WALL_NODES;
-use crate::mpm::Vec3;
 use crate::rod::{Rod, RodAttachment, RodCollider, RodEnvironment, RodSolver};
 use crate::tools::ContactModel;
 use crate::world::WorldTool;
@@ -249,11 +248,11 @@ impl ThreadBody {
         self.rod.length() as f64 / self.rod.rest_length() as f64 - 1.0
     }
 
-    /// The knot determinant of the centreline (see [`knot`]): 1 unknotted, 3 an overhand
+    /// The knot determinant of the centreline (see [`crate::rod::knot`]): 1 unknotted, 3 an overhand
     /// knot (trefoil).
     pub fn knot_determinant(&self) -> u128 {
         let points: Vec<_> = self.rod.points.iter().map(|p| p.cast::<f64>()).collect();
-        knot::knot_determinant(&points)
+        crate::rod::knot::knot_determinant(&points)
     }
 
     /// Points held by grippers now.
