@@ -53,7 +53,7 @@ pub struct StretchShear {
     pub value: Vec3d,
     /// ∂C/∂pⱼ₊₁ = I/l (and ∂C/∂pⱼ = −I/l).
     pub inv_length: f64,
-    /// d3 of the frame: ∂C/∂θⱼ = [d3]×.
+    /// d3 of the frame: ∂C/∂θⱼ = \[d3\]×.
     pub d3: Vec3d,
     /// World-frame compliance matrix (before the 1/h² of XPBD).
     pub compliance: Mat3d,
@@ -76,7 +76,7 @@ pub fn stretch_shear(rod: &Rod, j: usize, compliance: (f64, f64)) -> StretchShea
 #[derive(Clone, Copy, Debug)]
 pub struct BendTwist {
     pub value: Vec3d,
-    /// ∂C/∂θⱼ₊₁ = E and ∂C/∂θⱼ = −E, E = ½·(D.w·I − [d]×)·R(qⱼ)ᵀ with D = q̄ⱼqⱼ₊₁ = (D.w, d):
+    /// ∂C/∂θⱼ₊₁ = E and ∂C/∂θⱼ = −E, E = ½·(D.w·I − \[d\]×)·R(qⱼ)ᵀ with D = q̄ⱼqⱼ₊₁ = (D.w, d):
     /// D.w is ≈ −1 when one frame's sign is flipped, and the gradient flips with it.
     pub jacobian: Mat3d,
 }

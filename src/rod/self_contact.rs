@@ -33,13 +33,26 @@
 //!    (the lines' closest points land beyond both segments' ends) and pairs turned nearly
 //!    parallel (no line parameters). It is tested once per broad phase, and again in the
 //!    passes for pairs within two diameters, which a neighbour's push may have moved through.
+//! 5. The contact passes (up to 8 Gauss–Seidel passes after each direct solve) sweep the pairs
+//!    in opposite orders on successive passes (symmetric Gauss–Seidel). Swept always in chain
+//!    order, the pairs further along have every pass's last word, and that bias pumps thread
+//!    through a tight knot in the direction of the numbering: `config/knot.toml` pulled on
+//!    slid its knot along the standing part, the other way with the thread numbered from its
+//!    other end, until it came undone. With alternating sweeps the knot stays where it was
+//!    tied in both numberings (`knot_toml_pulled_hard_stays_where_it_was_tied` and its
+//!    renumbered twin in tests/thread_scene.rs).
+//! 6. As a fail-safe on the points' moves, `CrossingGuard::keep_sides` (called by the solver
+//!    after the rounds, against the substep's start, and after the length restoration, against
+//!    the rounds' end) tests every pair whose swept boxes overlap (any meeting counts): the
+//!    points of a pair that met keep half their move, round after round, give it up below an
+//!    eighth, and after 8 rounds every free point returns to the safe state.
+//!    `RodFrameReport::substeps_held_back` counts the substeps where it acted.
 //!
 //! Segments fewer than `1 + ⌈4r/l⌉` apart along the chain never collide: the chain between
 //! them is shorter than two diameters, so that bent gently they touch. Segments two apart
 //! do collide where segments are two diameters long or longer: a knot pulled hard folds the
 //! thread tighter than a segment (config/knot.toml pulled to 85 mm a side closes its knot
-//! to six segments of 2 mm), and with them left out its strands passed through each other
-//! there (the knot came undone at 16.5 s; tests/thread_scene.rs).
+//! to six segments of 2 mm), and its strands then lie two segments apart along the chain.
 
 use super::crossing::pair_crossed;
 use super::environment::friction_correction;

@@ -1,9 +1,124 @@
 //! The ROS 2 side, transport only: message types ([`msgs`], [`schema`]), topic names
 //! ([`names`]), messages to simulation inputs ([`inputs`]) and finished frames to messages
 //! ([`outputs`]), the node's topic wiring ([`node`]), the bag recorder and replay
-//! ([`recorder`], [`replay`], [`recover`] for a bag a killed run left) and a run's setup shared by the node and a headless replay
-//! ([`session`]), `/clock` ([`sim_clock`]) and the node's status ([`status`]). The
-//! simulation itself is `crate::sim`.
+//! ([`recorder`], [`replay`], [`recover`] for a bag a killed run left) and a run's setup
+//! shared by the node and a headless replay ([`session`]), `/clock` ([`sim_clock`]) and the
+//! node's status ([`status`]). The simulation itself is [`crate::sim`].
+//!
+//! # The node
+//!
+//! `run` without `--headless` is a ROS 2 node on ros2-client + RustDDS: no ROS installation
+//! needed (it speaks kilted; with `ROS_DISTRO` unset it sets it for itself before any thread
+//! starts). The simulation steps on its own thread at the scene's `frame_rate_hz` (never faster
+//! than real time; slower when a frame costs more than its period) and exchanges latest values
+//! with the ROS side: commands go in through a bounded queue and are applied at the next frame
+//! boundary, finished frames come out as a latest value (a slow reader skips frames). Every
+//! stamp is simulated time. Relative names live under `--namespace`; `/tf` is global.
+//!
+//! | topic | type | notes |
+//! |---|---|---|
+//! | `PSM1/measured_js`, `setpoint_js` | sensor_msgs/JointState | `yaw, pitch, insertion, roll, wrist_pitch, wrist_yaw` |
+//! | `PSM1/jaw/measured_js`, `jaw/setpoint_js` | sensor_msgs/JointState | `jaw`: measured = the opening reached, with the controller's `effort` (N·m); setpoint = the command |
+//! | `PSM1/measured_cp`, `setpoint_cp` | geometry_msgs/PoseStamped | frame `PSM1_base` |
+//! | `PSM1/measured_cv` | geometry_msgs/TwistStamped | from the Jacobian |
+//! | `PSM1/operating_state` | crtk_msgs/OperatingState | latched; a new stamp on every change; busy around each `move_*` |
+//! | `PSM1/error`, `warning`, `status` | std_msgs/String | latched; every rejected command is reported on `error` |
+//! | `PSM1/servo_jp`, `move_jp`, `jaw/servo_jp`, `jaw/move_jp` | sensor_msgs/JointState (sub) | names optional (then canonical order) |
+//! | `PSM1/jaw/servo_jf` | sensor_msgs/JointState (sub) | jaw effort in `effort[0]` (N·m, negative closes), clamped to the limit; a jaw position command ends it |
+//! | `PSM1/servo_cp`, `move_cp` | geometry_msgs/PoseStamped (sub) | in `PSM1_base` |
+//! | `PSM1/hold`, `free` | std_msgs/Empty (sub) | `free` holds (a kinematic arm) |
+//! | `PSM1/state_command` | crtk_msgs/StringStamped (sub) | `enable, disable, home, unhome, pause, resume` |
+//! | `PSM1/body/servo_cf`, `use_gravity_compensation` | (sub) | accepted, no effect on a kinematic arm |
+//! | `tissue/points` | sensor_msgs/PointCloud2 | x, y, z and the scalar `points_scalar` names (`volumetric_strain`, `equivalent_strain` or `damage`), frame `world` |
+//! | `tissue/surface` | visualization_msgs/Marker | TRIANGLE_LIST in `world`: the mesh (fixed corner order, a strain colour and a UV per corner) or the isosurface |
+//! | `tissue/pieces` | std_msgs/UInt32 | separate tissue pieces, counted at `pieces_rate_hz` in simulated time while subscribed (and when recording) |
+//! | `tools/<tool>/wrench` | geometry_msgs/WrenchStamped | contact wrench on the tool, in its frame (`PSM1` for an arm's tool, the mount undone) |
+//! | `threads/<name>/centreline`, `threads/<name>/tension` | Marker, PointCloud2 | a suture thread's LINE_STRIP and its axial force per point |
+//! | `/tf` | tf2_msgs/TFMessage | `world` → `PSM1_base` → every arm link; scripted tools |
+//! | `MTMR/measured_cp`, `MTMR/gripper/measured_js`, `console/clutch`, `console/operator_present` | (sub, with `[teleop]`) | Joy `buttons[0] = 1` pressed |
+//! | `MTMR/body/servo_cf` | geometry_msgs/WrenchStamped | with `force_feedback`: the tool's contact wrench × scale |
+//! | `/clock` | rosgraph_msgs/Clock | simulated time, once per frame |
+//! | `sim/status` | diagnostic_msgs/DiagnosticArray | latched, once a second: real-time factor, substeps and frames per second, backend, adapter |
+//!
+//! - **Simulated arms** satisfy dVRK's `dvrk_arm_from_ros` contract: a dVRK console can
+//!   teleoperate them with a real MTM. They start ENABLED and homed at `home_joints`;
+//!   measured = setpoint (as dVRK's `KIN_SIMULATED`). Joint limits, the 45 mm RCM safety
+//!   distance (Cartesian commands) and dVRK's `move_jp` speeds (90°/s, 0.2 m/s, 1080°/s; jaw
+//!   720°/s) are enforced; a servo command may move a joint at most 0.1 s × its speed limit.
+//! - **The jaw is dVRK's jaw** ([`crate::tools::jaw`]): a position servo whose effort is
+//!   limited, acting against the tissue, d_gain·θ̇ = clamp(p_gain·(θ_sp − θ), ±effort_max) +
+//!   τ_tissue, with dVRK's gains and the Large Needle Driver's effort limit; closing onto
+//!   tissue it stops where the tissue's torque meets what the controller can apply, and
+//!   pressed shut it grips ([`crate::tools::grip`]).
+//! - **Mirror arms** follow a real arm's `measured_js` and `jaw/measured_js` and publish
+//!   nothing on the arm's topics.
+//! - **Teleoperation** maps MTM motion to the PSM as dVRK does ([`crate::robot::teleop`]:
+//!   position relative × scale, orientation absolute with the offset captured at engage, jaw
+//!   from the gripper, clutch re-anchors). An MTM that stops publishing for 0.5 s simulated
+//!   makes the PSM hold where it is (one WARN) until it publishes again.
+//! - **Bad input never stops the node**: NaN / inf, wrong length, unknown or duplicate joint
+//!   names, out-of-limit values, jumps, non-unit quaternions, targets inside the RCM safety
+//!   distance, unknown state commands and pedal messages without buttons are rejected with a
+//!   log line naming the topic and the reason (one per topic and second, with a count of the
+//!   ones held back), also published on `PSM1/error`; the last valid command holds.
+//! - **Outputs nobody subscribes to are not computed**; each is published at its rate from the
+//!   newest frame.
+//! - **Large clouds**: RustDDS sends a sample in one UDP burst; rclpy / rclcpp subscribers with
+//!   Fast DDS need bigger socket buffers for clouds over ~17k points: `RMW_IMPLEMENTATION=rmw_fastrtps_cpp`,
+//!   `FASTDDS_DEFAULT_PROFILES_FILE=config/fastdds_large_data.xml` and
+//!   `sysctl -w net.core.rmem_max=4194304 net.core.wmem_max=4194304`, or thin the cloud with
+//!   `[outputs] points_downsample`.
+//!
+//! `launch-scripts/`: `run_node.sh [SCENE] [flags]` starts the node; `dvrk_tissue_sim.launch.py`
+//! is a ROS 2 launch file; `teleop_demo.py` plays a scripted MTM on `config/teleop.toml`;
+//! `record_tissue_bag.sh` records with `ros2 bag`; `soak.py` drives the node for a long run.
+//!
+//! # /clock and status
+//!
+//! `/clock` carries the simulated time once per frame, so a node started with
+//! `use_sim_time:=true` follows the simulation, also when it runs slower than real time.
+//! ros2-client's spinner subscribes `/clock` itself, under the type `builtin_interfaces/msg/Time`,
+//! on the participant of the node it spins, and one DDS participant cannot carry a topic under
+//! two types. So `/clock` is published from a second participant with a node of its own,
+//! `<node name>_clock`, that never spins ([`sim_clock`]); `ros2 node list` shows both.
+//!
+//! `sim/status` says how the simulation keeps up, measured over the last 5 s of wall time:
+//! `real_time_factor`, `substeps_per_frame`, `frames_per_second`, `simulated_time`, `backend`
+//! (`cpu`, `gpu-fixed-point`, `gpu-f32-atomics`) and `adapter`. Level OK at real time, WARN below
+//! 0.9× with a message that says by how much; the log says the same every 10 s while frames are
+//! late. `tests/clock_status.rs` checks that an rclpy node with `use_sim_time` finds its clock
+//! equal to the last `/clock`, and the status's factor within 25 % of the one it measures.
+//!
+//! **No ERROR in normal use.** A subscriber of rclpy's default QoS (reliable, keep last 10) on
+//! `tissue/points` that falls behind on a large, fragmented cloud asks for fragments the
+//! writer's keep-last history has already replaced; RustDDS logs that as an ERROR although it
+//! is keep-last history working as specified. The node drops exactly that line (its target and
+//! text, `src/cli/dds_log.rs`); every other RustDDS error still reaches the log.
+//!
+//! # Measured
+//!
+//! `ip netns exec NS cargo test --release --test ros_node -- --nocapture --test-threads=1` (NS a
+//! loopback-only namespace as `.ci/run` makes it; rclpy 9.1.2 and Fast DDS 3.2.3 wheels, this
+//! 2-core machine):
+//!
+//! | what | result |
+//! |---|---|
+//! | discovery: rclpy sees the node and all 28 expected topics with exact types | 0.28 s after `rclpy.init()` |
+//! | `tissue/points`, 30,000 points (480 kB) published at 30 Hz, the Fast DDS profile above | 138 of 138 clouds whole in 5 s: 27.6 Hz |
+//! | `servo_jp` → `measured_cp` against dVRK's DH forward kinematics | position error 8e-17 m, rotation 7e-16 |
+//! | teleop: MTM +50 mm / clutched +40 mm / released −30 mm | PSM +10.0 mm / 0.0 mm / −6.0 mm |
+//! | bad input (12 kinds on the arm topics, plus MTM and pedals) | all rejected with topic and reason on `PSM1/error`; publishing never stopped |
+//!
+//! Faults tried on purpose (`tests/bag_faults.rs`, `tests/recording.rs`, `tests/flood.rs`,
+//! `tests/fuzz_inputs.rs`, `tests/urdf_layouts.rs`, `tests/clock_status.rs`, run in a loopback
+//! namespace): a node killed with SIGKILL while recording loses nothing the log reported on
+//! disk once `bag recover` has rebuilt the bag; a full disk stops the recording and leaves a
+//! readable bag while the node runs on and exits 0; a record path in a missing folder or on a
+//! read-only file system is refused before the node starts; a `servo_jp` flood at 6,271
+//! commands/s keeps the frame rate within 85 % and the memory flat; a cloud subscriber that
+//! stops reading costs the frame rate nothing; 20,000 fuzzed CDR payloads, 2,057 mutated scene
+//! files and 1,600 fuzzed URDFs are refused with a message each, never a panic; a 30-minute
+//! soak (`launch-scripts/soak.py --minutes 30`) ran at 0.98× real time with 0 ERROR lines.
 
 pub mod inputs;
 pub mod msgs;

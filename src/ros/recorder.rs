@@ -18,6 +18,51 @@
 //! reads back; at most the open chunk is lost. When a write fails (a full disk, a vanished
 //! device) the file is cut back to its last completed chunk and sealed with a footer, so
 //! every standard reader opens what was written; the simulation goes on without recording.
+//!
+//! # Recording
+//!
+//! `run --record out.mcap` writes every output on its topic with its type (arm states, tool
+//! wrenches, `/tf`, `tissue/points`, `tissue/surface`, `tissue/pieces`, thread outputs, latched
+//! `operating_state` / `error` / ...) and every input the simulation applied (`servo_jp`,
+//! `move_cp`, MTM and console topics, ...), with CDR payloads encoded by RustDDS as on the
+//! wire. Recording counts as wanting the cloud and surface, so they follow the scene's
+//! `[outputs]` rates in simulated time whether or not anyone subscribes. The queue holds at
+//! most 256 frames; if the disk falls behind, frames are dropped from the bag and counted in
+//! the log. `--record-chunk S` changes the chunk span (default 1 s of simulated time): what a
+//! killed run can lose at most. A bag without footer is refused by standard readers;
+//! `dvrk-tissue-sim bag recover killed.mcap rebuilt.mcap` copies every readable message into a
+//! finished, indexed bag, and `run --replay` on an unfinished bag says so and names that
+//! command. A failed write is logged in words ("no space left on the device", "permission
+//! denied", "read-only file system"); Ctrl-C then ends with a warning and exit status 0.
+//!
+//! `run --headless --record out.mcap` records a scripted run (tools on their keyframes, no ROS,
+//! no network) as the node would publish it, for dataset generation from keyframed scenes.
+//!
+//! The tests read the bags with the PyPI `rosbags` and `mcap` packages (`tests/recording.rs`,
+//! `tests/ros/read_bag.py`); `ros2 bag info` / `ros2 bag play` and Foxglove read MCAP files of
+//! this form.
+//!
+//! # Replay
+//!
+//! `run --replay in.mcap` applies the bag's inputs at the same frames through the same
+//! conversion as the live topics ([`crate::ros::replay`]; the input topics are not
+//! subscribed), until the bag's end or `--seconds`; with `--headless` there is no DDS
+//! participant and frames run as fast as they compute. So on the CPU backend the tissue
+//! outputs repeat bit for bit: `tests/recording.rs` drives the node with rclpy `servo_jp`
+//! commands while it records, replays the bag headless with `--record`, and finds every
+//! recorded cloud byte-identical at its stamp. On the GPU a replay with fixed-point P2G
+//! (`--p2g fixed`) repeats bit for bit too; with f32 atomics, whose sums may come in a
+//! different order each run, it is close with no bit-for-bit guarantee (on llvmpipe within
+//! 0.54 µm of the CPU's clouds). A bag from another scene or namespace, without inputs,
+//! missing or unreadable is refused with a message saying which.
+//!
+//! Measured on the default scene (CPU backend, this 2-core machine), the node recording while
+//! an rclpy client pushed the gripper down and back with 32 `servo_jp` commands
+//! (`run --scene config/default.toml --backend cpu --seconds 4 --record /tmp/default.mcap`,
+//! then `run --scene config/default.toml --backend cpu --replay /tmp/default.mcap --headless
+//! --record /tmp/default_replay.mcap`): 2,313 messages on 13 topics over 3.98 s simulated
+//! (80.5 MB, the clouds dominate), 0 frames dropped, and 120 of 120 replayed clouds
+//! byte-identical to the node's recording.
 
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;

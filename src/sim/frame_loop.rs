@@ -2,7 +2,7 @@
 //! ones first, at the frame they were applied originally), runs teleoperation, advances the
 //! arms to the frame's end and drives their tools, steps the world, takes a snapshot when one
 //! is due, and builds the finished [`Frame`]. Who calls it decides the pacing: the simulation
-//! thread ([`crate::sim::thread`]) at the scene's rate in real time, a headless run
+//! thread ([`crate::sim::realtime`]) at the scene's rate in real time, a headless run
 //! ([`crate::sim::headless`]) as fast as frames compute.
 //!
 //! With a recorder attached, each frame's applied inputs, arm events and (when an output is

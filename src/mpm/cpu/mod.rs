@@ -8,6 +8,17 @@
 //!
 //! Work is proportional to the occupied blocks, not to the domain volume, and a substep
 //! allocates nothing. PB-MPM (`pbmpm`) reuses these stages with its constraint iterations.
+//!
+//! **Parallel P2G without atomics or locks**: particles are binned each substep into 4³-node
+//! grid blocks; blocks are coloured by coordinate parity, and a colour's blocks scatter
+//! concurrently because their stencils never overlap. Only blocks particles touch are
+//! cleared and updated: work follows the tissue, not the domain. The stencil loops are
+//! functions of the crack side test (`scatter`, `gather`), so a particle no cut reaches takes
+//! the loop without a test in it. The implicit solver ([`implicit`]) reuses the binning and
+//! the block colours for its Hessian products.
+//!
+//! `cargo run --release -- bench throughput --frames 20` (this 2-core machine, 24,000
+//! particles on a 68³ grid, 2,100 substeps): 2.438 ms a substep, 9.84 M particle-substeps/s.
 
 mod binning;
 pub mod implicit;

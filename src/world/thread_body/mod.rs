@@ -4,6 +4,78 @@
 //! [`RodSolver::step_frame_in`] with one [`RodEnvironment`] per frame.
 //!
 //! [`crate::rod::knot`] tells whether its centreline is knotted.
+//!
+//! # A thread in a scene
+//!
+//! A `[[thread]]` table (keys in `config/README.md`) puts a rod in the world; every key but
+//! `start` (or `points`) has a default, a 15 cm USP 3-0 nylon thread.
+//! - **World**: each frame the thread's environment holds the table (its height, the thread's
+//!   `friction`), the domain walls, every tool of the scene as a collider (its SDF at its poses
+//!   at the frame's start and end; friction from its `contact`, 1.0 for `sticky`), the grasped
+//!   and pinned points as attachments, and self-contact. The thread is stepped also while the
+//!   tissue sleeps, and a scene without tissue skips the grid and runs on the CPU.
+//! - **Grasping** ([`grasp`]): a gripper whose jaw servo presses the jaws shut (as for the
+//!   tissue grip) with the tips no further apart than the thread's diameter catches every
+//!   thread point inside the closed jaws' volume; each frame those points are attachments
+//!   moving with the jaws from the frame's start to its end, let go with the jaws' velocity
+//!   when the jaws stop pressing. `pinned` ends are attachments that stay put.
+//! - **A gripper holding the thread** spares only the points it holds and their neighbours
+//!   within a jaw thickness (one run along the thread, from the lowest held index to the
+//!   highest): its jaws are pressed shut past the thread and would push those out again, but
+//!   the rest of the thread still collides with it and cannot slide through the holding jaws.
+//!   After it lets go the same points stay spared until its tips are further apart than a jaw
+//!   is thick plus the thread's diameter.
+//! - **Outputs**: `threads/<name>/centreline` (Marker LINE_STRIP in `world`) and
+//!   `threads/<name>/tension` (PointCloud2 with the mean axial force at each point) at
+//!   `[outputs] thread_rate_hz`, only while subscribed, and in bags; `snapshot` draws threads as
+//!   tubes. The headless summary prints each thread's elongation, ends and grasped points, and
+//!   its knot: `summary: knot thread <name>: det <d> (<the simplest knot with it>)`.
+//! - **Knots** ([`crate::rod::knot`]): `knot_determinant(points)` is |Δ(−1)| (the Alexander polynomial at
+//!   −1, from the Fox colouring matrix of a projection, an exact integer Bareiss determinant)
+//!   of the centreline closed up on a sphere ten times its extent: 1 unknotted, 3 overhand
+//!   (trefoil), 5 figure-eight, 9 square or granny.
+//!
+//! `config/thread.toml` (`cargo test --release --test thread_scene -- --nocapture`): the thread
+//! lies on the table by 0.45 s, the jaws meet on it and catch 3 points, lifted 40 mm each half
+//! droops within 0.5–1.5 × the cantilever answer qL⁴/(8EI) with the elongation below 0.1 %, and
+//! opened it falls back. Through ROS (`rclpy_psm1_picks_up_the_thread_and_opening_drops_it`,
+//! `tests/ros_node.rs`) PSM1 rolls a quarter turn (at home the jaws close along the thread),
+//! inserts, closes, lifts 40 mm and opens, as a dVRK user would.
+//!
+//! # The tied knot
+//!
+//! `config/knot.toml`: two scripted grippers tie an overhand knot in a straight soft thread
+//! (E = 0.1 GPa, 45 cm, 225 segments of 2 mm, 100 substeps of 3 direct solves a frame) lying on
+//! the table, pull it tight, pull on both ends once more and hold. Gripper a lifts an arch;
+//! b carries the tail over the arch's right leg and back under the left, through the loop,
+//! while a lowers the arch so that the loop goes slack; a takes the standing part 140 mm
+//! beyond the knot and both pull. `knot_toml_ties_an_overhand_knot_and_pulls_it_tight`
+//! (`cargo test --release --test thread_scene knot_toml -- --nocapture`) asserts det 1 before
+//! the tuck and det 3 from the tuck to the end, that no pair of segments within four diameters
+//! passes through another in any frame (a knot made by a pass-through would not be tied), and
+//! that the tightening pulls the loop's thread out of the knot (190 mm before the pull, 42 mm
+//! tightened, 36 mm at the end) and closes it.
+//!
+//! What the tightening needs:
+//! - **A short step.** At 32 substeps a frame the strands squeezed in the knot's core run
+//!   nearly parallel 0.9 diameters apart and the knot comes undone; at 100 substeps (1/6000 s)
+//!   it tightens with no pair flagged.
+//! - **A long enough standing part.** With 78 mm of standing part the tightening drew it into
+//!   the knot, which travelled into a's jaws; with 140 mm the loop's thread leaves the knot on
+//!   both sides and it closes where it lies.
+//! - **Length restoration that keeps the bend-twist multipliers**, and **contact passes that
+//!   alternate their sweep order** (see [`crate::rod::self_contact`]): otherwise the bending
+//!   impulse is applied twice in contact, and a hard pull slides the knot along the thread in
+//!   the direction of its numbering.
+//! - **Limits**: pulled to 85 mm a side the knot closes to about 13 mm of thread, as small as
+//!   2 mm segments can draw; the ideal tight trefoil takes about 16.4 diameters of rope
+//!   (Pieranski's tight knots), 3.3 mm of this thread. The same choreography does not tie 3-0
+//!   nylon: its stiff standing part stands out sideways instead of arching.
+//!
+//! `tests/scenes/knot_laid.toml` starts from an open overhand knot laid on the table (det 3
+//! from the first frame) and pulls its tails apart: it keeps self-contact's regression cases
+//! on a knot whose start does not depend on a tying motion, in the soft thread, in 3-0 nylon
+//! and pulled 70 mm a side (`cargo test --release --test thread_scene knot -- --nocapture`).
 
 pub mod grasp;
 
