@@ -7,6 +7,7 @@
 //! transport-agnostic), `ros` (the ROS 2 node: transport only), `sleep` (resting tissue
 //! skips frames), `thread_body` (suture threads in the world: grasps, table), `validation` (scenes with analytic answers). The command line,
 //! benchmarks and stress sweeps are the binary's (`src/cli/`).
+#![warn(missing_docs)]
 
 pub mod config;
 pub mod math;
