@@ -141,13 +141,14 @@ impl Reach<'_> {
 /// The cutting tools' reaches this substep, in the order of `tools` (the first whose edge
 /// passes a particle gives its crack). Tested against the box of a block of particles,
 /// they spare the block's particles the edge test when no slicer's edge can reach it.
-pub struct Reaches<'a> {
+pub(crate) struct Reaches<'a> {
     reaches: Vec<Reach<'a>>,
     band: f32,
     floor: f32,
 }
 
 impl<'a> Reaches<'a> {
+    /// The reaches of the slicers among `tools` on a grid of spacing `dx` (m).
     pub fn new(tools: &'a [ToolKinematics], dx: f32) -> Self {
         let band = slicer::STENCIL_REACH_CELLS * dx;
         let pad = REACH_PAD_CELLS * dx;
