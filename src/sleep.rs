@@ -149,7 +149,8 @@ impl SleepState {
         }
     }
 
-    /// Wakes the tissue: it is stepped again from this frame and must stay quiet to fall asleep again.
+    /// Wakes the tissue: it is stepped again from this frame and must stay quiet to fall asleep
+    /// again.
     pub fn wake(&mut self) {
         self.quiet_frames = 0;
         self.asleep = None;

@@ -6,7 +6,8 @@ use crate::config::{Domain, Hold, Keyframe, Material, Scene, Solver, Table, Tiss
 use crate::mpm::material::MaterialModel;
 use crate::tools::{ContactModel, Shape};
 
-/// A domain with lower corner `origin` and extent `size` (m), grid spacing `dx` (m) and `gravity` (m/s²).
+/// A domain with lower corner `origin` and extent `size` (m), grid spacing `dx` (m) and `gravity`
+/// (m/s²).
 pub fn domain(origin: [f64; 3], size: [f64; 3], dx: f64, gravity: [f64; 3]) -> Domain {
     Domain {
         origin,
@@ -16,7 +17,8 @@ pub fn domain(origin: [f64; 3], size: [f64; 3], dx: f64, gravity: [f64; 3]) -> D
     }
 }
 
-/// A Neo-Hookean material: Young's modulus `e` (Pa), Poisson's ratio `nu`, `density` (kg/m³) and `damping` (1/s); no tearing.
+/// A Neo-Hookean material: Young's modulus `e` (Pa), Poisson's ratio `nu`, `density` (kg/m³) and
+/// `damping` (1/s); no tearing.
 pub fn material(e: f64, nu: f64, density: f64, damping: f64) -> Material {
     Material {
         model: MaterialModel::NeoHookean,

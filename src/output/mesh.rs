@@ -50,7 +50,8 @@ pub enum MeshError {
     #[error(
         "mesh vertex at ({0:.4}, {1:.4}, {2:.4}) m has no particle of its block within {3:.4} m"
     )]
-    /// A mesh vertex with no particle of its block nearby: its position (m) and the search radius (m).
+    /// A mesh vertex with no particle of its block nearby: its position (m) and the search radius
+    /// (m).
     Unbound(f32, f32, f32, f32),
     #[error("mesh cell size {0} m must be positive and finite")]
     /// A cell size that is not positive and finite, m (holds it).

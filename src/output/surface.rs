@@ -29,7 +29,8 @@ pub enum TissueSurface {
         /// Strain the vertices are coloured by.
         measure: StrainMeasure,
     },
-    /// The ½ level set of the particles' volume fraction, extracted afresh each frame (for tissue that cuts or tears).
+    /// The ½ level set of the particles' volume fraction, extracted afresh each frame (for tissue
+    /// that cuts or tears).
     Isosurface {
         /// Lattice spacing (m).
         cell: f32,

@@ -51,7 +51,8 @@ pub struct Trajectory {
 }
 
 impl Trajectory {
-    /// A move from `start` to `goal` whose slowest joint peaks at its `max_velocity` (rad/s or m/s per joint); all joints arrive together.
+    /// A move from `start` to `goal` whose slowest joint peaks at its `max_velocity` (rad/s or m/s
+    /// per joint); all joints arrive together.
     pub fn new(start: &[f64], goal: &[f64], max_velocity: &[f64]) -> Result<Self, TrajectoryError> {
         if start.len() != goal.len() || start.len() != max_velocity.len() {
             return Err(TrajectoryError::LengthMismatch {

@@ -77,7 +77,8 @@ pub(crate) fn stretch_shear(rod: &Rod, j: usize, compliance: (f64, f64)) -> Stre
 /// Bend-twist of one joint linearised at the current state.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct BendTwist {
-    /// Constraint value Im(q̄ⱼqⱼ₊₁ ∓ D̄), D̄ the rest Darboux quaternion taken with the nearer sign.
+    /// Constraint value Im(q̄ⱼqⱼ₊₁ ∓ D̄), D̄ the rest Darboux quaternion taken with the nearer
+    /// sign.
     pub value: Vec3d,
     /// ∂C/∂θⱼ₊₁ = E and ∂C/∂θⱼ = −E, E = ½·(D.w·I − [d]×)·R(qⱼ)ᵀ with D = q̄ⱼqⱼ₊₁ = (D.w, d):
     /// D.w is ≈ −1 when one frame's sign is flipped, and the gradient flips with it.

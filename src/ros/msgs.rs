@@ -77,7 +77,8 @@ macro_rules! ros_message {
 
 // ---- builtin_interfaces, std_msgs ----
 
-/// `builtin_interfaces/Time`: a time stamp, seconds and nanoseconds since the clock's epoch (here the simulated time since start).
+/// `builtin_interfaces/Time`: a time stamp, seconds and nanoseconds since the clock's epoch (here
+/// the simulated time since start).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
 pub struct Time {
     /// `Time.sec`: whole seconds.
@@ -110,7 +111,8 @@ impl Time {
     }
 }
 
-/// `builtin_interfaces/Duration`: a time span, seconds plus nanoseconds (0 means forever where ROS uses it as a lifetime).
+/// `builtin_interfaces/Duration`: a time span, seconds plus nanoseconds (0 means forever where ROS
+/// uses it as a lifetime).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Duration {
     /// `Duration.sec`: whole seconds.
@@ -183,7 +185,8 @@ pub struct ColorRGBA {
 
 // ---- geometry_msgs ----
 
-/// `geometry_msgs/Vector3` (also `Point`, same layout): a 3-vector in the frame of the enclosing message.
+/// `geometry_msgs/Vector3` (also `Point`, same layout): a 3-vector in the frame of the enclosing
+/// message.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Vector3Msg {
     /// `Vector3.x`: in the unit of the enclosing field (m, m/s, rad/s, N or N m).

@@ -239,7 +239,8 @@ enum Motion {
     Move { trajectory: Trajectory, start: f64 },
 }
 
-/// One PSM in the scene: simulated kinematically (measured = setpoint) or mirroring a real arm's joint states.
+/// One PSM in the scene: simulated kinematically (measured = setpoint) or mirroring a real arm's
+/// joint states.
 pub struct ArmSim {
     psm: Psm,
     mode: ArmMode,

@@ -65,14 +65,16 @@ pub struct NodeContact {
     pub depth: f32,
     /// Outward unit normal of the tool surface, world frame.
     pub normal: Vec3,
-    /// Unit tangent of a 1D shape (needle, spine) at the nearest point, world frame; zero otherwise.
+    /// Unit tangent of a 1D shape (needle, spine) at the nearest point, world frame; zero
+    /// otherwise.
     pub tangent: Vec3,
     /// Part of the tool: 0 for one-piece shapes, 1 and 2 for gripper jaws.
     pub part: u8,
 }
 
 impl ToolKinematics {
-    /// A tool's kinematics for one substep at `pose`, moving with `velocity`, on a grid of spacing `dx` (m).
+    /// A tool's kinematics for one substep at `pose`, moving with `velocity`, on a grid of spacing
+    /// `dx` (m).
     pub fn new(
         shape: Shape,
         contact: ContactModel,

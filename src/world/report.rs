@@ -61,7 +61,8 @@ pub enum CommandError {
     /// No tool at this index (holds it).
     NoSuchTool(usize),
     #[error("tool {0}: commanded pose is not finite; keeping the last valid one")]
-    /// A pose with NaN or infinite values; the tool keeps its last valid pose (holds the tool's name).
+    /// A pose with NaN or infinite values; the tool keeps its last valid pose (holds the tool's
+    /// name).
     NonFinitePose(String),
     #[error("tool {0} has no jaws")]
     /// A jaw command to a tool without jaws (holds the tool's name).

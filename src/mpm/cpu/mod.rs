@@ -219,7 +219,8 @@ impl CpuSolver {
         self.bins.touched.len()
     }
 
-    /// Advances the particles by one substep of `input.dt` and reports impulses, speed and guard events.
+    /// Advances the particles by one substep of `input.dt` and reports impulses, speed and guard
+    /// events.
     pub fn substep(&mut self, input: &SubstepInput) -> SubstepStats {
         assert!(input.tools.len() <= MAX_TOOLS, "at most {MAX_TOOLS} tools");
         if self.method == Method::Implicit {
