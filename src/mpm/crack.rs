@@ -141,7 +141,7 @@ impl Reach<'_> {
 /// The cutting tools' reaches this substep, in the order of `tools` (the first whose edge
 /// passes a particle gives its crack). Tested against the box of a block of particles,
 /// they spare the block's particles the edge test when no slicer's edge can reach it.
-pub(crate) struct Reaches<'a> {
+pub struct Reaches<'a> {
     reaches: Vec<Reach<'a>>,
     band: f32,
     floor: f32,
