@@ -9,6 +9,7 @@
 //! # Contents
 //!
 //! - [`math`]: the vector and matrix aliases every folder shares.
+//! - [`files`]: reading the files a scene names: regular files only, short escaped excerpts.
 //! - [`config`]: scene files (serde model, validation naming key, value and range) and
 //!   scenes built in code.
 //! - [`mpm`]: the tissue. The method (MLS-MPM, PIC, PB-MPM, the implicit solver), the time
@@ -40,6 +41,7 @@
 //! The command line, benchmarks and stress sweeps are the binary's (`src/cli/`): `bench`
 //! writes `bench.md`, `bench.csv` and `bench.png` where `--out` says, `stress --out` the
 //! stability matrix.
+#![warn(missing_docs)]
 
 pub mod config;
 pub mod files;

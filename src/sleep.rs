@@ -76,11 +76,14 @@ impl Default for SleepSettings {
 /// An axis-aligned box.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Aabb {
+    /// Lower corner, m.
     pub min: Vec3,
+    /// Upper corner, m.
     pub max: Vec3,
 }
 
 impl Aabb {
+    /// The empty box (min +∞, max −∞), which includes nothing.
     pub fn empty() -> Self {
         Aabb {
             min: Vec3::repeat(f32::INFINITY),
@@ -101,6 +104,7 @@ impl Aabb {
         }
     }
 
+    /// The box grown to include `p`.
     pub fn including(self, p: &Vec3) -> Self {
         Aabb {
             min: self.min.inf(p),
@@ -108,6 +112,7 @@ impl Aabb {
         }
     }
 
+    /// The smallest box holding both.
     pub fn union(self, other: &Aabb) -> Self {
         Aabb {
             min: self.min.inf(&other.min),
@@ -115,6 +120,7 @@ impl Aabb {
         }
     }
 
+    /// The box grown by `margin` (m) on every side.
     pub fn grown(self, margin: f32) -> Self {
         Aabb {
             min: self.min - Vec3::repeat(margin),
@@ -122,6 +128,7 @@ impl Aabb {
         }
     }
 
+    /// Whether the boxes overlap (touching counts).
     pub fn intersects(&self, other: &Aabb) -> bool {
         (0..3).all(|a| self.min[a] <= other.max[a] && other.min[a] <= self.max[a])
     }
@@ -136,6 +143,7 @@ pub struct SleepState {
 }
 
 impl SleepState {
+    /// Whether the tissue sleeps (frames may be skipped).
     pub fn is_asleep(&self) -> bool {
         self.asleep.is_some()
     }
@@ -166,6 +174,8 @@ impl SleepState {
         }
     }
 
+    /// Wakes the tissue: it is stepped again from this frame and must stay quiet to fall asleep
+    /// again.
     pub fn wake(&mut self) {
         self.quiet_frames = 0;
         self.asleep = None;

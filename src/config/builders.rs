@@ -6,6 +6,8 @@ use crate::config::{Domain, Hold, Keyframe, Material, Scene, Solver, Table, Tiss
 use crate::mpm::material::MaterialModel;
 use crate::tools::{ContactModel, Shape};
 
+/// A domain with lower corner `origin` and extent `size` (m), grid spacing `dx` (m) and `gravity`
+/// (m/s²).
 pub fn domain(origin: [f64; 3], size: [f64; 3], dx: f64, gravity: [f64; 3]) -> Domain {
     Domain {
         origin,
@@ -15,6 +17,8 @@ pub fn domain(origin: [f64; 3], size: [f64; 3], dx: f64, gravity: [f64; 3]) -> D
     }
 }
 
+/// A Neo-Hookean material: Young's modulus `e` (Pa), Poisson's ratio `nu`, `density` (kg/m³) and
+/// `damping` (1/s); no tearing.
 pub fn material(e: f64, nu: f64, density: f64, damping: f64) -> Material {
     Material {
         model: MaterialModel::NeoHookean,
@@ -26,6 +30,7 @@ pub fn material(e: f64, nu: f64, density: f64, damping: f64) -> Material {
     }
 }
 
+/// A block named `tissue` centred at `center` with extent `size` (m), 2 particles per cell axis.
 pub fn tissue(center: [f64; 3], size: [f64; 3], material: Material) -> Tissue {
     Tissue {
         name: "tissue".into(),
@@ -36,6 +41,7 @@ pub fn tissue(center: [f64; 3], size: [f64; 3], material: Material) -> Tissue {
     }
 }
 
+/// A frictionless table at `height` (m) that the tissue's bottom is bonded to.
 pub fn bonded_table(height: f64) -> Table {
     Table {
         height,
@@ -54,6 +60,7 @@ pub fn key(t: f64, p: [f64; 3], rpy_deg: [f64; 3], jaw_deg: f64) -> Keyframe {
     }
 }
 
+/// A tool with default jaw gains, moved along `keyframes`.
 pub fn tool(name: &str, shape: Shape, contact: ContactModel, keyframes: Vec<Keyframe>) -> Tool {
     Tool {
         name: name.into(),
@@ -64,6 +71,7 @@ pub fn tool(name: &str, shape: Shape, contact: ContactModel, keyframes: Vec<Keyf
     }
 }
 
+/// A scene with default solver, outputs and sleep settings, and no threads, arms or teleoperation.
 pub fn scene(
     name: &str,
     frame_rate_hz: f64,

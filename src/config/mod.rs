@@ -17,17 +17,30 @@ use crate::tools::Shape;
 use std::path::{Path, PathBuf};
 
 #[derive(Debug, thiserror::Error)]
+/// Why a scene file could not be loaded.
 pub enum SceneError {
     #[error("{path}: cannot read scene file: {source}")]
+    /// The file cannot be read.
     Io {
+        /// The file's path.
         path: PathBuf,
+        /// The I/O error.
         source: std::io::Error,
     },
     #[error("{path}: not a valid scene file: {message}")]
-    Parse { path: PathBuf, message: String },
-    #[error("{path}: {} problem(s):\n{}", problems.len(), problems.iter().map(|p| format!("  {p}")).collect::<Vec<_>>().join("\n"))]
-    Invalid {
+    /// The file is not valid TOML or does not fit the scene structure.
+    Parse {
+        /// The file's path.
         path: PathBuf,
+        /// The parser's message (line and column included).
+        message: String,
+    },
+    #[error("{path}: {} problem(s):\n{}", problems.len(), problems.iter().map(|p| format!("  {p}")).collect::<Vec<_>>().join("\n"))]
+    /// The scene parses but some values are out of range or inconsistent.
+    Invalid {
+        /// The file's path.
+        path: PathBuf,
+        /// Every problem found, one per key.
         problems: Vec<Problem>,
     },
 }

@@ -12,23 +12,31 @@ use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+/// A scene file: the domain, solver, table, tissue blocks, threads, tools, arms, teleoperation and
+/// outputs.
 pub struct Scene {
     #[serde(default = "default_name")]
+    /// The scene's name, for messages and reports (default `unnamed`).
     pub name: String,
     /// Simulation frames per second (output and command exchange rate).
     #[serde(default = "default_frame_rate")]
     pub frame_rate_hz: f64,
+    /// `[domain]`: the simulated box and its grid.
     pub domain: Domain,
     #[serde(default)]
+    /// `[solver]`: method, backend and substep settings.
     pub solver: Solver,
     #[serde(default)]
+    /// `[table]`: the table plane (`None`: no table).
     pub table: Option<Table>,
     #[serde(default, rename = "tissue")]
+    /// `[[tissue]]`: the tissue blocks.
     pub tissues: Vec<Tissue>,
     /// Suture threads (see [`super::thread`]).
     #[serde(default, rename = "thread")]
     pub threads: Vec<super::thread::Thread>,
     #[serde(default, rename = "tool")]
+    /// `[[tool]]`: the rigid tools.
     pub tools: Vec<Tool>,
     /// PSM arms driving tools (ROS node runs; headless runs ignore them).
     #[serde(default, rename = "arm")]
@@ -62,6 +70,7 @@ pub struct Domain {
     /// Grid spacing (m).
     pub dx: f64,
     #[serde(default = "default_gravity")]
+    /// Gravity, world frame, m/s² (default [0, 0, −9.81]).
     pub gravity: [f64; 3],
 }
 
@@ -71,6 +80,7 @@ fn default_gravity() -> [f64; 3] {
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+/// `[solver]` in a scene file: how the tissue is stepped.
 pub struct Solver {
     /// Fraction of a cell a wave or particle may cross per substep (0 < cfl ≤ 1).
     #[serde(default = "default_cfl")]
@@ -86,6 +96,7 @@ pub struct Solver {
     #[serde(default = "default_max_speed")]
     pub max_speed: f64,
     #[serde(default)]
+    /// What the world does when the guard trips (default: stop).
     pub guard_policy: GuardPolicy,
     /// Which solver backend runs the scene: `auto` (a hardware GPU when there is one, the
     /// CPU otherwise), `gpu` (any GPU adapter, software rasterisers included) or `cpu`.
@@ -210,13 +221,17 @@ pub struct Table {
     #[serde(default = "default_hold")]
     pub hold: Hold,
     #[serde(default = "default_table_friction")]
+    /// Coulomb friction coefficient of a `resting` table (default 0.5).
     pub friction: f64,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
+/// How the tissue is held on the table.
 pub enum Hold {
+    /// The bottom face sticks to the table.
     Bonded,
+    /// The tissue rests on the table with Coulomb friction and can lift off.
     Resting,
 }
 
@@ -232,6 +247,7 @@ fn default_table_friction() -> f64 {
 #[serde(deny_unknown_fields)]
 pub struct Tissue {
     #[serde(default = "default_tissue_name")]
+    /// The block's name (default `tissue`).
     pub name: String,
     /// Centre of the block (m).
     pub center: [f64; 3],
@@ -240,6 +256,7 @@ pub struct Tissue {
     /// Particles per grid cell along each axis (2 gives 8 particles per cell).
     #[serde(default = "default_per_axis")]
     pub particles_per_axis: u32,
+    /// The block's material.
     pub material: Material,
 }
 
@@ -252,8 +269,10 @@ fn default_per_axis() -> u32 {
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+/// `material` of a `[[tissue]]` block.
 pub struct Material {
     #[serde(default)]
+    /// The elastic energy model (default `neo_hookean`).
     pub model: MaterialModel,
     /// Young's modulus E (Pa).
     pub youngs_modulus: f64,
@@ -274,19 +293,24 @@ pub struct Material {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Tool {
+    /// The tool's name, for its topics, frame and reports.
     pub name: String,
+    /// The tool's geometry.
     pub shape: Shape,
     #[serde(default)]
+    /// How grid nodes in contact move with the tool (default Coulomb friction).
     pub contact: ContactModel,
     /// A gripper's jaw controller (dVRK's gains and effort limit unless given).
     #[serde(default)]
     pub jaw: crate::tools::JawGains,
     #[serde(default, rename = "keyframe")]
+    /// `[[tool.keyframe]]`: the scripted motion of headless runs, in time order.
     pub keyframes: Vec<Keyframe>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+/// A scripted tool pose at one time (`[[tool.keyframe]]`).
 pub struct Keyframe {
     /// Simulated time (s).
     pub t: f64,
@@ -349,6 +373,7 @@ pub struct Arm {
     #[serde(default)]
     pub tool_rpy_deg: [f64; 3],
     #[serde(default)]
+    /// `simulated` (the node is the arm, the default) or `mirror` (follows a real arm).
     pub mode: ArmMode,
     /// Mirror mode: namespace of the real arm whose `measured_js` and `jaw/measured_js` are
     /// followed (default `/<name>`).
@@ -365,6 +390,7 @@ fn default_arm_urdf() -> String {
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
+/// Whether the node simulates an arm or follows a real one.
 pub enum ArmMode {
     /// The node is the arm (dVRK's `dvrk_arm_from_ros` contract).
     #[default]

@@ -14,8 +14,10 @@ use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+/// `[[thread]]` in a scene file: a suture thread, simulated as a Cosserat rod.
 pub struct Thread {
     #[serde(default = "default_name")]
+    /// The thread's name, for its topics and reports (default `thread`).
     pub name: String,
     /// World position of the first point (m): the thread lies straight from it along
     /// `direction`. Give either `start` or `points`.
@@ -75,26 +77,36 @@ pub struct Thread {
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
+/// The shape a thread returns to at rest.
 pub enum RestShape {
     #[default]
+    /// Straight, whatever shape it was laid in.
     Straight,
+    /// The shape it was laid in.
     AsLaid,
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
+/// Which ends of a thread are held where they start.
 pub enum PinnedEnds {
     #[default]
+    /// Neither end.
     None,
+    /// The first point.
     Start,
+    /// The last point.
     End,
+    /// Both ends.
     Both,
 }
 
 impl PinnedEnds {
+    /// Whether the first point is held.
     pub fn start(self) -> bool {
         matches!(self, PinnedEnds::Start | PinnedEnds::Both)
     }
+    /// Whether the last point is held.
     pub fn end(self) -> bool {
         matches!(self, PinnedEnds::End | PinnedEnds::Both)
     }
@@ -164,6 +176,7 @@ impl Thread {
         }
     }
 
+    /// The thread's material (radius, moduli, density).
     pub fn material(&self) -> ThreadMaterial {
         ThreadMaterial {
             radius: self.radius as f32,
@@ -173,6 +186,7 @@ impl Thread {
         }
     }
 
+    /// The solver's substeps and iterations.
     pub fn solver_settings(&self) -> RodSolverSettings {
         RodSolverSettings {
             substeps: self.substeps,

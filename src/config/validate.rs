@@ -12,6 +12,7 @@ use std::fmt;
 pub struct Problem {
     /// Dotted path of the key, e.g. `tissue[0].material.poisson_ratio`.
     pub key: String,
+    /// The value found, as written.
     pub value: String,
     /// What would be accepted.
     pub allowed: String,

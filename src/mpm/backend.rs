@@ -39,18 +39,22 @@ pub enum P2gAtomics {
 
 /// A solver backend.
 pub enum Backend {
+    /// The CPU solver.
     Cpu(Box<CpuBackend>),
+    /// The wgpu compute solver.
     Gpu(Box<GpuSolver>),
 }
 
 /// The CPU solver plus the copies the guard policy restores from.
 pub struct CpuBackend {
+    /// The solver.
     pub solver: CpuSolver,
     frame_start: Particles,
     rest: Particles,
 }
 
 impl CpuBackend {
+    /// A backend around `solver`, its particles kept as the frame-start and rest copies.
     pub fn new(solver: CpuSolver) -> Self {
         CpuBackend {
             frame_start: solver.particles.clone(),
@@ -61,6 +65,7 @@ impl CpuBackend {
 }
 
 impl Backend {
+    /// `cpu` or `gpu`.
     pub fn name(&self) -> &'static str {
         match self {
             Backend::Cpu(_) => "cpu",
@@ -68,6 +73,7 @@ impl Backend {
         }
     }
 
+    /// The grid's placement and size.
     pub fn layout(&self) -> &GridLayout {
         match self {
             Backend::Cpu(c) => &c.solver.layout,

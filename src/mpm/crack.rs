@@ -232,6 +232,7 @@ pub struct Reaches<'a> {
 }
 
 impl<'a> Reaches<'a> {
+    /// The reaches of the slicers among `tools` on a grid of spacing `dx` (m).
     pub fn new(tools: &'a [ToolKinematics], dx: f32) -> Self {
         let band = slicer::STENCIL_REACH_CELLS * dx;
         let pad = REACH_PAD_CELLS * dx;

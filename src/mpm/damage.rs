@@ -95,8 +95,11 @@ pub const TORN: f32 = 0.99;
 /// density ψ⁺ (J/m³) that drives damage.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Split {
+    /// Tensile part of the Kirchhoff stress, Pa.
     pub tension: Mat3,
+    /// Compressive part of the Kirchhoff stress, Pa.
     pub compression: Mat3,
+    /// Tensile energy density ψ⁺, J/m³.
     pub tensile_energy: f32,
 }
 

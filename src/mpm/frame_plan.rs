@@ -8,8 +8,11 @@ use crate::tools::ToolKinematics;
 /// Everything one frame's substeps need, decided before the first of them runs.
 #[derive(Clone, Copy, Debug)]
 pub struct FramePlan<'a> {
+    /// Substep length, s (the same for every substep of the frame).
     pub dt: f32,
+    /// Substeps planned.
     pub substeps: u32,
+    /// Gravity, world frame, m/s².
     pub gravity: Vec3,
     /// Tools per substep.
     pub tool_count: usize,
@@ -18,6 +21,7 @@ pub struct FramePlan<'a> {
 }
 
 impl FramePlan<'_> {
+    /// The tools of substep `s`.
     pub fn substep_tools(&self, s: usize) -> &[ToolKinematics] {
         &self.tools[s * self.tool_count..(s + 1) * self.tool_count]
     }
@@ -30,6 +34,7 @@ pub struct FrameStats {
     pub tool_impulses: [ToolImpulse; MAX_TOOLS],
     /// Largest particle speed over the frame (m/s).
     pub max_speed: f32,
+    /// Particles that reached the domain edge and were clamped back inside, summed over substeps.
     pub clamped_particles: u32,
     /// Substeps completed before the guard tripped (all of them when it did not).
     pub substeps_done: u32,

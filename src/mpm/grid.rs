@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 
 /// Nodes per block edge.
 pub const BLOCK: usize = 4;
+/// Nodes per block (64).
 pub const NODES_PER_BLOCK: usize = BLOCK * BLOCK * BLOCK;
 /// Grid nodes at each domain face that act as a slip wall.
 pub const WALL_NODES: i32 = 2;
@@ -17,10 +18,13 @@ pub const WALL_NODES: i32 = 2;
 pub type Node = [f32; 4];
 
 #[derive(Clone, Copy, Debug, PartialEq)]
+/// The grid's placement and size: nodes stored in blocks of `BLOCK`³.
 pub struct GridLayout {
     /// World position of node (0, 0, 0).
     pub origin: Vec3,
+    /// Node spacing, m.
     pub dx: f32,
+    /// 1 / `dx`, 1/m.
     pub inv_dx: f32,
     /// Nodes per axis (multiples of `BLOCK`).
     pub nodes: [usize; 3],
@@ -47,15 +51,18 @@ impl GridLayout {
         }
     }
 
+    /// Number of blocks.
     pub fn block_count(&self) -> usize {
         self.blocks[0] * self.blocks[1] * self.blocks[2]
     }
 
+    /// Number of nodes stored (whole blocks).
     pub fn node_count(&self) -> usize {
         self.block_count() * NODES_PER_BLOCK
     }
 
     #[inline(always)]
+    /// Storage index of block (bx, by, bz).
     pub fn block_index(&self, bx: usize, by: usize, bz: usize) -> usize {
         (bx * self.blocks[1] + by) * self.blocks[2] + bz
     }
@@ -86,6 +93,7 @@ impl GridLayout {
         ]
     }
 
+    /// World position of node (i, j, k), m.
     pub fn node_position(&self, ijk: [usize; 3]) -> Vec3 {
         self.origin + Vec3::new(ijk[0] as f32, ijk[1] as f32, ijk[2] as f32) * self.dx
     }
@@ -110,7 +118,10 @@ pub enum TableHold {
     /// Nodes on or below the table stick (zero velocity): the bottom face is bonded.
     Bonded,
     /// The table pushes back and resists sliding with Coulomb friction; tissue can lift off.
-    Resting { friction: f32 },
+    Resting {
+        /// Coulomb friction coefficient μ between tissue and table.
+        friction: f32,
+    },
 }
 
 /// Boundary conditions of the grid update.

@@ -57,6 +57,7 @@ use serde::{Deserialize, Serialize};
 use std::fmt;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// What the guard found wrong with a particle.
 pub enum GuardKind {
     /// Position, velocity, affine velocity or deformation gradient is NaN or infinite.
     NonFinite,
@@ -67,7 +68,9 @@ pub enum GuardKind {
 /// The first offending particle of a substep (lowest index, so CPU reports are reproducible).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GuardEvent {
+    /// What was wrong.
     pub kind: GuardKind,
+    /// The particle's index.
     pub particle: u32,
     /// Position before the substep that went wrong.
     pub position: Vec3,

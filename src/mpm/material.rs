@@ -17,6 +17,7 @@ pub const J_MIN: f32 = 1e-4;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
+/// The elastic energy density of a material.
 pub enum MaterialModel {
     /// Ψ = μ/2 (tr FᵀF − 3) − μ ln J + λ/2 (ln J)²  (seed 000 eq. 5).
     #[default]
@@ -28,7 +29,9 @@ pub enum MaterialModel {
 /// Lamé parameters of an isotropic material.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Lame {
+    /// Shear modulus μ, Pa.
     pub mu: f32,
+    /// Lamé's first parameter λ, Pa.
     pub lambda: f32,
 }
 

@@ -275,6 +275,7 @@ pub struct ImplicitParams {
     /// η times the Newton residual, η at most this (the first Newton iteration's), then
     /// shrinking as Newton converges (`mpm::cpu::implicit`).
     pub cg_tolerance: f32,
+    /// The CG preconditioner.
     pub preconditioner: Preconditioner,
 }
 
@@ -305,7 +306,9 @@ pub enum Preconditioner {
 /// Iterations an implicit solve took (zero for the explicit methods).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct SolveCounts {
+    /// Newton iterations.
     pub newton: u32,
+    /// Conjugate-gradient iterations, summed over the Newton iterations.
     pub cg: u32,
     /// Nodes that joined the active set of constraints after a Newton solve (the solution
     /// moved them into a tool, the table or a wall).
@@ -313,6 +316,7 @@ pub struct SolveCounts {
 }
 
 impl SolveCounts {
+    /// Adds another solve's counts to these.
     pub fn add(&mut self, other: SolveCounts) {
         self.newton += other.newton;
         self.cg += other.cg;
@@ -322,9 +326,13 @@ impl SolveCounts {
 
 /// What a solver is built from: the same for the CPU and the GPU backend.
 pub struct SolverSetup {
+    /// The grid's placement and size.
     pub layout: GridLayout,
+    /// The tissue's particles at the start.
     pub particles: Particles,
+    /// The material table `Particles::material` indexes.
     pub materials: Vec<MaterialParams>,
+    /// The table and the domain walls.
     pub boundary: Boundary,
     /// Speed above which the guard reports a runaway (m/s).
     pub max_speed: f32,
@@ -337,6 +345,7 @@ pub struct SolverSetup {
     pub cutting: bool,
     /// How the GPU's P2G accumulates (the CPU ignores it).
     pub p2g: P2gAtomics,
+    /// The MPM formulation.
     pub method: Method,
     /// Iteration settings, read when `method` is PB-MPM.
     pub pb_mpm: PbMpmParams,
@@ -353,13 +362,16 @@ pub const MAX_TOOLS: usize = 8;
 /// its grip measured (see [`crate::tools::grip`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ToolImpulse {
+    /// Linear impulse, world frame, N·s.
     pub linear: nalgebra::Vector3<f64>,
+    /// Angular impulse about the tool frame origin, world frame, N·m·s.
     pub angular: nalgebra::Vector3<f64>,
     /// Grid nodes this tool touched.
     pub contact_nodes: u32,
     /// Angular impulse on the jaw opening from contact with the jaws (N·m·s; positive
     /// pushes them apart).
     pub jaw_opening: f64,
+    /// What the grip held (grippers only).
     pub grip: GripSums,
 }
 
@@ -370,10 +382,12 @@ pub struct GripSums {
     pub required: nalgebra::Vector3<f64>,
     /// Pinched mass (kg) and its first moment about the hinge (kg·m).
     pub mass: f64,
+    /// First moment of the pinched mass about the hinge, kg·m.
     pub mass_lever: f64,
 }
 
 impl ToolImpulse {
+    /// Adds another substep's impulse to this one.
     pub fn add(&mut self, other: &ToolImpulse) {
         self.linear += other.linear;
         self.angular += other.angular;

@@ -5,8 +5,11 @@ use super::{material::MaterialModel, Lame, Mat3, Vec3};
 /// Per-material constants the solver reads.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MaterialParams {
+    /// The constitutive model.
     pub model: MaterialModel,
+    /// Lamé parameters, Pa.
     pub lame: Lame,
+    /// Density, kg/m³.
     pub density: f32,
     /// Mass-proportional (Rayleigh α) velocity damping, 1/s, integrated implicitly:
     /// v ← v / (1 + α·dt), stable for any α·dt.
@@ -16,14 +19,19 @@ pub struct MaterialParams {
 }
 
 #[derive(Clone, Debug, Default)]
+/// The tissue's particles, one entry per particle in each array.
 pub struct Particles {
+    /// Positions, world frame, m.
     pub x: Vec<Vec3>,
+    /// Velocities, world frame, m/s.
     pub v: Vec<Vec3>,
     /// APIC affine velocity (velocity gradient estimate), 1/s.
     pub c: Vec<Mat3>,
     /// Elastic deformation gradient.
     pub f: Vec<Mat3>,
+    /// Mass, kg.
     pub mass: Vec<f32>,
+    /// Volume in the rest state, m³.
     pub volume0: Vec<f32>,
     /// Index into the solver's material table.
     pub material: Vec<u16>,
@@ -34,10 +42,12 @@ pub struct Particles {
 }
 
 impl Particles {
+    /// Number of particles.
     pub fn len(&self) -> usize {
         self.x.len()
     }
 
+    /// Whether there are no particles.
     pub fn is_empty(&self) -> bool {
         self.x.is_empty()
     }

@@ -12,6 +12,7 @@ pub const CLOUD_POINT_STEP: usize = 16;
 /// How the cloud is built from the particles.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CloudOptions {
+    /// Which strain each point carries.
     pub measure: StrainMeasure,
     /// Every `stride`-th particle (1: all).
     pub stride: usize,
@@ -32,7 +33,9 @@ impl Default for CloudOptions {
 /// A copy of what the point cloud needs from the particles at one frame.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct TissueCloud {
+    /// Which strain `scalar` holds.
     pub measure: StrainMeasure,
+    /// Point positions, world frame, m.
     pub positions: Vec<[f32; 3]>,
     /// `measure` per point.
     pub scalar: Vec<f32>,
@@ -93,10 +96,12 @@ impl TissueCloud {
         }
     }
 
+    /// Number of points.
     pub fn len(&self) -> usize {
         self.positions.len()
     }
 
+    /// Whether the cloud has no points.
     pub fn is_empty(&self) -> bool {
         self.positions.is_empty()
     }

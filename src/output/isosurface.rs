@@ -19,6 +19,7 @@ pub const ISO_LEVEL: f32 = 0.5;
 /// A triangle mesh of the level set, with shared vertices.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Isosurface {
+    /// Vertex positions, m (the frame of the sampled field).
     pub vertices: Vec<Vec3>,
     /// Outward unit normals per vertex: down the field's gradient (central differences on
     /// the lattice, interpolated along the vertex's edge), which slivers cannot disturb.

@@ -50,8 +50,11 @@ pub enum MeshError {
     #[error(
         "mesh vertex at ({0:.4}, {1:.4}, {2:.4}) m has no particle of its block within {3:.4} m"
     )]
+    /// A mesh vertex with no particle of its block nearby: its position (m) and the search radius
+    /// (m).
     Unbound(f32, f32, f32, f32),
     #[error("mesh cell size {0} m must be positive and finite")]
+    /// A cell size that is not positive and finite, m (holds it).
     Cell(f32),
 }
 
@@ -236,7 +239,7 @@ pub fn vertex_normals(vertices: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
 }
 
 /// Points bucketed by cubes of edge `cell`, for fixed-radius neighbour queries.
-pub struct SpatialHash {
+pub(crate) struct SpatialHash {
     cell: f32,
     buckets: HashMap<[i32; 3], Vec<(u32, Vec3)>>,
 }
@@ -306,6 +309,7 @@ fn key(p: Vec3, cell: f32) -> [i32; 3] {
 pub struct MeshDeviation {
     /// Mean and largest |change| over the vertices (m).
     pub mean: f32,
+    /// Largest |change| over the vertices, m.
     pub max: f32,
     /// 95th percentile of |change| (m).
     pub p95: f32,

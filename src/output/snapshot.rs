@@ -10,13 +10,18 @@ use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
 #[derive(Clone, Debug)]
+/// How a snapshot is drawn.
 pub struct SnapshotOptions {
+    /// Picture width, pixels.
     pub width: u32,
+    /// Picture height, pixels.
     pub height: u32,
     /// Camera direction about the scene centre: azimuth from +x towards +y, elevation
     /// above the xy plane (degrees).
     pub azimuth_deg: f32,
+    /// Camera elevation above the xy plane, degrees (see `azimuth_deg`).
     pub elevation_deg: f32,
+    /// Which strain the tissue is coloured by.
     pub measure: StrainMeasure,
     /// Strain at the top of the colour scale; by default the 98th percentile of |strain|.
     pub strain_range: Option<f32>,
@@ -38,10 +43,15 @@ impl Default for SnapshotOptions {
 /// An RGB picture, the strain range its colours span, and how many particles it draws on
 /// the faces of a cut.
 pub struct Snapshot {
+    /// Width, pixels.
     pub width: u32,
+    /// Height, pixels.
     pub height: u32,
+    /// Pixels row by row from the top, 3 bytes (R, G, B) each.
     pub rgb: Vec<u8>,
+    /// Strain at the top of the colour scale.
     pub strain_range: f32,
+    /// Particles drawn on the faces of a cut (in red).
     pub cut_face_particles: usize,
 }
 
@@ -65,6 +75,7 @@ fn on_cut_face(crack: Vec3, spacing: f32) -> bool {
 }
 
 impl Snapshot {
+    /// Writes the picture as an 8-bit RGB PNG.
     pub fn write_png(&self, path: &Path) -> std::io::Result<()> {
         let file = std::fs::File::create(path)?;
         let mut encoder = png::Encoder::new(BufWriter::new(file), self.width, self.height);
@@ -82,7 +93,9 @@ impl Snapshot {
 pub struct SnapshotSchedule {
     /// Simulated seconds between pictures (> 0).
     pub every: f64,
+    /// Directory the pictures are written to.
     pub dir: PathBuf,
+    /// How each picture is drawn.
     pub options: SnapshotOptions,
     next: f64,
 }

@@ -12,6 +12,7 @@ use crate::mpm::Particles;
 /// One frame's surface as a triangle list: three corners a triangle, in a fixed order.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SurfaceTriangles {
+    /// Triangle corners, world frame, m: three per triangle.
     pub corners: Vec<[f32; 3]>,
     /// Linear RGB per corner (empty: one colour for the whole surface).
     pub colours: Vec<[f32; 3]>,
@@ -21,11 +22,15 @@ pub struct SurfaceTriangles {
 
 /// Builds a scene's surface each frame.
 pub enum TissueSurface {
+    /// A triangle mesh of the rest surface, carried by the particles it is bound to.
     Mesh {
+        /// The mesh and its particle binding.
         mesh: Box<TissueMesh>,
         /// Strain the vertices are coloured by.
         measure: StrainMeasure,
     },
+    /// The ½ level set of the particles' volume fraction, extracted afresh each frame (for tissue
+    /// that cuts or tears).
     Isosurface {
         /// Lattice spacing (m).
         cell: f32,

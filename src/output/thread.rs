@@ -10,6 +10,7 @@ pub const THREAD_POINT_STEP: usize = 16;
 /// One thread at the end of a frame.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ThreadState {
+    /// The thread's name in the scene.
     pub name: String,
     /// Centreline points, first to last (m, world).
     pub points: Vec<[f32; 3]>,
@@ -24,6 +25,7 @@ pub struct ThreadState {
 }
 
 impl ThreadState {
+    /// The state of a thread body now.
     pub fn of(body: &ThreadBody) -> ThreadState {
         let rod = &body.rod;
         let segment = &rod.tension;

@@ -21,7 +21,9 @@ pub enum JointKind {
 /// One variable of a chain (one entry of `q`), with its URDF limits.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ActuatedJoint {
+    /// The URDF joint name.
     pub name: String,
+    /// Revolute (rad) or prismatic (m).
     pub kind: JointKind,
     /// Lower position limit (rad or m); −∞ for a continuous joint.
     pub lower: f64,
@@ -32,51 +34,99 @@ pub struct ActuatedJoint {
 }
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+/// Why a URDF does not give a serial chain, or joint values do not fit it.
 pub enum ChainError {
     #[error("link `{0}` is not in the URDF")]
+    /// A named base or tip link that the URDF does not have.
     MissingLink(String),
     #[error("joint `{joint}` refers to link `{link}`, which is not in the URDF")]
-    DanglingJoint { joint: String, link: String },
+    /// A joint whose parent or child link the URDF does not have.
+    DanglingJoint {
+        /// The joint's name.
+        joint: String,
+        /// The missing link's name.
+        link: String,
+    },
     #[error(
         "link `{link}` is the child of two joints (`{first}` and `{second}`): a URDF must be a tree"
     )]
+    /// A link that is the child of two joints.
     MultipleParents {
+        /// The link's name.
         link: String,
+        /// The first joint naming it as child.
         first: String,
+        /// The second joint naming it as child.
         second: String,
     },
     #[error("the joints above link `{link}` form a loop: a URDF must be a tree")]
-    Cycle { link: String },
+    /// Joints whose parent links loop back.
+    Cycle {
+        /// A link on the loop.
+        link: String,
+    },
     #[error(
         "no serial path from `{base}` to `{tip}`: `{tip}` is not below `{base}` in the URDF tree \
          (they are on different branches, or in the wrong order)"
     )]
-    NoPath { base: String, tip: String },
+    /// The tip is not below the base in the tree.
+    NoPath {
+        /// The requested base link.
+        base: String,
+        /// The requested tip link.
+        tip: String,
+    },
     #[error(
         "joint `{joint}` is {kind}; a serial chain supports revolute, continuous, prismatic and \
          fixed joints"
     )]
-    UnsupportedJoint { joint: String, kind: String },
-    #[error("joint `{joint}` has a zero-length axis")]
-    ZeroAxis { joint: String },
-    #[error("joint `{joint}` has a non-finite origin or axis")]
-    NonFinite { joint: String },
-    #[error("joint `{joint}` has lower limit {lower} above upper limit {upper}")]
-    InvalidLimits {
+    /// A joint type other than revolute, continuous, prismatic or fixed (e.g. floating, planar).
+    UnsupportedJoint {
+        /// The joint's name.
         joint: String,
+        /// The URDF joint type.
+        kind: String,
+    },
+    #[error("joint `{joint}` has a zero-length axis")]
+    /// A movable joint with a zero axis.
+    ZeroAxis {
+        /// The joint's name.
+        joint: String,
+    },
+    #[error("joint `{joint}` has a non-finite origin or axis")]
+    /// A joint with NaN or infinite origin or axis values.
+    NonFinite {
+        /// The joint's name.
+        joint: String,
+    },
+    #[error("joint `{joint}` has lower limit {lower} above upper limit {upper}")]
+    /// A joint whose lower limit exceeds its upper limit.
+    InvalidLimits {
+        /// The joint's name.
+        joint: String,
+        /// Lower limit, rad or m.
         lower: f64,
+        /// Upper limit, rad or m.
         upper: f64,
     },
     #[error("joint `{joint}` mimics `{master}`, which {reason}")]
+    /// A mimic joint whose master cannot be followed.
     BadMimic {
+        /// The mimicking joint.
         joint: String,
+        /// The joint it mimics.
         master: String,
+        /// Why the master cannot be followed (e.g. is not in the chain).
         reason: &'static str,
     },
     #[error("expected {expected} joint values ({names}), got {got}")]
+    /// A joint vector of the wrong length.
     JointCount {
+        /// The chain's number of actuated joints.
         expected: usize,
+        /// The length given.
         got: usize,
+        /// The actuated joints' names, comma separated.
         names: String,
     },
 }
@@ -233,10 +283,12 @@ impl Chain {
         self
     }
 
+    /// The link the chain starts at (its poses are in this link's frame).
     pub fn base_link(&self) -> &str {
         &self.base
     }
 
+    /// The link the chain ends at (the base link for an empty chain).
     pub fn tip_link(&self) -> &str {
         self.segments.last().map_or(&self.base, |s| &s.child)
     }

@@ -14,11 +14,17 @@ use crate::robot::chain::JointKind;
 /// replaces `theta` for a revolute joint and `d` for a prismatic one.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DhRow {
+    /// Revolute (the joint value adds to `theta`) or prismatic (adds to `d`).
     pub kind: JointKind,
+    /// Twist about x_{i−1}, rad.
     pub alpha: f64,
+    /// Length along x_{i−1}, m.
     pub a: f64,
+    /// Rotation about z_i, rad (a revolute joint's value + `offset` replaces it).
     pub theta: f64,
+    /// Offset along z_i, m (a prismatic joint's value + `offset` replaces it).
     pub d: f64,
+    /// Added to the joint value, rad or m.
     pub offset: f64,
 }
 

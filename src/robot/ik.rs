@@ -18,6 +18,7 @@ const MAX_DAMPING: f64 = 1e8;
 /// nearby start.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct IkOptions {
+    /// Most Levenberg-Marquardt iterations before giving up.
     pub max_iterations: usize,
     /// Largest acceptable distance between the reached and the target tip position (m).
     pub position_tolerance: f64,
@@ -45,30 +46,40 @@ impl Default for IkOptions {
 /// A converged solution and what is left of the error.
 #[derive(Debug, Clone, PartialEq)]
 pub struct IkSolution {
+    /// The joint values reaching the target, rad or m, in chain order (inside the limits).
     pub q: Vec<f64>,
     /// Distance between reached and target positions (m).
     pub position_error: f64,
     /// Angle between reached and target orientations (rad).
     pub orientation_error: f64,
+    /// Iterations taken.
     pub iterations: usize,
 }
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+/// Why inverse kinematics found no solution.
 pub enum IkError {
     #[error(transparent)]
+    /// The joint vector does not fit the chain.
     Chain(#[from] ChainError),
     #[error("IK target pose is not finite")]
+    /// The target pose has NaN or infinite values.
     NonFiniteTarget,
     #[error("IK start joint values are not finite")]
+    /// The start joint values have NaN or infinite values.
     NonFiniteStart,
     #[error(
         "IK did not reach the target within tolerance after {iterations} iterations: \
          {position_error:.3e} m and {orientation_error:.3e} rad off (unreachable, or out of \
          joint limits)"
     )]
+    /// No joint values within the limits reach the target within tolerance.
     NotConverged {
+        /// Distance left between the closest reached and target positions, m.
         position_error: f64,
+        /// Angle left between the closest reached and target orientations, rad.
         orientation_error: f64,
+        /// Iterations taken.
         iterations: usize,
         /// The closest joint values found (inside the limits).
         best: Vec<f64>,

@@ -9,42 +9,89 @@ use crate::robot::chain::ActuatedJoint;
 pub const DEFAULT_JUMP_WINDOW_S: f64 = 0.1;
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+/// Why a joint command was rejected.
 pub enum JointCommandError {
     #[error("expected {expected} joint values ({names}), got {got}")]
+    /// Fewer or more positions than the group has joints.
     WrongLength {
+        /// The group's number of joints.
         expected: usize,
+        /// The number of positions given.
         got: usize,
+        /// The group's joint names, comma separated.
         names: String,
     },
     #[error("{names} joint names given for {positions} positions")]
-    NamesMismatch { names: usize, positions: usize },
+    /// The names and positions differ in length.
+    NamesMismatch {
+        /// Number of names given.
+        names: usize,
+        /// Number of positions given.
+        positions: usize,
+    },
     #[error("unknown joint `{name}` (expected some of: {known})")]
-    UnknownJoint { name: String, known: String },
-    #[error("joint `{name}` is given twice")]
-    DuplicateJoint { name: String },
-    #[error("joint `{name}` is missing from the command")]
-    MissingJoint { name: String },
-    #[error("joint `{name}` value {value} is not a finite number")]
-    NotFinite { name: String, value: f64 },
-    #[error("joint `{name}` value {value} is outside its limits [{lower}, {upper}]")]
-    OutOfLimits {
+    /// A name that is not one of the group's joints.
+    UnknownJoint {
+        /// The unknown name.
         name: String,
+        /// The group's joint names, comma separated.
+        known: String,
+    },
+    #[error("joint `{name}` is given twice")]
+    /// A joint named twice.
+    DuplicateJoint {
+        /// The joint's name.
+        name: String,
+    },
+    #[error("joint `{name}` is missing from the command")]
+    /// Names given, but not this joint's.
+    MissingJoint {
+        /// The joint's name.
+        name: String,
+    },
+    #[error("joint `{name}` value {value} is not a finite number")]
+    /// A NaN or infinite position.
+    NotFinite {
+        /// The joint's name.
+        name: String,
+        /// The value given.
         value: f64,
+    },
+    #[error("joint `{name}` value {value} is outside its limits [{lower}, {upper}]")]
+    /// A position outside the joint's URDF limits.
+    OutOfLimits {
+        /// The joint's name.
+        name: String,
+        /// The value given, rad or m.
+        value: f64,
+        /// Lower limit, rad or m.
         lower: f64,
+        /// Upper limit, rad or m.
         upper: f64,
     },
     #[error(
         "joint `{name}` would jump from {from} to {to} (more than {max} in one command); \
          use move_jp for large moves"
     )]
+    /// A servo command that moves a joint further than its jump bound from where it is.
     JumpTooLarge {
+        /// The joint's name.
         name: String,
+        /// The joint's current position, rad or m.
         from: f64,
+        /// The commanded position, rad or m.
         to: f64,
+        /// The jump bound, rad or m.
         max: f64,
     },
     #[error("jump bound for joint `{name}` must be positive (NaN is not allowed), got {value}")]
-    InvalidJumpBound { name: String, value: f64 },
+    /// A jump bound that is not positive (or NaN).
+    InvalidJumpBound {
+        /// The joint's name.
+        name: String,
+        /// The bound given.
+        value: f64,
+    },
 }
 
 /// Joints with their limits, in a fixed (canonical) order.
@@ -71,18 +118,22 @@ impl JointGroup {
         JointGroup { joints, max_jump }
     }
 
+    /// The number of joints.
     pub fn len(&self) -> usize {
         self.joints.len()
     }
 
+    /// Whether the group has no joints.
     pub fn is_empty(&self) -> bool {
         self.joints.is_empty()
     }
 
+    /// The joints with their limits, in canonical order.
     pub fn joints(&self) -> &[ActuatedJoint] {
         &self.joints
     }
 
+    /// The joint names, in canonical order.
     pub fn names(&self) -> Vec<&str> {
         self.joints.iter().map(|j| j.name.as_str()).collect()
     }

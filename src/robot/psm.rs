@@ -54,44 +54,82 @@ pub const JAW_JOINT_NAME: &str = "jaw";
 pub const RCM_MIN_DISTANCE: f64 = 0.045;
 
 #[derive(Debug, thiserror::Error)]
+/// Why a PSM could not be built from its URDF, or a command could not be carried out.
 pub enum PsmError {
     #[error(transparent)]
+    /// The URDF could not be read or parsed.
     Urdf(#[from] UrdfError),
     #[error(transparent)]
+    /// The URDF does not give the serial chain the PSM needs.
     Chain(#[from] ChainError),
     #[error("the URDF does not describe a PSM: {0}")]
+    /// The URDF lacks what a PSM has (holds what is missing).
     NotAPsm(String),
     #[error(
         "no arm base link found: looked for {tried} (the remote centre of motion, frame of \
          measured_cp); name it with `base_link` on the [[arm]]"
     )]
-    NoBaseLink { tried: String },
+    /// No base (RCM) link found by the usual names.
+    NoBaseLink {
+        /// The link names looked for, comma separated.
+        tried: String,
+    },
     #[error(
         "several links could be the arm base ({found}); name the one at the remote centre of \
          motion with `base_link` on the [[arm]]"
     )]
-    AmbiguousBase { found: String },
+    /// More than one candidate base link.
+    AmbiguousBase {
+        /// The candidates found, comma separated.
+        found: String,
+    },
     #[error(
         "no tool link found: looked for {tried}; name the link whose frame measured_cp reports \
          with `tool_link` on the [[arm]]"
     )]
-    NoToolLink { tried: String },
+    /// No tool link found by the usual names.
+    NoToolLink {
+        /// The link names looked for, comma separated.
+        tried: String,
+    },
     #[error("`{key}` = \"{link}\" is not a link of the URDF")]
-    NoSuchRoleLink { key: &'static str, link: String },
+    /// A link named in the scene's `[[arm]]` that the URDF does not have.
+    NoSuchRoleLink {
+        /// The scene key, e.g. `base_link`.
+        key: &'static str,
+        /// The link name given.
+        link: String,
+    },
     #[error("speed limit of joint `{joint}` must be a finite number > 0, got {value}")]
-    InvalidSpeed { joint: String, value: f64 },
+    /// A joint speed limit that is not a finite number > 0.
+    InvalidSpeed {
+        /// The joint's name.
+        joint: String,
+        /// The value given, rad/s or m/s.
+        value: f64,
+    },
     #[error(
         "Cartesian target is {distance:.4} m from the RCM, closer than the {min:.3} m safety \
          distance"
     )]
-    TooCloseToRcm { distance: f64, min: f64 },
+    /// A Cartesian target closer to the RCM than the safety distance (under [`RcmPolicy::Reject`]).
+    TooCloseToRcm {
+        /// The target's distance from the RCM, m.
+        distance: f64,
+        /// The safety distance, m.
+        min: f64,
+    },
     #[error("Cartesian target pose is not finite")]
+    /// A Cartesian target pose with NaN or infinite values.
     NonFinitePose,
     #[error(transparent)]
+    /// A joint command failed validation.
     Joint(#[from] JointCommandError),
     #[error(transparent)]
+    /// Inverse kinematics found no solution.
     Ik(#[from] IkError),
     #[error(transparent)]
+    /// A move could not be planned.
     Trajectory(#[from] TrajectoryError),
 }
 
@@ -107,6 +145,7 @@ pub enum RcmPolicy {
 /// A Cartesian target that respects the RCM safety distance.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SafeTarget {
+    /// The target pose in the base (RCM) frame, m.
     pub pose: Isometry3<f64>,
     /// The requested distance from the RCM (m), when the position had to be moved out.
     pub clamped_from: Option<f64>,
@@ -115,14 +154,18 @@ pub struct SafeTarget {
 /// Joint values for a Cartesian command, with the target actually used.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CartesianSolution {
+    /// The target actually used (clamped out of the RCM safety distance, or as asked).
     pub target: SafeTarget,
+    /// The joint values reaching it and the residual error.
     pub ik: IkSolution,
 }
 
 /// A link's pose in the arm's base (RCM) frame, for /tf.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LinkFrame {
+    /// The URDF link name.
     pub link: String,
+    /// The link's pose in the base (RCM) frame, m.
     pub pose: Isometry3<f64>,
 }
 
@@ -412,6 +455,7 @@ impl Psm {
         &self.joints
     }
 
+    /// The arm joints, to change their jump bounds ([`JointGroup::set_max_jump`]).
     pub fn joints_mut(&mut self) -> &mut JointGroup {
         &mut self.joints
     }
@@ -421,6 +465,7 @@ impl Psm {
         &self.jaw
     }
 
+    /// The jaw joint, to change its jump bound ([`JointGroup::set_max_jump`]).
     pub fn jaw_mut(&mut self) -> &mut JointGroup {
         &mut self.jaw
     }
@@ -430,10 +475,12 @@ impl Psm {
         &self.arm
     }
 
+    /// The inverse kinematics solver's settings.
     pub fn ik_options(&self) -> &IkOptions {
         &self.ik_options
     }
 
+    /// Replaces the inverse kinematics solver's settings.
     pub fn set_ik_options(&mut self, options: IkOptions) {
         self.ik_options = options;
     }

@@ -35,11 +35,13 @@ pub const DEFAULT_JAW_MAX_SPEED: f64 = 720.0 * std::f64::consts::PI / 180.0;
 pub const MTM_SILENCE_S: f64 = 0.5;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
+/// The settings of the MTM-to-PSM mapping.
 pub struct TeleopConfig {
     /// PSM displacement per MTM displacement.
     pub scale: f64,
     /// Jaw limits (rad); `jaw_upper` is also the jaw at a fully open gripper.
     pub jaw_lower: f64,
+    /// Upper jaw limit, rad.
     pub jaw_upper: f64,
     /// Fastest jaw motion (rad/s).
     pub jaw_max_speed: f64,
@@ -59,33 +61,50 @@ impl TeleopConfig {
 }
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+/// Why a teleoperation setting or input was rejected.
 pub enum TeleopError {
     #[error("teleop scale must be a positive finite number, got {0}")]
+    /// A scale that is not a positive finite number (holds it).
     InvalidScale(f64),
     #[error("teleop jaw limits [{lower}, {upper}] and speed {speed} rad/s are not usable")]
-    InvalidJawConfig { lower: f64, upper: f64, speed: f64 },
+    /// Jaw limits not ordered, or a speed not positive and finite.
+    InvalidJawConfig {
+        /// Lower jaw limit, rad.
+        lower: f64,
+        /// Upper jaw limit, rad.
+        upper: f64,
+        /// Jaw speed limit, rad/s.
+        speed: f64,
+    },
     #[error("{0} is not finite")]
+    /// An input with NaN or infinite values (holds which input).
     NonFinite(&'static str),
     #[error("time step must be finite and not negative, got {0} s")]
+    /// A negative or non-finite time step, s (holds it).
     InvalidTimeStep(f64),
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// Where the mapping stands.
 pub enum TeleopState {
     /// Operator present, not clutched, but no MTM pose or PSM setpoint received yet.
     WaitingForArms,
+    /// The operator is not at the console: no target.
     OperatorAbsent,
     /// Clutch pedal pressed: the PSM holds while the MTM moves freely.
     Clutched,
     /// The MTM stopped publishing: the PSM holds until it is back.
     MtmSilent,
+    /// Engaged: the PSM follows the MTM.
     Following,
 }
 
 /// What to send the PSM.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TeleopTarget {
+    /// Tool pose for the PSM's `servo_cp`, in the common (camera) frame, m.
     pub pose: Isometry3<f64>,
+    /// Jaw opening for the PSM's `jaw/servo_jp`, rad.
     pub jaw: f64,
 }
 
@@ -98,6 +117,7 @@ struct Anchor {
 }
 
 #[derive(Debug, Clone)]
+/// The teleoperation state machine of one MTM-PSM pair.
 pub struct Teleop {
     config: TeleopConfig,
     operator_present: bool,
@@ -141,6 +161,7 @@ impl Teleop {
         })
     }
 
+    /// Where the mapping stands now.
     pub fn state(&self) -> TeleopState {
         if self.anchor.is_some() {
             TeleopState::Following
@@ -160,6 +181,7 @@ impl Teleop {
         self.anchor.and(self.target)
     }
 
+    /// PSM displacement per MTM displacement.
     pub fn scale(&self) -> f64 {
         self.config.scale
     }

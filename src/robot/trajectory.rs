@@ -9,17 +9,36 @@
 const PEAK_SPEED_FACTOR: f64 = 15.0 / 8.0;
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+/// Why a move cannot be planned.
 pub enum TrajectoryError {
     #[error("start has {start} joint values, goal {goal}, speed limits {limits}")]
+    /// Start, goal and speed limits differ in length.
     LengthMismatch {
+        /// Number of start values.
         start: usize,
+        /// Number of goal values.
         goal: usize,
+        /// Number of speed limits.
         limits: usize,
     },
     #[error("joint {index}: start {start} or goal {goal} is not finite")]
-    NotFinite { index: usize, start: f64, goal: f64 },
+    /// A NaN or infinite start or goal value.
+    NotFinite {
+        /// The joint's index.
+        index: usize,
+        /// Its start value, rad or m.
+        start: f64,
+        /// Its goal value, rad or m.
+        goal: f64,
+    },
     #[error("joint {index}: speed limit {value} must be positive")]
-    InvalidSpeedLimit { index: usize, value: f64 },
+    /// A speed limit that is not positive (or NaN).
+    InvalidSpeedLimit {
+        /// The joint's index.
+        index: usize,
+        /// The limit given, rad/s or m/s.
+        value: f64,
+    },
 }
 
 /// A move from `start` to `goal`; sample it with [`Trajectory::setpoint`] at the time since the
@@ -32,6 +51,8 @@ pub struct Trajectory {
 }
 
 impl Trajectory {
+    /// A move from `start` to `goal` whose slowest joint peaks at its `max_velocity` (rad/s or m/s
+    /// per joint); all joints arrive together.
     pub fn new(start: &[f64], goal: &[f64], max_velocity: &[f64]) -> Result<Self, TrajectoryError> {
         if start.len() != goal.len() || start.len() != max_velocity.len() {
             return Err(TrajectoryError::LengthMismatch {
@@ -66,10 +87,12 @@ impl Trajectory {
         self.duration
     }
 
+    /// The joint values the move starts from, rad or m.
     pub fn start(&self) -> &[f64] {
         &self.start
     }
 
+    /// The joint values the move ends at, rad or m.
     pub fn goal(&self) -> &[f64] {
         &self.goal
     }

@@ -58,15 +58,22 @@ pub const CLASSIC_PSM_URDF: &str = include_str!("../../urdf/psm.urdf");
 pub const URDF_ARM_PREFIX: &str = "PSM1";
 
 #[derive(Debug, thiserror::Error)]
+/// Why a URDF could not be loaded.
 pub enum UrdfError {
     #[error("cannot read URDF file {path}: {source}")]
+    /// The file cannot be read.
     Read {
+        /// The file's path.
         path: PathBuf,
+        /// The I/O error.
         source: std::io::Error,
     },
     #[error("malformed URDF{}: {source}", .path.as_ref().map(|p| format!(" {}", p.display())).unwrap_or_default())]
+    /// The URDF does not parse.
     Parse {
+        /// The file's path (`None` for URDF text given directly).
         path: Option<PathBuf>,
+        /// The parser's error.
         source: urdf_rs::UrdfError,
     },
     #[error(
@@ -75,21 +82,30 @@ pub enum UrdfError {
          sourced ROS workspace, or the scene's `dvrk_model` key set), and point `urdf =` at \
          the .urdf"
     )]
+    /// A `.xacro` file, and the `xacro` command is not installed.
     XacroMissing {
+        /// The `.xacro` file's path.
         path: PathBuf,
+        /// The command tried.
         program: String,
+        /// Why it could not be run.
         source: std::io::Error,
     },
     #[error("`xacro {path}` failed ({status}): {stderr}")]
+    /// `xacro` ran and failed.
     XacroFailed {
+        /// The `.xacro` file's path.
         path: PathBuf,
+        /// Its exit status.
         status: std::process::ExitStatus,
+        /// What it wrote to stderr.
         stderr: String,
     },
     #[error(
         "arm name `{0}` is not usable as a frame prefix: use letters, digits and `_`, \
          starting with a letter (e.g. `PSM2`)"
     )]
+    /// An arm name unusable as a URDF prefix and topic name (holds it).
     InvalidArmName(String),
 }
 

@@ -26,6 +26,7 @@ pub struct Compliance {
 }
 
 impl Compliance {
+    /// The compliances of `rod`'s segments and joints, from its material and rest lengths.
     pub fn of(rod: &Rod) -> Compliance {
         let m = rod.material;
         let (ea, gak) = (m.axial_stiffness() as f64, m.shear_stiffness() as f64);
@@ -49,7 +50,8 @@ impl Compliance {
 
 /// Stretch-shear of one segment linearised at the current state.
 #[derive(Clone, Copy, Debug)]
-pub struct StretchShear {
+pub(crate) struct StretchShear {
+    /// Constraint value (pⱼ₊₁ − pⱼ)/l − d3, world frame (a dimensionless strain).
     pub value: Vec3d,
     /// ∂C/∂pⱼ₊₁ = I/l (and ∂C/∂pⱼ = −I/l).
     pub inv_length: f64,
@@ -59,7 +61,7 @@ pub struct StretchShear {
     pub compliance: Mat3d,
 }
 
-pub fn stretch_shear(rod: &Rod, j: usize, compliance: (f64, f64)) -> StretchShear {
+pub(crate) fn stretch_shear(rod: &Rod, j: usize, compliance: (f64, f64)) -> StretchShear {
     let inv_length = 1.0 / rod.rest_lengths[j] as f64;
     let d = (rod.points[j + 1] - rod.points[j]).cast::<f64>();
     let d3 = rotate_z(&rod.frames[j]);
@@ -74,14 +76,16 @@ pub fn stretch_shear(rod: &Rod, j: usize, compliance: (f64, f64)) -> StretchShea
 
 /// Bend-twist of one joint linearised at the current state.
 #[derive(Clone, Copy, Debug)]
-pub struct BendTwist {
+pub(crate) struct BendTwist {
+    /// Constraint value Im(q̄ⱼqⱼ₊₁ ∓ D̄), D̄ the rest Darboux quaternion taken with the nearer
+    /// sign.
     pub value: Vec3d,
     /// ∂C/∂θⱼ₊₁ = E and ∂C/∂θⱼ = −E, E = ½·(D.w·I − \[d\]×)·R(qⱼ)ᵀ with D = q̄ⱼqⱼ₊₁ = (D.w, d):
     /// D.w is ≈ −1 when one frame's sign is flipped, and the gradient flips with it.
     pub jacobian: Mat3d,
 }
 
-pub fn bend_twist(rod: &Rod, j: usize) -> BendTwist {
+pub(crate) fn bend_twist(rod: &Rod, j: usize) -> BendTwist {
     let (qa, qb) = (quat64(&rod.frames[j]), quat64(&rod.frames[j + 1]));
     let darboux = qa.conjugate() * qb;
     let rest = quat64(&rod.rest_darboux[j]);

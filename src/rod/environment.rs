@@ -34,8 +34,11 @@ use crate::tools::{Shape, ToolPose};
 /// `pose_end` (jaw opening included, for grippers).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RodCollider {
+    /// The tool's shape (tool frame).
     pub shape: Shape,
+    /// The tool's pose (and jaw opening) at the start of the frame.
     pub pose_start: ToolPose,
+    /// The tool's pose (and jaw opening) at the end of the frame.
     pub pose_end: ToolPose,
     /// Coulomb coefficient between thread and tool.
     pub friction: f32,
@@ -54,20 +57,30 @@ impl RodCollider {
 /// Point `point` of the rod held and moved linearly from `from` to `to` over the frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RodAttachment {
+    /// Index of the held point along the rod.
     pub point: usize,
+    /// Its position at the start of the frame, world frame, m.
     pub from: Vec3,
+    /// Its position at the end of the frame, world frame, m.
     pub to: Vec3,
 }
 
 /// One frame's surroundings of a rod.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct RodEnvironment<'a> {
+    /// Height z of the table plane, m (`None`: no table).
     pub table_height: Option<f32>,
+    /// Coulomb coefficient between thread and table.
     pub table_friction: f32,
+    /// The tools the thread collides with.
     pub colliders: &'a [RodCollider],
+    /// The points held this frame.
     pub attachments: &'a [RodAttachment],
+    /// Lower and upper corner of the box the centreline stays inside, m (`None`: unbounded).
     pub walls: Option<(Vec3, Vec3)>,
+    /// Whether the thread collides with itself.
     pub self_collision: bool,
+    /// Coulomb coefficient of thread on thread.
     pub self_friction: f32,
 }
 
@@ -75,8 +88,11 @@ pub struct RodEnvironment<'a> {
 /// substep's first iteration, summed over substeps).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RodFrameReport {
+    /// Points found touching the table, summed over substeps.
     pub table_contacts: u32,
+    /// Point or segment contacts with tools, summed over substeps.
     pub tool_contacts: u32,
+    /// Segment pairs in self-contact, summed over substeps.
     pub self_contacts: u32,
     /// Substeps in which the move of some points was scaled back because it would have
     /// passed a strand through another (`crossing`).

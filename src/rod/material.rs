@@ -31,6 +31,7 @@ impl ThreadMaterial {
         }
     }
 
+    /// Cross-section area, m².
     pub fn area(&self) -> f32 {
         std::f32::consts::PI * self.radius * self.radius
     }

@@ -17,7 +17,9 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RodSolverSettings {
+    /// Substeps per frame (at least).
     pub substeps: u32,
+    /// Direct-solve iterations per substep.
     pub iterations: u32,
 }
 
@@ -81,7 +83,9 @@ const RESTORED_SEPARATION: f32 = 0.95;
 /// The solver for one rod: its compliances, multipliers and the previous substep's state.
 #[derive(Clone, Debug)]
 pub struct RodSolver {
+    /// Substeps and iterations.
     pub settings: RodSolverSettings,
+    /// Gravity, world frame, m/s².
     pub gravity: Vec3,
     compliance: Compliance,
     /// Per segment: stretch-shear multipliers, then the bend-twist ones of the joint after it.
@@ -102,6 +106,7 @@ pub struct RodSolver {
 }
 
 impl RodSolver {
+    /// A solver for `rod` at rest (zero multipliers), with `gravity` in m/s².
     pub fn new(rod: &Rod, settings: RodSolverSettings, gravity: Vec3) -> RodSolver {
         let n = rod.segments();
         RodSolver {

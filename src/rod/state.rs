@@ -14,16 +14,21 @@ pub type Quat = Quaternion<f32>;
 /// joins points `j` and `j + 1`; its frame's third director d3 = q·e3·q̄ follows the segment.
 #[derive(Clone, Debug)]
 pub struct Rod {
+    /// Radius, stiffness and density of the thread.
     pub material: ThreadMaterial,
+    /// Centreline points, world frame, m.
     pub points: Vec<Vec3>,
+    /// Point velocities, world frame, m/s.
     pub velocities: Vec<Vec3>,
     /// 1/m per point; 0 pins the point (held by the world or a grasp).
     pub inv_mass: Vec<f32>,
+    /// Orientation of each segment's material frame (world from segment), unit quaternion.
     pub frames: Vec<Quat>,
     /// World-frame angular velocity per segment (rad/s).
     pub angular_velocities: Vec<Vec3>,
     /// 1/I per segment (isotropic); 0 clamps the frame.
     pub inv_inertia: Vec<f32>,
+    /// Rest length of each segment, m.
     pub rest_lengths: Vec<f32>,
     /// Rest Darboux quaternion q̄ⱼ·qⱼ₊₁ of the rest shape, one per interior joint.
     pub rest_darboux: Vec<Quat>,
@@ -109,10 +114,12 @@ impl Rod {
         }
     }
 
+    /// Number of segments (one less than the points).
     pub fn segments(&self) -> usize {
         self.rest_lengths.len()
     }
 
+    /// Total rest length, m.
     pub fn rest_length(&self) -> f32 {
         self.rest_lengths.iter().sum()
     }

@@ -11,35 +11,60 @@ use crate::sim::SimInput;
 /// What an input topic is for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum InputKind {
+    /// `<arm>/servo_jp` (`sensor_msgs/JointState`).
     ServoJp,
+    /// `<arm>/move_jp` (`sensor_msgs/JointState`).
     MoveJp,
+    /// `<arm>/jaw/servo_jp` (`sensor_msgs/JointState`).
     JawServoJp,
+    /// `<arm>/jaw/move_jp` (`sensor_msgs/JointState`).
     JawMoveJp,
+    /// `<arm>/jaw/servo_jf` (`sensor_msgs/JointState`, effort in N·m).
     JawServoJf,
+    /// `<arm>/servo_cp` (`geometry_msgs/PoseStamped`).
     ServoCp,
+    /// `<arm>/move_cp` (`geometry_msgs/PoseStamped`).
     MoveCp,
+    /// `<arm>/hold` (`std_msgs/Empty`).
     Hold,
+    /// `<arm>/free` (`std_msgs/Empty`).
     Free,
+    /// `<arm>/state_command` (`crtk_msgs/StringStamped`).
     StateCommand,
+    /// `<arm>/body/servo_cf` (`geometry_msgs/WrenchStamped`).
     ServoCf,
+    /// `<arm>/use_gravity_compensation` (`std_msgs/Bool`).
     GravityCompensation,
+    /// A mirrored real arm's `measured_js` (`sensor_msgs/JointState`).
     MirrorJs,
+    /// A mirrored real arm's `jaw/measured_js` (`sensor_msgs/JointState`).
     MirrorJaw,
+    /// Teleoperation: the MTM's `measured_cp` (`geometry_msgs/PoseStamped`).
     MtmCp,
+    /// Teleoperation: the MTM's `gripper/measured_js` (`sensor_msgs/JointState`).
     MtmGripper,
+    /// Teleoperation: the console's `clutch` pedal (`sensor_msgs/Joy`).
     Clutch,
+    /// Teleoperation: the console's `operator_present` pedal (`sensor_msgs/Joy`).
     OperatorPresent,
 }
 
 /// A message on one of the input topics.
 #[derive(Clone, Debug, PartialEq)]
 pub enum InputMessage {
+    /// `sensor_msgs/JointState`.
     Joints(JointState),
+    /// `geometry_msgs/PoseStamped`.
     Pose(PoseStamped),
+    /// `std_msgs/Empty`.
     Empty(Empty),
+    /// `crtk_msgs/StringStamped`.
     Command(StringStamped),
+    /// `geometry_msgs/WrenchStamped`.
     Wrench(WrenchStamped),
+    /// `std_msgs/Bool`.
     Flag(Bool),
+    /// `sensor_msgs/Joy`.
     Joy(Joy),
 }
 
@@ -94,10 +119,14 @@ impl InputMessage {
 #[derive(Debug, thiserror::Error)]
 pub enum InputError {
     #[error("Joy without buttons")]
+    /// A pedal `Joy` message with no button value.
     JoyWithoutButtons,
     #[error("{kind:?} cannot take {message:?}")]
+    /// A message of a type the topic does not carry.
     WrongMessage {
+        /// The topic's kind.
         kind: InputKind,
+        /// The message received.
         message: Box<InputMessage>,
     },
 }
@@ -107,6 +136,7 @@ pub enum InputError {
 pub struct InputTopic {
     /// Absolute topic name.
     pub topic: String,
+    /// What the topic is for (and so its message type).
     pub kind: InputKind,
     /// The scene arm it drives (`None`: teleoperation inputs).
     pub arm: Option<usize>,

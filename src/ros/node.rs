@@ -33,12 +33,19 @@ use crate::sim::{Frame, RecordedInput, SimInput};
 #[derive(Debug, thiserror::Error)]
 pub enum NodeError {
     #[error(transparent)]
+    /// The run could not be set up or recorded.
     Session(#[from] SessionError),
     #[error("ROS_DOMAIN_ID = {0:?}: expected an integer from 0 to 232")]
+    /// `ROS_DOMAIN_ID` is not an integer from 0 to 232 (holds its value).
     DomainId(String),
     /// A ROS 2 / DDS call failed; `detail` is the library's own description.
     #[error("{what}: {detail}")]
-    Ros { what: String, detail: String },
+    Ros {
+        /// What the node was doing, e.g. creating a publisher.
+        what: String,
+        /// The library's error text.
+        detail: String,
+    },
 }
 
 fn err(what: &str, e: impl std::fmt::Debug) -> NodeError {

@@ -17,8 +17,11 @@ use crate::sim::{Due, Frame, SimSetup, ToolState};
 /// What the outputs need to know about an arm.
 #[derive(Clone)]
 pub struct ArmOutput {
+    /// The arm's name, e.g. `PSM1`: its topics are `<namespace>/<name>/...`.
     pub name: String,
+    /// The TF frame of `measured_cp` (the arm's base, RCM, link).
     pub base_frame: String,
+    /// The arm's kinematics, for its joint names and link frames.
     pub psm: Psm,
     /// World from `<name>_base`.
     pub base: Isometry3<f64>,
@@ -29,36 +32,52 @@ pub struct ArmOutput {
 /// MTM force feedback: the tool's contact wrench × scale on `<mtm>/body/servo_cf`.
 #[derive(Clone, Debug)]
 pub struct ForceFeedback {
+    /// Absolute topic of the MTM's `body/servo_cf`.
     pub topic: String,
+    /// Factor from the tool's contact wrench to the wrench sent (dimensionless).
     pub scale: f64,
+    /// Index of the scene tool whose contact wrench is fed back.
     pub tool: usize,
 }
 
 /// Output rates (Hz; 0 turns an output off).
 #[derive(Clone, Copy, Debug)]
 pub struct OutputRates {
+    /// Arm state topics (`measured_js`, `measured_cp`, ...), Hz.
     pub arm: f64,
+    /// Tissue point cloud, Hz.
     pub points: f64,
+    /// Tissue surface marker, Hz.
     pub surface: f64,
+    /// Tool contact wrenches, Hz.
     pub wrench: f64,
+    /// `/tf` (arm links, tools), Hz.
     pub tf: f64,
+    /// Suture thread markers, Hz.
     pub thread: f64,
+    /// Cut-piece count, Hz.
     pub pieces: f64,
 }
 
 /// Every output topic of a scene (absolute names) and what builds its messages.
 #[derive(Clone)]
 pub struct OutputLayout {
+    /// The node's namespace, e.g. `/`; relative topics resolve under it.
     pub namespace: String,
+    /// The scene's arms, scene order.
     pub arms: Vec<ArmOutput>,
+    /// The scene's tool names, scene order.
     pub tools: Vec<String>,
     /// Suture thread names, scene order.
     pub threads: Vec<String>,
+    /// MTM force feedback, when the scene's teleoperation asks for it.
     pub force_feedback: Option<ForceFeedback>,
+    /// How often each output is published.
     pub rates: OutputRates,
 }
 
 impl OutputLayout {
+    /// The outputs of `scene` as set up in `setup`, with topics under `namespace`.
     pub fn new(scene: &Scene, setup: &SimSetup, namespace: &str) -> OutputLayout {
         let arms = scene
             .arms
@@ -165,7 +184,12 @@ impl OutputLayout {
     }
 }
 
-pub fn joint_state(stamp: Time, names: &[&str], position: &[f64], velocity: &[f64]) -> JointState {
+pub(crate) fn joint_state(
+    stamp: Time,
+    names: &[&str],
+    position: &[f64],
+    velocity: &[f64],
+) -> JointState {
     JointState {
         header: Header::new(stamp, ""),
         name: names.iter().map(|s| s.to_string()).collect(),
@@ -177,7 +201,7 @@ pub fn joint_state(stamp: Time, names: &[&str], position: &[f64], velocity: &[f6
 
 /// A simulated arm's periodic state messages (joints: measured = setpoint; the jaw: what
 /// the tool's jaws reached, with the controller's effort, and the setpoint apart).
-pub struct ArmMessages {
+pub(crate) struct ArmMessages {
     pub js: JointState,
     pub jaw: JointState,
     pub jaw_setpoint: JointState,
@@ -185,7 +209,7 @@ pub struct ArmMessages {
     pub cv: TwistStamped,
 }
 
-pub fn arm_messages(arm: &ArmOutput, status: &ArmStatus, stamp: Time) -> ArmMessages {
+pub(crate) fn arm_messages(arm: &ArmOutput, status: &ArmStatus, stamp: Time) -> ArmMessages {
     let names = arm.psm.joints().names();
     ArmMessages {
         js: joint_state(stamp, &names, &status.q, &status.qdot),
@@ -219,7 +243,7 @@ pub fn wrench_message(tool: &ToolState, scale: f64, stamp: Time) -> WrenchStampe
     }
 }
 
-pub fn cloud_message(cloud: &TissueCloud, stamp: Time) -> PointCloud2 {
+pub(crate) fn cloud_message(cloud: &TissueCloud, stamp: Time) -> PointCloud2 {
     let field = |name: &str, offset: u32| PointField {
         name: name.into(),
         offset,
@@ -244,7 +268,7 @@ pub fn cloud_message(cloud: &TissueCloud, stamp: Time) -> PointCloud2 {
     }
 }
 
-pub fn surface_message(t: &SurfaceTriangles, stamp: Time) -> Marker {
+pub(crate) fn surface_message(t: &SurfaceTriangles, stamp: Time) -> Marker {
     let point = |p: &[f32; 3]| Point {
         x: p[0] as f64,
         y: p[1] as f64,
@@ -404,7 +428,7 @@ pub fn tf_message(arms: &[ArmOutput], frame: &Frame, stamp: Time) -> TFMessage {
 }
 
 /// A latched arm event as a message on the arm's topic `suffix`.
-pub enum EventMessage {
+pub(crate) enum EventMessage {
     State(OperatingState),
     Text {
         suffix: &'static str,
@@ -415,7 +439,7 @@ pub enum EventMessage {
 /// Turns arm events into messages; operating states get strictly increasing stamps per arm
 /// (clients drop a state not newer than the last).
 #[derive(Default)]
-pub struct EventStamps {
+pub(crate) struct EventStamps {
     last: Vec<Time>,
 }
 
@@ -489,7 +513,7 @@ impl SimRate {
 
 /// The output rates in simulated time.
 #[derive(Clone, Debug)]
-pub struct SimSchedule {
+pub(crate) struct SimSchedule {
     arm: SimRate,
     points: SimRate,
     surface: SimRate,

@@ -89,16 +89,27 @@ pub const QUEUE_FRAMES: usize = 256;
 pub const DEFAULT_CHUNK_SECONDS: f64 = 1.0;
 
 #[derive(Debug, thiserror::Error)]
+/// Why a recording could not be made or finished.
 pub enum RecordError {
     #[error("cannot create {}: {}", path.display(), io_cause(source, path))]
+    /// The bag file cannot be created.
     Create {
+        /// The bag's path.
         path: PathBuf,
+        /// The I/O error.
         source: std::io::Error,
     },
     #[error("--record-chunk {0}: must be a positive number of simulated seconds")]
+    /// A chunk span that is not a positive number of seconds (holds the value given).
     ChunkSpan(f64),
     #[error("{}: {source}", path.display())]
-    Write { path: PathBuf, source: BagError },
+    /// Writing the bag failed.
+    Write {
+        /// The bag's path.
+        path: PathBuf,
+        /// What failed.
+        source: BagError,
+    },
 }
 
 /// What an I/O error means for a bag at `path`, in the user's words (the cause first, then
@@ -165,18 +176,25 @@ fn io_error(e: &BagError) -> Option<&std::io::Error> {
 #[derive(Debug, thiserror::Error)]
 pub enum BagError {
     #[error("no message definition for {0}")]
+    /// No schema text for a ROS type the bag would carry (holds the type name).
     NoSchema(String),
     #[error(transparent)]
+    /// The MCAP writer failed.
     Mcap(#[from] mcap::McapError),
     #[error(transparent)]
+    /// A message could not be encoded.
     Cdr(#[from] CdrError),
     #[error(transparent)]
+    /// A file operation failed.
     Io(#[from] std::io::Error),
     #[error("cannot start the writer thread: {0}")]
+    /// The writer thread could not be started.
     Thread(std::io::Error),
     #[error("the writer thread panicked")]
+    /// The writer thread panicked.
     Panicked,
     #[error("already finished")]
+    /// The recording was already finished.
     Finished,
 }
 
@@ -228,13 +246,19 @@ impl FrameSink for RecordTap {
 /// What was written.
 #[derive(Clone, Debug)]
 pub struct RecordSummary {
+    /// The bag's path.
     pub path: PathBuf,
+    /// Messages written.
     pub messages: u64,
+    /// Topics (channels) in the bag.
     pub topics: usize,
+    /// File size, bytes.
     pub bytes: u64,
     /// Simulated time span of the messages (s).
     pub span: f64,
+    /// Frames whose messages were dropped because the writer was behind.
     pub dropped_frames: u64,
+    /// Input messages among the dropped frames' messages.
     pub dropped_inputs: u64,
     /// Why recording stopped early (the file then holds what was written before, sealed).
     pub stopped: Option<String>,

@@ -13,7 +13,9 @@ use mcap::sans_io::LinearReaderOptions;
 /// What [`recover`] copied.
 #[derive(Clone, Debug)]
 pub struct Recovered {
+    /// Messages copied to the output.
     pub messages: u64,
+    /// Topics (channels) in the output.
     pub topics: usize,
     /// Log time of the last message copied (s).
     pub end: f64,
@@ -22,24 +24,42 @@ pub struct Recovered {
 }
 
 #[derive(Debug, thiserror::Error)]
+/// Why an unfinished bag could not be recovered.
 pub enum RecoverError {
     #[error("cannot open {}: {source}", path.display())]
+    /// The input cannot be opened.
     Open {
+        /// The input's path.
         path: PathBuf,
+        /// The I/O error.
         source: std::io::Error,
     },
     #[error("{} is not an MCAP file (no MCAP header at its start)", path.display())]
-    NotMcap { path: PathBuf },
-    #[error("{} already exists: choose another output file, or pass --force to replace it", path.display())]
-    Exists { path: PathBuf },
-    #[error("cannot create {}: {}", path.display(), crate::ros::recorder::io_cause(source, path))]
-    Create {
+    /// The input does not start with the MCAP magic.
+    NotMcap {
+        /// The input's path.
         path: PathBuf,
+    },
+    #[error("{} already exists: choose another output file, or pass --force to replace it", path.display())]
+    /// The output file exists already (replaced only with `--force`).
+    Exists {
+        /// The output's path.
+        path: PathBuf,
+    },
+    #[error("cannot create {}: {}", path.display(), crate::ros::recorder::io_cause(source, path))]
+    /// The output cannot be created.
+    Create {
+        /// The output's path.
+        path: PathBuf,
+        /// The I/O error.
         source: std::io::Error,
     },
     #[error("writing {}: {source}", path.display())]
+    /// Writing the output failed.
     Write {
+        /// The output's path.
         path: PathBuf,
+        /// The MCAP writer's error.
         source: mcap::McapError,
     },
 }

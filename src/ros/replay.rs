@@ -22,6 +22,7 @@ use crate::sim::RecordedInput;
 /// The inputs of a bag, in the order they were applied.
 #[derive(Clone, Debug)]
 pub struct Replay {
+    /// The bag's input messages as simulation inputs, in log-time order.
     pub inputs: VecDeque<ReplayInput>,
     /// Simulated time of the bag's last message (s): a replay runs this long.
     pub end: f64,
@@ -30,10 +31,14 @@ pub struct Replay {
 }
 
 #[derive(Debug, thiserror::Error)]
+/// Why a bag cannot be replayed on a scene.
 pub enum ReplayError {
     #[error("cannot open {path}: {source}")]
+    /// The file cannot be opened.
     Open {
+        /// The bag's path.
         path: PathBuf,
+        /// The I/O error.
         source: std::io::Error,
     },
     #[error(
@@ -41,35 +46,57 @@ pub enum ReplayError {
          `dvrk-tissue-sim bag recover {} OUT.mcap` rebuilds a readable bag from its completed \
          chunks; replay that ({source})", path.display(), path.display()
     )]
+    /// The bag was never finished (no summary); `bag recover` rebuilds it.
     Unfinished {
+        /// The bag's path.
         path: PathBuf,
+        /// The MCAP reader's error.
         source: mcap::McapError,
     },
     #[error("{path} is not a readable MCAP file: {source}")]
+    /// The file is not readable MCAP.
     Corrupt {
+        /// The bag's path.
         path: PathBuf,
+        /// The MCAP reader's error.
         source: mcap::McapError,
     },
     #[error(
         "{path} was not recorded on this scene ({scene}; namespace {namespace}): \
          topic(s) {topics} are not among its inputs and outputs"
     )]
+    /// The bag has topics that are neither inputs nor outputs of this scene.
     OtherScene {
+        /// The bag's path.
         path: PathBuf,
+        /// The scene's name.
         scene: String,
+        /// The namespace the topics were resolved under.
         namespace: String,
+        /// The foreign topics, comma separated.
         topics: String,
     },
     #[error(
         "{path} has no input messages on this scene's input topics ({topics}): \
          nothing to drive the arms with"
     )]
-    NoInputs { path: PathBuf, topics: String },
-    #[error("{path}: message {index} on {topic}: {message}")]
-    Message {
+    /// The bag has no message on any of the scene's input topics.
+    NoInputs {
+        /// The bag's path.
         path: PathBuf,
+        /// The scene's input topics, comma separated.
+        topics: String,
+    },
+    #[error("{path}: message {index} on {topic}: {message}")]
+    /// One input message cannot be used.
+    Message {
+        /// The bag's path.
+        path: PathBuf,
+        /// The message's position in the bag, from 0.
         index: u64,
+        /// The message's topic.
         topic: String,
+        /// What is wrong with it.
         message: MessageError,
     },
 }
@@ -78,10 +105,18 @@ pub enum ReplayError {
 #[derive(Debug, thiserror::Error)]
 pub enum MessageError {
     #[error("type {found}, expected {expected}")]
-    Type { found: String, expected: String },
+    /// The channel's schema is not the topic's ROS type.
+    Type {
+        /// The schema name in the bag (`(no schema)` when absent).
+        found: String,
+        /// The topic's ROS type, `pkg/msg/Type`.
+        expected: String,
+    },
     #[error("message encoding {0}, expected cdr")]
+    /// A message encoding other than `cdr` (holds the encoding).
     Encoding(String),
     #[error(transparent)]
+    /// The CDR payload does not decode.
     Cdr(#[from] CdrError),
 }
 

@@ -20,6 +20,7 @@ use crate::sim::{build_setup, headless, FrameLoop, SetupError, SimSetup};
 /// Node identity on the ROS graph.
 #[derive(Clone, Debug)]
 pub struct NodeSettings {
+    /// The node's name on the ROS graph (without namespace).
     pub name: String,
     /// Absolute namespace (`/` for none); every topic but `/tf` lives under it.
     pub namespace: String,
@@ -42,12 +43,16 @@ pub struct NodeSettings {
 #[derive(Debug, thiserror::Error)]
 pub enum SessionError {
     #[error(transparent)]
+    /// The scene could not be set up.
     Setup(Box<SetupError>),
     #[error(transparent)]
+    /// The bag to replay cannot be used.
     Replay(#[from] ReplayError),
     #[error(transparent)]
+    /// The recording cannot be made.
     Record(#[from] RecordError),
     #[error("tokio runtime: {0:?}")]
+    /// The tokio runtime could not be started.
     Runtime(std::io::Error),
 }
 
@@ -102,10 +107,13 @@ pub fn finish_recording(recorder: Option<Recorder>) -> Result<Option<RecordSumma
 /// What a run without the network ([`run_headless`]) did.
 #[derive(Clone, Debug)]
 pub struct HeadlessRun {
+    /// Frames run.
     pub frames: u64,
     /// Simulated time reached (s).
     pub time: f64,
+    /// Wall-clock time the run took.
     pub wall: Duration,
+    /// What the recording wrote, when the run recorded a bag.
     pub record: Option<RecordSummary>,
 }
 

@@ -24,16 +24,22 @@ pub const WINDOW: Duration = Duration::from_secs(5);
 pub struct Rates {
     /// Simulated seconds per wall-clock second.
     pub real_time_factor: f64,
+    /// Mean substeps per frame over the interval (0 when no frame ended).
     pub substeps_per_frame: f64,
+    /// Frames per wall-clock second.
     pub frames_per_second: f64,
 }
 
 /// Progress at one moment: wall clock, simulated time, frames and substeps so far.
 #[derive(Clone, Copy, Debug)]
 pub struct Progress {
+    /// The wall-clock instant.
     pub wall: Instant,
+    /// Simulated time, s.
     pub time: f64,
+    /// Frames completed.
     pub frames: u64,
+    /// Substeps completed.
     pub substeps: u64,
 }
 
@@ -78,6 +84,7 @@ pub struct StatusReport {
 }
 
 impl StatusReport {
+    /// A report for the node `name`, naming the backend and its adapter.
     pub fn new(name: &str, backend: &str, adapter: &str) -> StatusReport {
         StatusReport {
             name: format!("{name}: simulation"),

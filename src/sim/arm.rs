@@ -15,48 +15,75 @@ use crate::tools::ToolPose;
 /// What a topic asked for, before validation.
 #[derive(Clone, Debug, PartialEq)]
 pub enum ArmInput {
+    /// `servo_jp`: go to these joint positions now (each joint within its jump bound).
     ServoJp {
+        /// Joint names, or empty for the canonical order.
         names: Vec<String>,
+        /// Joint positions, rad or m, in `names` order.
         positions: Vec<f64>,
     },
+    /// `move_jp`: interpolate to these joint positions (no jump bound).
     MoveJp {
+        /// Joint names, or empty for the canonical order.
         names: Vec<String>,
+        /// Joint positions, rad or m, in `names` order.
         positions: Vec<f64>,
     },
+    /// `jaw/servo_jp`: set the jaw opening now.
     JawServoJp {
+        /// The jaw's joint name, or empty.
         names: Vec<String>,
+        /// The jaw opening, rad (one value).
         positions: Vec<f64>,
     },
+    /// `jaw/move_jp`: interpolate the jaw to this opening.
     JawMoveJp {
+        /// The jaw's joint name, or empty.
         names: Vec<String>,
+        /// The jaw opening, rad (one value).
         positions: Vec<f64>,
     },
     /// Jaw effort (N·m, positive opens), as dVRK's `jaw/servo_jf`.
     JawServoJf {
+        /// The jaw's joint name, or empty.
         names: Vec<String>,
+        /// The jaw effort, N·m (one value).
         efforts: Vec<f64>,
     },
     /// Position (m) and quaternion x, y, z, w, in the arm's base frame.
     ServoCp {
+        /// Tool origin in the base frame, m.
         position: [f64; 3],
+        /// Tool orientation in the base frame, quaternion x, y, z, w.
         quaternion: [f64; 4],
     },
+    /// `move_cp`: interpolate to this tool pose (position in m, quaternion x, y, z, w, base frame).
     MoveCp {
+        /// Tool origin in the base frame, m.
         position: [f64; 3],
+        /// Tool orientation in the base frame, quaternion x, y, z, w.
         quaternion: [f64; 4],
     },
+    /// `hold`: stop any motion where the arm is.
     Hold,
+    /// `free`: not simulated on a kinematic arm; holds instead.
     Free,
+    /// `state_command`: `enable`, `disable`, `home`, `unhome`, `pause` or `resume`.
     StateCommand(String),
     /// Force command (N, N·m): accepted when finite; a kinematic arm cannot apply it.
     ServoCf([f64; 6]),
     /// A real arm's `measured_js` (mirror mode).
     MirrorJs {
+        /// Joint names, or empty for the canonical order.
         names: Vec<String>,
+        /// Measured joint positions, rad or m, in `names` order.
         positions: Vec<f64>,
     },
+    /// A real arm's `jaw/measured_js` (mirror mode).
     MirrorJaw {
+        /// The jaw's joint name, or empty.
         names: Vec<String>,
+        /// The measured jaw opening, rad (one value).
         positions: Vec<f64>,
     },
 }
@@ -66,18 +93,25 @@ pub enum ArmInput {
 pub struct ArmCommand {
     /// Topic relative to the arm (`servo_jp`, `jaw/servo_jp`, ...), for messages.
     pub topic: &'static str,
+    /// The command, before validation.
     pub input: ArmInput,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// The CRTK operating state of an arm.
 pub enum OperatingState {
+    /// Not accepting motion commands.
     Disabled,
+    /// Accepting motion commands (once homed).
     Enabled,
+    /// Paused: motion commands rejected until `resume`.
     Paused,
+    /// Faulted.
     Fault,
 }
 
 impl OperatingState {
+    /// The CRTK name, as `crtk_msgs/OperatingState.state` carries it.
     pub fn as_str(&self) -> &'static str {
         match self {
             OperatingState::Disabled => "DISABLED",
@@ -91,14 +125,22 @@ impl OperatingState {
 /// Something the ROS side publishes once (latched event topics), at simulated `time`.
 #[derive(Clone, Debug, PartialEq)]
 pub enum ArmEvent {
+    /// The operating state changed, or a move started or ended.
     State {
+        /// Simulated time of the change, s.
         time: f64,
+        /// The operating state now.
         state: OperatingState,
+        /// Whether the arm is homed.
         homed: bool,
+        /// Whether a move (arm or jaw) is in progress.
         busy: bool,
     },
+    /// A message for the arm's `error` topic.
     Error(String),
+    /// A message for the arm's `warning` topic.
     Warning(String),
+    /// A message for the arm's `status` topic.
     Status(String),
 }
 
@@ -106,42 +148,60 @@ pub enum ArmEvent {
 #[derive(Debug, thiserror::Error)]
 pub enum ArmError {
     #[error("home_joints: {0}")]
+    /// The configured home joints are invalid.
     HomeJoints(JointCommandError),
     #[error("home_jaw_deg: {0}")]
+    /// The configured home jaw opening is invalid.
     HomeJaw(JointCommandError),
     #[error("arm is {}, not ENABLED", .0.as_str())]
+    /// A motion command arrived while the arm is not ENABLED (holds the state it is in).
     NotEnabled(OperatingState),
     #[error("arm is not homed")]
+    /// A motion command arrived before the arm was homed.
     NotHomed,
     #[error("the arm mirrors a real arm")]
+    /// A motion command to an arm that mirrors a real arm.
     Mirrors,
     #[error("the arm is simulated, not mirrored")]
+    /// A mirror message to an arm that is simulated.
     NotMirrored,
     #[error("wrench has NaN or infinite values")]
+    /// A `servo_cf` wrench with NaN or infinite values.
     Wrench,
     #[error("expected one finite jaw effort, got {0:?}")]
+    /// A `jaw/servo_jf` that is not one finite effort (holds the values received).
     JawEffort(Vec<f64>),
     #[error("arm is PAUSED: send resume")]
+    /// A motion command while PAUSED.
     Paused,
     #[error("cannot {action} from {}", .state.as_str())]
+    /// A state command not allowed from the current state.
     Transition {
+        /// The command, e.g. `home`.
         action: &'static str,
+        /// The state the arm was in.
         state: OperatingState,
     },
     #[error("unknown state command `{0}` (enable, disable, home, unhome, pause, resume)")]
+    /// A state command other than enable, disable, home, unhome, pause, resume.
     UnknownStateCommand(String),
     #[error(transparent)]
+    /// A joint command failed validation (names, length, limits, jump).
     Joints(#[from] JointCommandError),
     #[error(transparent)]
+    /// A Cartesian pose command was not finite or not a unit quaternion.
     Pose(#[from] PoseError),
     #[error(transparent)]
+    /// The kinematics failed (e.g. no inverse kinematics solution).
     Psm(#[from] PsmError),
 }
 
 /// A rejected command: the topic and why.
 #[derive(Debug)]
 pub struct Rejection {
+    /// The topic relative to the arm (`servo_jp`, ...).
     pub topic: &'static str,
+    /// Why the command was rejected.
     pub reason: ArmError,
 }
 
@@ -154,11 +214,15 @@ impl std::fmt::Display for Rejection {
 /// The arm's state at the end of a frame.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ArmStatus {
+    /// Joint positions, rad or m, in canonical order.
     pub q: Vec<f64>,
+    /// Joint velocities, rad/s or m/s, in canonical order.
     pub qdot: Vec<f64>,
     /// The jaw opening reached (rad), its rate and the controller's effort (N·m).
     pub jaw: f64,
+    /// Jaw opening rate, rad/s.
     pub jaw_rate: f64,
+    /// Jaw controller effort, N·m.
     pub jaw_effort: f64,
     /// The commanded opening (`jaw/setpoint_js`).
     pub jaw_setpoint: f64,
@@ -166,6 +230,7 @@ pub struct ArmStatus {
     pub cp: Isometry3<f64>,
     /// Tool twist in the base frame: linear (m/s), angular (rad/s).
     pub linear_velocity: Vector3<f64>,
+    /// Angular velocity of the tool in the base frame, rad/s.
     pub angular_velocity: Vector3<f64>,
 }
 
@@ -174,6 +239,8 @@ enum Motion {
     Move { trajectory: Trajectory, start: f64 },
 }
 
+/// One PSM in the scene: simulated kinematically (measured = setpoint) or mirroring a real arm's
+/// joint states.
 pub struct ArmSim {
     psm: Psm,
     mode: ArmMode,
@@ -250,18 +317,22 @@ impl ArmSim {
         Ok(arm)
     }
 
+    /// The arm's kinematics (joints, jaw, chain).
     pub fn psm(&self) -> &Psm {
         &self.psm
     }
 
+    /// The arm's name, e.g. `PSM1` (the prefix of its topics and frames).
     pub fn name(&self) -> &str {
         self.psm.name()
     }
 
+    /// Simulated, or mirroring a real arm.
     pub fn mode(&self) -> ArmMode {
         self.mode
     }
 
+    /// The world pose of the arm's `<name>_base` frame (m).
     pub fn base(&self) -> &Isometry3<f64> {
         &self.base
     }
@@ -276,18 +347,22 @@ impl ArmSim {
         &self.mount
     }
 
+    /// The CRTK operating state.
     pub fn operating_state(&self) -> OperatingState {
         self.state
     }
 
+    /// Whether the arm has been homed.
     pub fn is_homed(&self) -> bool {
         self.homed
     }
 
+    /// Whether an arm or jaw move is in progress.
     pub fn is_busy(&self) -> bool {
         matches!(self.motion, Motion::Move { .. }) || self.jaw_motion.is_some()
     }
 
+    /// The joint positions, rad or m, in canonical order.
     pub fn q(&self) -> &[f64] {
         &self.q
     }
@@ -334,6 +409,7 @@ impl ArmSim {
         }
     }
 
+    /// The arm's state now: joints, jaw, tool frame and twist in the base frame.
     pub fn status(&self) -> ArmStatus {
         let cp = self.cp();
         let j = self

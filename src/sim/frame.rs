@@ -13,9 +13,11 @@ use crate::world::Wrench;
 /// A tool at the end of a frame.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ToolState {
+    /// The scene tool's name.
     pub name: String,
     /// Frame of the wrench: the arm's tool frame (`PSM1`) or the tool's name.
     pub frame_id: String,
+    /// The tool's world pose and jaw opening.
     pub pose: ToolPose,
     /// Contact wrench in the tool frame (torque about the tool origin).
     pub wrench: Wrench,
@@ -28,7 +30,9 @@ pub struct Frame {
     pub index: u64,
     /// Simulated time at the end of the frame (s).
     pub time: f64,
+    /// The scene's arms, scene order.
     pub arms: Vec<ArmStatus>,
+    /// The scene's tools, scene order.
     pub tools: Vec<ToolState>,
     /// Present while the ROS side asks for the point cloud.
     pub cloud: Option<Arc<TissueCloud>>,
@@ -36,6 +40,7 @@ pub struct Frame {
     pub surface: Option<Arc<SurfaceTriangles>>,
     /// Every suture thread, scene order (a few dozen points each: always carried).
     pub threads: Vec<Arc<ThreadState>>,
+    /// The teleoperation state, when the scene teleoperates an arm.
     pub teleop: Option<TeleopState>,
     /// Separate tissue pieces, in the frames where they were counted (`tissue/pieces`).
     pub pieces: Option<u32>,
@@ -44,16 +49,24 @@ pub struct Frame {
 /// Which outputs a frame carries.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Due {
+    /// Arm state topics.
     pub arm: bool,
+    /// Tissue point cloud.
     pub points: bool,
+    /// Tissue surface marker.
     pub surface: bool,
+    /// Tool contact wrenches.
     pub wrench: bool,
+    /// `/tf`.
     pub tf: bool,
+    /// Suture thread markers.
     pub thread: bool,
+    /// Cut-piece count.
     pub pieces: bool,
 }
 
 impl Due {
+    /// Whether the frame carries any output.
     pub fn any(&self) -> bool {
         self.arm
             || self.points

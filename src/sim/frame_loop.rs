@@ -31,7 +31,9 @@ use crate::world::{FrameReport, StepError, World};
 /// Which tissue outputs the consumers of frames ask for.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Wanted {
+    /// The tissue point cloud.
     pub points: bool,
+    /// The tissue surface.
     pub surface: bool,
     /// The piece count, at `outputs.pieces_rate_hz` in simulated time.
     pub pieces: bool,
@@ -102,6 +104,7 @@ impl FrameLoop {
         }
     }
 
+    /// The simulated world.
     pub fn world(&self) -> &World {
         &self.setup.world
     }

@@ -10,26 +10,36 @@ use crate::sim::arm::ArmCommand;
 /// Input from the network side.
 #[derive(Clone, Debug, PartialEq)]
 pub enum SimInput {
+    /// A command to one arm.
     Arm {
+        /// Index of the scene arm.
         arm: usize,
+        /// The command and its topic.
         command: ArmCommand,
     },
     /// MTM `measured_cp`: position (m), quaternion x, y, z, w.
     MtmPose {
+        /// MTM position in the common (camera) frame, m.
         position: [f64; 3],
+        /// MTM orientation, quaternion x, y, z, w.
         quaternion: [f64; 4],
     },
     /// MTM `gripper/measured_js` positions (rad).
     MtmGripper(Vec<f64>),
+    /// The console's clutch pedal: true while pressed.
     Clutch(bool),
+    /// The console's operator-present pedal: true while the operator is there.
     OperatorPresent(bool),
 }
 
 /// An input as it arrived: its topic, type and CDR payload.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RecordedInput {
+    /// The topic's absolute name.
     pub topic: String,
+    /// The ROS type, `pkg/msg/Type`.
     pub type_name: String,
+    /// The message as received, CDR with its encapsulation header.
     pub cdr: Vec<u8>,
 }
 
@@ -38,15 +48,18 @@ pub struct RecordedInput {
 pub struct Received {
     /// `None` for a message with no effect on the simulation (recorded all the same).
     pub input: Option<SimInput>,
+    /// The message as received, when recording (`None` otherwise).
     pub record: Option<RecordedInput>,
 }
 
 /// A recorded input, due at the frame starting at `time` (ns of simulated time).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ReplayInput {
+    /// Simulated time of the frame it is due at, ns.
     pub time: u64,
     /// `None` for a message that has no effect on the simulation (recorded all the same).
     pub input: Option<SimInput>,
+    /// The message as recorded.
     pub record: RecordedInput,
 }
 
@@ -63,8 +76,10 @@ pub fn nanos(t: f64) -> u64 {
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum PoseError {
     #[error("pose has NaN or infinite values")]
+    /// A coordinate is NaN or infinite.
     NotFinite,
     #[error("orientation quaternion has length {0:.4}, not 1")]
+    /// The quaternion's length is not 1 within tolerance (holds the length).
     QuaternionLength(f64),
 }
 

@@ -25,8 +25,11 @@ pub const EVENT_CAPACITY: usize = 1024;
 
 /// The network side's handles.
 pub struct SimHandle {
+    /// Where received inputs go; applied at the next frame start.
     pub inputs: SyncSender<Received>,
+    /// The latest finished frame.
     pub frames: watch::Receiver<Arc<Frame>>,
+    /// Arm events: scene arm index and event.
     pub events: Receiver<(usize, ArmEvent)>,
     /// Set while someone subscribes to the point cloud.
     pub points_wanted: Arc<AtomicBool>,

@@ -24,37 +24,61 @@ use crate::world::{World, WorldError};
 #[derive(Debug, thiserror::Error)]
 pub enum SetupError {
     #[error(transparent)]
+    /// The world could not be built from the scene.
     World(#[from] WorldError),
     #[error(transparent)]
+    /// An arm's URDF cannot be used.
     Psm(#[from] Box<ArmUrdfProblem>),
     #[error("arm {arm}: {source}")]
-    Arm { arm: String, source: ArmError },
+    /// An arm could not be set up at its home joints.
+    Arm {
+        /// The arm's name.
+        arm: String,
+        /// Why.
+        source: ArmError,
+    },
     #[error("arm {arm}: no tool {tool}")]
-    NoTool { arm: String, tool: String },
+    /// An arm names a tool the scene does not have.
+    NoTool {
+        /// The arm's name.
+        arm: String,
+        /// The tool name it gives.
+        tool: String,
+    },
     #[error("teleop.arm {0} is not an arm")]
+    /// `teleop.arm` names no arm of the scene (holds the name).
     TeleopArm(String),
     #[error("teleop: {0}")]
+    /// The teleoperation settings are invalid.
     Teleop(#[from] TeleopError),
     #[error("tissue surface: {0}")]
+    /// The tissue surface could not be built.
     Surface(#[from] MeshError),
 }
 
 /// Teleoperation of one arm.
 pub struct TeleopBinding {
+    /// Index of the scene arm the MTM drives.
     pub arm: usize,
+    /// The MTM-to-PSM mapping.
     pub teleop: Teleop,
 }
 
 /// The simulation's side of the exchange, handed to the frame loop.
 pub struct SimSetup {
+    /// The simulated world.
     pub world: World,
+    /// The scene's arms, scene order.
     pub arms: Vec<ArmSim>,
     /// Scene tool index each arm drives.
     pub arm_tools: Vec<usize>,
+    /// Teleoperation, when the scene has a `[teleop]` table.
     pub teleop: Option<TeleopBinding>,
+    /// What the point cloud output carries.
     pub cloud: CloudOptions,
     /// `None` in a scripted run, which builds no surface.
     pub surface: Option<TissueSurface>,
+    /// When to write snapshot pictures (`None`: none).
     pub snapshots: Option<SnapshotSchedule>,
     /// Records inputs, events and outputs.
     pub recorder: Option<Box<dyn FrameSink>>,
@@ -102,11 +126,13 @@ pub fn arm_base(arm: &crate::config::Arm) -> Isometry3<f64> {
 pub struct ArmUrdfProblem {
     /// Position of the `[[arm]]` table in the scene.
     pub index: usize,
+    /// The arm's name.
     pub arm: String,
     /// `urdf`, `base_link`, `tool_link` or `joint_speeds`.
     pub key: &'static str,
     /// The `urdf` value.
     pub file: String,
+    /// Why the URDF cannot be used.
     pub source: PsmError,
 }
 

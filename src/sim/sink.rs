@@ -12,10 +12,13 @@ use crate::sim::input::RecordedInput;
 pub struct FrameRecord {
     /// Simulated time at the frame start, when `inputs` were applied (s).
     pub start: f64,
+    /// Input messages applied at the frame start, as received.
     pub inputs: Vec<RecordedInput>,
+    /// Arm events of the frame: scene arm index and event.
     pub events: Vec<(usize, ArmEvent)>,
     /// The finished frame (outputs are built from it when due).
     pub frame: Arc<Frame>,
+    /// Which outputs are due at this frame.
     pub due: Due,
 }
 

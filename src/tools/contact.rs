@@ -12,12 +12,15 @@ use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "model", rename_all = "snake_case", deny_unknown_fields)]
+/// How grid nodes in contact with a tool move (`[[tool]] contact` in a scene).
 pub enum ContactModel {
     /// Coulomb friction `friction` (μ) and drag in [0, 1]: seed 002's c_d is `1 − drag`.
     Coulomb {
         #[serde(default = "default_friction")]
+        /// Coulomb friction coefficient μ (dimensionless).
         friction: f32,
         #[serde(default)]
+        /// Drag in [0, 1]: the tangential velocity left after friction is scaled by 1 − drag.
         drag: f32,
     },
     /// Nodes in contact move with the tool, approaching or not (clamps, grips).

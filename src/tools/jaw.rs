@@ -27,8 +27,11 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct JawGains {
+    /// Proportional gain, N·m/rad.
     pub p_gain: f64,
+    /// Derivative gain, N·m·s/rad.
     pub d_gain: f64,
+    /// Largest effort the controller applies, N·m.
     pub effort_max: f64,
 }
 
@@ -67,6 +70,7 @@ pub enum JawCommand {
 /// One jaw's state.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct JawServo {
+    /// The controller's gains and effort limit.
     pub gains: JawGains,
     /// Opening reached (rad).
     pub angle: f64,
@@ -81,6 +85,7 @@ pub struct JawServo {
 const STEPS: usize = 8;
 
 impl JawServo {
+    /// A jaw at rest at opening `angle` (rad).
     pub fn new(gains: JawGains, angle: f64) -> Self {
         JawServo {
             gains,

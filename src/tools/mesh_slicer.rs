@@ -55,8 +55,11 @@ use std::sync::OnceLock;
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[error("{}{}: {message}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
 pub struct BladeError {
+    /// The blade file's path.
     pub path: PathBuf,
+    /// 1-based line of the problem (`None`: the whole file, e.g. unreadable).
     pub line: Option<usize>,
+    /// What is wrong.
     pub message: String,
 }
 

@@ -50,16 +50,21 @@ use crate::math::{Mat3, Vec3};
 /// bounding box outside which the SDF is never evaluated.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ToolKinematics {
+    /// The tool's shape (tool frame).
     pub shape: Shape,
+    /// How grid nodes in contact move with the tool.
     pub contact: ContactModel,
     /// World-from-tool rotation.
     pub rotation: Mat3,
     /// Tool frame origin in the world (also the gripper's jaw pivot).
     pub translation: Vec3,
+    /// Velocity of the tool frame origin over the substep, world frame, m/s.
     pub linear_velocity: Vec3,
+    /// Angular velocity over the substep, world frame, rad/s.
     pub angular_velocity: Vec3,
     /// Jaw opening (rad) and its rate (rad/s).
     pub jaw: f32,
+    /// Jaw opening rate, rad/s.
     pub jaw_rate: f32,
     /// A node is in contact when its signed distance is below this (m). Zero for solids;
     /// curve tools are fattened to a radius of 1.5 grid cells so that a wire thinner than a
@@ -73,7 +78,9 @@ pub struct ToolKinematics {
     pub grip: f32,
     /// How far a gripper's grip region reaches beyond its jaws (one grid cell; see [`grip`]).
     pub grip_reach: f32,
+    /// Lower corner of the world-frame bounding box, m (contact threshold included).
     pub aabb_min: Vec3,
+    /// Upper corner of the world-frame bounding box, m (contact threshold included).
     pub aabb_max: Vec3,
 }
 
@@ -82,12 +89,18 @@ pub struct ToolKinematics {
 pub struct NodeContact {
     /// Signed distance minus the contact threshold (negative: in contact).
     pub depth: f32,
+    /// Outward unit normal of the tool surface, world frame.
     pub normal: Vec3,
+    /// Unit tangent of a 1D shape (needle, spine) at the nearest point, world frame; zero
+    /// otherwise.
     pub tangent: Vec3,
+    /// Part of the tool: 0 for one-piece shapes, 1 and 2 for gripper jaws.
     pub part: u8,
 }
 
 impl ToolKinematics {
+    /// A tool's kinematics for one substep at `pose`, moving with `velocity`, on a grid of spacing
+    /// `dx` (m).
     pub fn new(
         shape: Shape,
         contact: ContactModel,

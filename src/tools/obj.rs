@@ -9,6 +9,7 @@ use crate::math::Vec3;
 /// What an OBJ file holds, with the line each face and polyline came from (for messages).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Obj {
+    /// Vertex positions, in the file's units and frame.
     pub vertices: Vec<Vec3>,
     /// Triangles as vertex indices, and the 1-based line of the face each came from.
     pub triangles: Vec<([u32; 3], usize)>,
@@ -20,7 +21,9 @@ pub struct Obj {
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[error("line {line}: {message}")]
 pub struct ObjError {
+    /// 1-based line of the file where the problem is.
     pub line: usize,
+    /// What is wrong.
     pub message: String,
 }
 

@@ -5,8 +5,11 @@ use nalgebra::{UnitQuaternion, Vector3};
 /// Pose of a tool frame in the world, plus the jaw opening of a gripper (rad).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ToolPose {
+    /// Tool frame origin in the world, m.
     pub position: Vector3<f64>,
+    /// World-from-tool rotation.
     pub rotation: UnitQuaternion<f64>,
+    /// Jaw opening, rad (0 for tools without jaws).
     pub jaw: f64,
 }
 
@@ -33,6 +36,7 @@ impl ToolPose {
         }
     }
 
+    /// Whether every value is finite.
     pub fn is_finite(&self) -> bool {
         self.position.iter().all(|v| v.is_finite())
             && self.rotation.coords.iter().all(|v| v.is_finite())
@@ -44,12 +48,16 @@ impl ToolPose {
 /// (rad/s, world frame) and jaw opening rate (rad/s).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ToolVelocity {
+    /// Velocity of the tool frame origin, world frame, m/s.
     pub linear: Vector3<f64>,
+    /// Angular velocity, world frame, rad/s.
     pub angular: Vector3<f64>,
+    /// Jaw opening rate, rad/s.
     pub jaw_rate: f64,
 }
 
 impl ToolVelocity {
+    /// The constant velocity that carries `from` to `to` in `dt` s (zero for `dt` ≤ 0).
     pub fn between(from: &ToolPose, to: &ToolPose, dt: f64) -> ToolVelocity {
         if dt <= 0.0 {
             return ToolVelocity::default();

@@ -12,29 +12,41 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Shape {
+    /// A sphere centred on the tool origin.
     Sphere {
+        /// Radius, m.
         radius: f32,
     },
     /// Segment along local z from −half_length to +half_length, swept by a sphere.
     Capsule {
+        /// Radius of the swept sphere, m.
         radius: f32,
+        /// Half the axis segment's length, m.
         half_length: f32,
     },
+    /// A box centred on the tool origin, axis-aligned in the tool frame.
     Box {
+        /// Half the box's size along local x, y, z, m.
         half_extents: [f32; 3],
     },
     /// Two jaws hinged on the local x axis at the origin, pointing along +z; the opening angle
     /// (the arm's jaw joint) rotates jaw 1 towards +y and jaw 2 towards −y by half of it each.
     Gripper {
+        /// Jaw length from the hinge along +z, m.
         jaw_length: f32,
+        /// Jaw width along local x, m.
         jaw_width: f32,
+        /// Jaw thickness along local y, m.
         jaw_thickness: f32,
     },
     /// Circular arc in the local xy plane centred on the origin, from angle 0 to `arc_angle`
     /// (counter-clockwise about +z), swept by a wire of `wire_radius`.
     Needle {
+        /// Arc radius (origin to the wire's centre line), m.
         radius: f32,
+        /// Angle the arc spans, rad.
         arc_angle: f32,
+        /// Radius of the wire, m.
         wire_radius: f32,
     },
     /// A blade (seed 002's quad slicer) in the local xz plane: `length` along x centred on
@@ -42,15 +54,20 @@ pub enum Shape {
     /// x axis, the cutting edge the line z = −height. Only the spine has contact (see
     /// [`crate::tools::slicer`]).
     Slicer {
+        /// Blade length along local x, m.
         length: f32,
+        /// Blade height from the spine down to the cutting edge, m.
         height: f32,
+        /// Blade thickness along local y, m.
         thickness: f32,
     },
     /// A blade from a triangle mesh file (seed 002's triangle-mesh slicer): its surface,
     /// spine and cutting edge come from the OBJ `file` (tool frame, see
     /// [`crate::tools::mesh_slicer`]); `thickness` is the spine's, as for the quad.
     MeshSlicer {
+        /// The blade's mesh file (path as written in the scene).
         file: BladeFile,
+        /// Thickness of the blunt spine, m.
         thickness: f32,
     },
 }
@@ -58,6 +75,7 @@ pub enum Shape {
 /// Result of one SDF query.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SdfHit {
+    /// Signed distance from the surface, m (negative inside the tool).
     pub distance: f32,
     /// Outward unit normal (tool frame).
     pub normal: Vec3,
@@ -90,7 +108,7 @@ pub fn jaw_angle(part: u8, opening: f32) -> f32 {
 }
 
 #[inline(always)]
-pub fn rotate_x(p: Vec3, angle: f32) -> Vec3 {
+pub(crate) fn rotate_x(p: Vec3, angle: f32) -> Vec3 {
     let (s, c) = angle.sin_cos();
     Vec3::new(p.x, c * p.y - s * p.z, s * p.y + c * p.z)
 }
@@ -106,18 +124,18 @@ fn unit_or(v: Vec3, fallback: Vec3) -> Vec3 {
     }
 }
 
-pub fn sphere(p: Vec3, radius: f32) -> SdfHit {
+pub(crate) fn sphere(p: Vec3, radius: f32) -> SdfHit {
     SdfHit::solid(p.norm() - radius, unit_or(p, Vec3::z()), 0)
 }
 
-pub fn capsule(p: Vec3, radius: f32, half_length: f32) -> SdfHit {
+pub(crate) fn capsule(p: Vec3, radius: f32, half_length: f32) -> SdfHit {
     let axis_point = Vec3::new(0.0, 0.0, p.z.clamp(-half_length, half_length));
     let d = p - axis_point;
     let fallback = if p.z >= 0.0 { Vec3::z() } else { -Vec3::z() };
     SdfHit::solid(d.norm() - radius, unit_or(d, fallback), 0)
 }
 
-pub fn cuboid(p: Vec3, half: Vec3) -> SdfHit {
+pub(crate) fn cuboid(p: Vec3, half: Vec3) -> SdfHit {
     let q = p.abs() - half;
     let sign = p.map(|c| if c < 0.0 { -1.0 } else { 1.0 });
     let outside = q.map(|c| c.max(0.0));
@@ -133,7 +151,7 @@ pub fn cuboid(p: Vec3, half: Vec3) -> SdfHit {
     }
 }
 
-pub fn gripper(p: Vec3, opening: f32, length: f32, width: f32, thickness: f32) -> SdfHit {
+pub(crate) fn gripper(p: Vec3, opening: f32, length: f32, width: f32, thickness: f32) -> SdfHit {
     let half = Vec3::new(0.5 * width, 0.5 * thickness, 0.5 * length);
     let mut best = SdfHit::solid(f32::INFINITY, Vec3::z(), 1);
     for part in [1u8, 2u8] {
@@ -151,7 +169,7 @@ pub fn gripper(p: Vec3, opening: f32, length: f32, width: f32, thickness: f32) -
     best
 }
 
-pub fn needle(p: Vec3, radius: f32, arc_angle: f32, wire_radius: f32) -> SdfHit {
+pub(crate) fn needle(p: Vec3, radius: f32, arc_angle: f32, wire_radius: f32) -> SdfHit {
     let phi = p.y.atan2(p.x);
     let phi = if phi < 0.0 {
         phi + std::f32::consts::TAU

@@ -15,6 +15,8 @@ impl Trajectory {
         Trajectory { keys }
     }
 
+    /// The pose at time `t` (s): linear in position and jaw, spherical-linear in rotation between
+    /// keyframes; the first or last keyframe's pose outside them.
     pub fn sample(&self, t: f64) -> ToolPose {
         let keys = &self.keys;
         if t <= keys[0].0 {

@@ -42,7 +42,9 @@ pub fn neo_hookean_uniaxial_stress(e: f64, nu: f64, stretch: f64) -> f64 {
 /// Material and time scale of the Hertz and stretch scenes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Loading {
+    /// Young's modulus, Pa.
     pub youngs_modulus: f64,
+    /// Poisson's ratio (dimensionless, 0..0.5).
     pub poisson_ratio: f64,
     /// Loading time and output frame rate (s, Hz); `None`: a fixed number of elastic wave
     /// transits and frames (the default scenes, whose run time shrinks with stiffness).
@@ -64,20 +66,30 @@ pub fn stiff_loading(e: f64, nu: f64) -> Loading {
 
 /// Material and geometry of the Hertz scene.
 pub const HERTZ_E: f64 = 10_000.0;
+/// Poisson's ratio of the Hertz block.
 pub const HERTZ_NU: f64 = 0.3;
+/// Radius of the Hertz indenter sphere, m.
 pub const HERTZ_RADIUS: f64 = 0.01;
 
 #[derive(Clone, Debug)]
+/// One frame of the Hertz scene within the compared range.
 pub struct HertzSample {
+    /// Indentation depth over sphere radius (dimensionless).
     pub depth_over_radius: f64,
+    /// Measured indenter force along +z, N.
     pub force: f64,
+    /// Hertz's force at that depth, N.
     pub analytic: f64,
 }
 
 #[derive(Clone, Debug)]
+/// What the Hertz scene measured.
 pub struct HertzResult {
+    /// Grid resolution: cells per sphere radius.
     pub cells_per_radius: f64,
+    /// Particles in the block.
     pub particles: usize,
+    /// The frames with d/R in [0.05, 0.3].
     pub samples: Vec<HertzSample>,
 }
 
@@ -214,17 +226,25 @@ pub fn hertz_run(cells_per_radius: f64, scene: &Scene, meter: &mut Meter) -> Her
 // ---------------------------------------------------------------------------------------
 // Axially vibrating bar
 
+/// Young's modulus of the vibrating bar, Pa.
 pub const BAR_E: f64 = 10_000.0;
+/// Poisson's ratio of the vibrating bar.
 pub const BAR_NU: f64 = 0.25;
+/// Density of the vibrating bar, kg/m³.
 pub const BAR_DENSITY: f64 = 1000.0;
 /// Bar length over thickness.
 pub const BAR_SLENDERNESS: f64 = 10.0;
 
 #[derive(Clone, Debug)]
+/// What the vibrating bar measured.
 pub struct BarResult {
+    /// Grid resolution: cells across the bar's thickness.
     pub cells_across: u32,
+    /// Free length of the bar, m.
     pub length: f64,
+    /// Measured period of the first axial mode, s (NaN when fewer than two crossings were seen).
     pub period: f64,
+    /// The thin-bar period 4L/c with c = √(E/ρ), s.
     pub analytic_period: f64,
     /// Velocity amplitude kept per period (1: none lost), from the peaks of the free half's
     /// mean axial velocity between the measured crossings; the bar has no material damping,
@@ -233,6 +253,7 @@ pub struct BarResult {
 }
 
 impl BarResult {
+    /// Signed relative period error, (measured − analytic) / analytic.
     pub fn relative_error(&self) -> f64 {
         (self.period - self.analytic_period) / self.analytic_period
     }
@@ -354,18 +375,26 @@ pub fn bar_run(cells_across: u32, scene: &Scene, meter: &mut Meter) -> BarResult
 // ---------------------------------------------------------------------------------------
 // Large stretch
 
+/// Young's modulus of the stretched block, Pa.
 pub const STRETCH_E: f64 = 10_000.0;
+/// Poisson's ratio of the stretched block.
 pub const STRETCH_NU: f64 = 0.3;
 
 #[derive(Clone, Debug)]
+/// What the large-stretch scene measured.
 pub struct StretchResult {
+    /// Grid resolution: cells across the block's thickness.
     pub cells_across: u32,
+    /// Stretch of the free length (1: none).
     pub stretch: f64,
+    /// Mean fixed-grip reaction along +x over the settled last 10 % of the run, N.
     pub force: f64,
+    /// Uniaxial Neo-Hookean force P(s)·A₀, N.
     pub analytic: f64,
 }
 
 impl StretchResult {
+    /// Signed relative force error, (measured − analytic) / analytic.
     pub fn relative_error(&self) -> f64 {
         (self.force - self.analytic) / self.analytic
     }

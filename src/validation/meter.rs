@@ -5,17 +5,23 @@ use crate::world::{FrameReport, StepError, World};
 use std::time::{Duration, Instant};
 
 #[derive(Clone, Debug, Default)]
+/// Work and wall time of the frames stepped through it, summed.
 pub struct Meter {
+    /// Frames stepped (failed ones included).
     pub frames: u64,
+    /// Substeps of the frames that succeeded.
     pub substeps: u64,
     /// Particles and backend of the last world stepped.
     pub particles: usize,
+    /// Backend name of the last world stepped (`cpu` or `gpu`).
     pub backend: &'static str,
     /// Simulated time advanced (s).
     pub simulated: f64,
+    /// Wall time inside `World::step_frame`, failed frames included.
     pub wall: Duration,
     /// Newton and CG iterations of the implicit solver, summed over the frames.
     pub newton: u64,
+    /// CG iterations of the implicit solver, summed over the frames.
     pub cg: u64,
 }
 
@@ -38,6 +44,7 @@ impl Meter {
         result
     }
 
+    /// Particles × substeps: the work measure benchmarks divide the wall time by.
     pub fn particle_substeps(&self) -> f64 {
         self.particles as f64 * self.substeps as f64
     }

@@ -19,6 +19,7 @@ const BEAM_LENGTH: f32 = 0.02;
 /// One case at one segment count.
 #[derive(Clone, Copy, Debug)]
 pub struct RodCheck {
+    /// Segments the rod is divided into.
     pub segments: usize,
     /// The rod's figure (m).
     pub measured: f64,

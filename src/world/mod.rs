@@ -29,6 +29,7 @@ pub use step_params::StepParams;
 use tool::Jaws;
 pub use tool::{ToolDriver, WorldTool};
 
+/// One scene's simulation: tissue on its backend, tools, threads and simulated time.
 pub struct World {
     /// The scene this world was built from, for describing it (never read while stepping).
     scene: Scene,
@@ -88,6 +89,7 @@ impl PlannedFrame {
 #[derive(Debug, thiserror::Error)]
 pub enum WorldError {
     #[error(transparent)]
+    /// The GPU backend could not be set up.
     Gpu(#[from] GpuError),
 }
 
@@ -268,6 +270,7 @@ impl World {
         &self.backend
     }
 
+    /// The backend, mutably (for tests and benchmarks that reach into its buffers).
     pub fn backend_mut(&mut self) -> &mut Backend {
         &mut self.backend
     }
@@ -302,6 +305,7 @@ impl World {
         crate::mpm::pieces::count_torn(&p.x, &p.crack, &p.damage, self.layout().dx)
     }
 
+    /// The grid's origin, spacing and size.
     pub fn layout(&self) -> &GridLayout {
         self.backend.layout()
     }

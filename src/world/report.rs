@@ -9,7 +9,9 @@ use nalgebra::{UnitQuaternion, Vector3};
 /// the tool frame origin, averaged over a frame.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Wrench {
+    /// Force on the tool, world frame, N.
     pub force: Vector3<f64>,
+    /// Torque on the tool about its frame origin, world frame, N·m.
     pub torque: Vector3<f64>,
 }
 
@@ -28,14 +30,19 @@ impl Wrench {
 pub struct FrameReport {
     /// Simulated time at the end of the frame (s).
     pub time: f64,
+    /// Substeps taken.
     pub substeps: u32,
+    /// Smallest substep of the frame, s.
     pub dt_min: f64,
+    /// Largest substep of the frame, s.
     pub dt_max: f64,
     /// Per tool, scene order.
     pub wrenches: Vec<Wrench>,
     /// Contact nodes per tool, summed over the frame's substeps.
     pub contact_nodes: Vec<u32>,
+    /// Largest particle speed over the frame, m/s.
     pub max_speed: f32,
+    /// Particles that reached the domain edge and were clamped back inside, summed over substeps.
     pub clamped_particles: u32,
     /// The frame hit `max_substeps_per_frame` and advanced less than a frame of time.
     pub truncated: bool,
@@ -48,21 +55,34 @@ pub struct FrameReport {
 }
 
 #[derive(Debug, thiserror::Error, PartialEq)]
+/// Why a tool command was refused.
 pub enum CommandError {
     #[error("no tool with index {0}")]
+    /// No tool at this index (holds it).
     NoSuchTool(usize),
     #[error("tool {0}: commanded pose is not finite; keeping the last valid one")]
+    /// A pose with NaN or infinite values; the tool keeps its last valid pose (holds the tool's
+    /// name).
     NonFinitePose(String),
     #[error("tool {0} has no jaws")]
+    /// A jaw command to a tool without jaws (holds the tool's name).
     NoJaws(String),
     #[error("tool {0}: jaw effort {1} N·m is not finite")]
+    /// A NaN or infinite jaw effort: the tool's name and the effort, N·m.
     NonFiniteEffort(String, f64),
 }
 
 #[derive(Debug, thiserror::Error)]
+/// Why a frame could not be stepped.
 pub enum StepError {
     #[error(
         "simulation stopped at t = {time:.4} s: {event}; tissue restored to the last good frame"
     )]
-    Guard { time: f64, event: GuardEvent },
+    /// The guard stopped the simulation; the tissue is restored to the last good frame.
+    Guard {
+        /// Simulated time of the event, s.
+        time: f64,
+        /// What the guard saw.
+        event: GuardEvent,
+    },
 }

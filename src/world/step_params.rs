@@ -30,7 +30,9 @@ pub struct StepParams {
     pub max_substeps: u32,
     /// The implicit method: the substep is bound by advection under gravity only.
     pub implicit: bool,
+    /// What the world does when the guard trips.
     pub guard_policy: GuardPolicy,
+    /// When resting tissue may skip frames.
     pub sleep: SleepSettings,
 }
 

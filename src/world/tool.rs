@@ -15,17 +15,24 @@ pub enum ToolDriver {
     /// Poses commanded from outside (an arm's kinematics): the tool moves from `from` at
     /// `t0` to `to` at `t1` (one frame), linearly, so contact sees a smooth velocity.
     Commanded {
+        /// The pose at the frame's start.
         from: ToolPose,
+        /// The pose at the frame's end.
         to: ToolPose,
+        /// Simulated time of the frame's start, s.
         t0: f64,
+        /// Simulated time of the frame's end, s.
         t1: f64,
     },
 }
 
 /// A tool in the world and what drives it.
 pub struct WorldTool {
+    /// The tool's name in the scene.
     pub name: String,
+    /// The tool's shape (tool frame).
     pub shape: Shape,
+    /// How grid nodes in contact move with the tool.
     pub contact: ContactModel,
     /// Set through [`World::command_tool_pose`] and [`World::hold_tool`].
     pub(super) driver: ToolDriver,
@@ -114,6 +121,7 @@ impl Jaws {
 }
 
 impl WorldTool {
+    /// What moves the tool now.
     pub fn driver(&self) -> &ToolDriver {
         &self.driver
     }

@@ -40,15 +40,23 @@ use rayon::prelude::*;
 /// Inputs of one substep that change from substep to substep.
 #[derive(Clone, Copy, Debug)]
 pub struct SubstepInput<'a> {
+    /// Substep length, s.
     pub dt: f32,
+    /// Gravity, world frame, m/s².
     pub gravity: Vec3,
+    /// The tools at this substep.
     pub tools: &'a [ToolKinematics],
 }
 
+/// The CPU MPM solver: particles, a sparse block grid, and the substep of the scene's method.
 pub struct CpuSolver {
+    /// The grid's placement and size.
     pub layout: GridLayout,
+    /// The tissue's particles.
     pub particles: Particles,
+    /// The material table `Particles::material` indexes.
     pub materials: Vec<MaterialParams>,
+    /// The table and the domain walls.
     pub boundary: Boundary,
     /// Speed above which the guard reports a runaway (m/s).
     pub max_speed: f32,
@@ -187,6 +195,7 @@ fn gather(
 }
 
 impl CpuSolver {
+    /// A solver for `setup` (the method, materials and particles it names).
     pub fn new(setup: SolverSetup) -> Self {
         let layout = setup.layout;
         let bins = Binning::new(&layout, setup.particles.len());
@@ -221,6 +230,8 @@ impl CpuSolver {
         self.bins.touched.len()
     }
 
+    /// Advances the particles by one substep of `input.dt` and reports impulses, speed and guard
+    /// events.
     pub fn substep(&mut self, input: &SubstepInput) -> SubstepStats {
         assert!(input.tools.len() <= MAX_TOOLS, "at most {MAX_TOOLS} tools");
         if self.method == Method::Implicit {

@@ -17,8 +17,11 @@ use wgpu::{Adapter, DeviceType};
 
 /// A device and queue on the chosen adapter.
 pub struct GpuContext {
+    /// The logical device the solver's buffers and pipelines live on.
     pub device: wgpu::Device,
+    /// The device's command queue.
     pub queue: wgpu::Queue,
+    /// The adapter's name, backend and type.
     pub info: wgpu::AdapterInfo,
     /// The adapter has (and the device enabled) `SHADER_FLOAT32_ATOMIC`.
     pub float_atomics: bool,

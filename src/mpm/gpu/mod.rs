@@ -198,6 +198,7 @@ pub enum GpuError {
          Debian/Ubuntu `apt-get install mesa-vulkan-drivers` provides the llvmpipe software \
          adapter)"
     )]
+    /// No GPU adapter exists (no Vulkan, Metal or DX12 driver).
     NoAdapter,
     /// The adapter list came back empty after this process had opened a device on the
     /// adapter named (the driver no longer lists it: the GPU fell off, or the driver ran out
@@ -212,8 +213,11 @@ pub enum GpuError {
     #[error("could not open the GPU device: {0}")]
     Device(String),
     #[error("scene too large for the GPU backend: {0}")]
+    /// The scene exceeds the device's buffer or dispatch limits, or the implicit solve's particle
+    /// bound (holds which).
     TooLarge(String),
     #[error("the GPU backend does not support {0} yet; use backend = \"cpu\" or \"auto\"")]
+    /// A scene feature the GPU backend does not implement yet (holds which).
     Unsupported(&'static str),
 }
 
@@ -227,6 +231,8 @@ struct Groups<'a> {
     active_blocks: &'a wgpu::Buffer,
 }
 
+/// The wgpu compute solver: particles and the sparse block grid on the GPU, with a host copy of the
+/// particles read back each frame.
 pub struct GpuSolver {
     ctx: GpuContext,
     layout: GridLayout,
@@ -395,6 +401,7 @@ impl GpuSolver {
         })
     }
 
+    /// The grid's placement and size.
     pub fn layout(&self) -> &GridLayout {
         &self.layout
     }
@@ -408,6 +415,7 @@ impl GpuSolver {
         }
     }
 
+    /// The GPU adapter's name, as the driver reports it.
     pub fn adapter_name(&self) -> &str {
         &self.ctx.info.name
     }
@@ -418,10 +426,14 @@ impl GpuSolver {
         self.read_deformation = on;
     }
 
+    /// The host copy of the particles: positions as of the last frame read back (deformation
+    /// gradients only with [`GpuSolver::set_deformation_readback`]).
     pub fn host_particles(&self) -> &Particles {
         &self.host
     }
 
+    /// The host copy of the particles, brought fully up to date from the GPU, to edit: the edits
+    /// are uploaded before the next substep.
     pub fn host_particles_mut(&mut self) -> &mut Particles {
         self.download_all();
         self.host_dirty = true;

@@ -24,11 +24,15 @@ use nalgebra::Vector3;
 pub struct GripperView {
     /// Scene index of the tool.
     pub tool: usize,
+    /// Jaw length from the hinge, m.
     pub jaw_length: f32,
+    /// Jaw width, m.
     pub jaw_width: f32,
+    /// Jaw thickness, m.
     pub jaw_thickness: f32,
     /// Tool pose at the frame's start and end (it moves linearly between them).
     pub from: ToolPose,
+    /// Tool pose at the frame's end.
     pub to: ToolPose,
     /// Jaw opening reached at the frame's end (rad).
     pub opening: f64,
@@ -189,6 +193,7 @@ impl Grasps {
         }
     }
 
+    /// Thread points held by grippers now.
     pub fn held_points(&self) -> usize {
         self.held.iter().map(|g| g.points.len()).sum()
     }

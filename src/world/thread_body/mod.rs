@@ -111,7 +111,9 @@ pub fn tool_collider(tool: &WorldTool, t0: f64, t1: f64) -> RodCollider {
 
 /// One thread and how it steps.
 pub struct ThreadBody {
+    /// The thread's name in the scene.
     pub name: String,
+    /// The thread's state.
     pub rod: Rod,
     solver: RodSolver,
     /// Points the scene holds where they start.

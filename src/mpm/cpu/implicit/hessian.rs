@@ -26,6 +26,7 @@ use crate::mpm::material::{rotation_of, J_MIN};
 use crate::mpm::{Lame, Mat3, MaterialModel, Vec3};
 use nalgebra::SMatrix;
 
+/// A 9×9 matrix, such as ∂P/∂F with F and P flattened column-major to 9-vectors.
 pub type Mat9 = SMatrix<f32, 9, 9>;
 
 /// ∂P/∂F at one F, with what every direction δF shares computed once.

@@ -36,6 +36,7 @@ pub const SLIP_THRESHOLD: f32 = 1e-2;
 /// The slip term of one node.
 #[derive(Clone, Copy, Debug)]
 pub struct Slip {
+    /// The surface's unit normal n (the node's prescribed direction).
     pub normal: Vec3,
     /// The surface's velocity.
     pub surface: Vec3,
@@ -49,8 +50,11 @@ pub struct Slip {
 
 /// D, ∇D and ∇²D at velocity `v`.
 pub struct SlipTerms {
+    /// D(v), J.
     pub energy: f64,
+    /// ∇D = ∂D/∂v, N·s.
     pub gradient: Vec3,
+    /// ∇²D, kg (positive semi-definite).
     pub hessian: Mat3,
 }
 
