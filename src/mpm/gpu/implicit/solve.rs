@@ -5,7 +5,7 @@
 
 use super::layout::{scalar, GROUP};
 use super::{nodes, particles, single, ImplicitStages, CG_CHUNK};
-use crate::mpm::backend::FramePlan;
+use crate::mpm::frame_plan::FramePlan;
 use crate::mpm::gpu::resources::ARGS_GROUP;
 use crate::mpm::gpu::{GpuSolver, Groups};
 use crate::mpm::implicit_params::{
