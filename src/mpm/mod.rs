@@ -209,6 +209,7 @@ pub mod frame_plan;
 pub mod gpu;
 pub mod grid;
 pub mod guard;
+pub mod implicit_params;
 pub mod kernel;
 pub mod material;
 pub mod particles;
@@ -222,6 +223,7 @@ use serde::{Deserialize, Serialize};
 pub use backend::P2gAtomics;
 pub use grid::{Boundary, GridLayout, TableHold};
 pub use guard::{GuardEvent, GuardKind};
+pub use implicit_params::{ImplicitParams, Preconditioner, SolveCounts};
 pub use material::{Lame, MaterialModel};
 pub use particles::{MaterialParams, Particles};
 
@@ -258,70 +260,6 @@ pub struct PbMpmParams {
     pub iterations: u32,
     /// Over-relaxation of the elastic constraint, 0 < relaxation < 2.
     pub relaxation: f32,
-}
-
-/// Implicit solver settings (scene keys `solver.newton_*`, `solver.cg_*`,
-/// `solver.preconditioner`).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ImplicitParams {
-    /// Most Newton iterations per substep.
-    pub newton_iterations: u32,
-    /// Newton stops when the free-node residual falls below this fraction of its first value
-    /// or of the momentum gravity gives the nodes in one step, whichever is larger.
-    pub newton_tolerance: f32,
-    /// Most conjugate-gradient iterations per Newton iteration.
-    pub cg_iterations: u32,
-    /// The loosest Eisenstat–Walker forcing term: CG stops when its residual falls below
-    /// η times the Newton residual, η at most this (the first Newton iteration's), then
-    /// shrinking as Newton converges (`mpm::cpu::implicit`).
-    pub cg_tolerance: f32,
-    /// The CG preconditioner.
-    pub preconditioner: Preconditioner,
-}
-
-impl Default for ImplicitParams {
-    fn default() -> Self {
-        ImplicitParams {
-            newton_iterations: 8,
-            newton_tolerance: 1e-3,
-            cg_iterations: 200,
-            cg_tolerance: 1e-1,
-            preconditioner: Preconditioner::BlockJacobi,
-        }
-    }
-}
-
-/// Preconditioner of the implicit solver's conjugate gradients (scene key
-/// `solver.preconditioner`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum Preconditioner {
-    /// The node mass: the Hessian's inertia term alone.
-    Mass,
-    /// Each node's 3×3 diagonal block of the Hessian, inertia and elasticity.
-    #[default]
-    BlockJacobi,
-}
-
-/// Iterations an implicit solve took (zero for the explicit methods).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct SolveCounts {
-    /// Newton iterations.
-    pub newton: u32,
-    /// Conjugate-gradient iterations, summed over the Newton iterations.
-    pub cg: u32,
-    /// Nodes that joined the active set of constraints after a Newton solve (the solution
-    /// moved them into a tool, the table or a wall).
-    pub activated: u32,
-}
-
-impl SolveCounts {
-    /// Adds another solve's counts to these.
-    pub fn add(&mut self, other: SolveCounts) {
-        self.newton += other.newton;
-        self.cg += other.cg;
-        self.activated += other.activated;
-    }
 }
 
 /// What a solver is built from: the same for the CPU and the GPU backend.

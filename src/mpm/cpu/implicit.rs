@@ -32,7 +32,7 @@
 //!
 //! The constraints are chosen from v*; a node that the solution then moves into a tool,
 //! the table or a wall joins them (`activate_constraints`: its approaching component is
-//! prescribed, the iterate projected, and Newton resumes, at most `CONTACT_ROUNDS` times),
+//! prescribed, the iterate projected, and Newton resumes, at most [`CONTACT_ROUNDS`] times),
 //! so that the grid update after the solve leaves the free components of the solution as
 //! they are and G2P deforms the particles by the velocities the solve balanced.
 //!
@@ -42,163 +42,27 @@
 //! below what moves a particle), or when the next step's predicted decrease of Φ is below
 //! Φ's f32 rounding, at most `newton_iterations` times. Inexact Newton: CG stops when its
 //! residual falls below the Eisenstat–Walker forcing term η times the Newton residual
-//! (`forcing_term`, η at most `cg_tolerance`), at most `cg_iterations` times.
+//! ([`forcing_term`], η at most `cg_tolerance`), at most `cg_iterations` times.
 //!
 //! Warm start (`choose_warm_start`): the lowest Φ of v*, rest, and v* plus the last
 //! step's elastic velocity change at each node.
 
+mod cg;
 mod constraints;
+mod energy;
 pub mod hessian;
 pub mod slip;
+mod workspace;
 
-use super::{axis_offsets, CpuSolver, SharedMut, SolvedContact, SubstepInput};
-use crate::mpm::grid::{GridLayout, NODES_PER_BLOCK};
-use crate::mpm::kernel::Stencil;
-use crate::mpm::material::{energy_density, first_piola, J_MIN};
-use crate::mpm::{ImplicitParams, Mat3, Preconditioner, SolveCounts, SubstepStats, Vec3};
-use constraints::Surface;
-use hessian::{velocity_gradient_stiffness, Mat9};
-use rayon::prelude::*;
-use slip::{Slip, SLIP_THRESHOLD};
-
-/// Buffers of the implicit solve: node arrays indexed like the grid (only the nodes of the
-/// touched blocks are read or written), particle arrays indexed like the particles.
-#[derive(Default)]
-pub struct Workspace {
-    mass: Vec<f32>,
-    /// Velocity without elasticity, pⁿ/m + g dt.
-    v_star: Vec<Vec3>,
-    /// The Newton iterate.
-    v: Vec<Vec3>,
-    /// Line-search trial velocities.
-    trial: Vec<Vec3>,
-    /// ∂(Σ V₀Ψ)/∂v: the elastic part of ∇Φ (−dt × the elastic force).
-    elastic_grad: Vec<Vec3>,
-    /// Projected ∇Φ.
-    grad: Vec<Vec3>,
-    /// Newton step and the CG vectors.
-    step: Vec<Vec3>,
-    residual: Vec<Vec3>,
-    precond_residual: Vec<Vec3>,
-    direction: Vec<Vec3>,
-    product: Vec<Vec3>,
-    /// Projection onto each node's free velocity components, and the prescribed part.
-    free: Vec<Mat3>,
-    prescribed: Vec<Vec3>,
-    /// Surface normal of a node with one prescribed direction (see `constraints`).
-    normal: Vec<Vec3>,
-    /// The surface such a node slides on, and its friction weight λ = μ·N (N·s; `slip`).
-    surface: Vec<Surface>,
-    slip_weight: Vec<f32>,
-    /// The slip threshold ε of this substep (m/s).
-    slip_threshold: f32,
-    /// Diagonal Hessian block, then the preconditioner (its projected inverse).
-    block: Vec<Mat3>,
-    /// Per particle: velocity-gradient stiffness (see `hessian`).
-    stiffness: Vec<Mat9>,
-    /// ‖∇Φ‖ over the free components at each Newton iterate of the last substep.
-    residuals: Vec<f64>,
-    /// v − v* along the free components at the end of the last substep (the velocity the
-    /// elastic forces added, dt·f/m), kept for the next substep's warm start; zero outside
-    /// `correction_blocks`.
-    correction: Vec<Vec3>,
-    /// The normal impulse N (N·s) a surface gave each node with one prescribed direction at
-    /// the end of the last substep, zero elsewhere: the next substep's first friction
-    /// weights (`slip`); zero outside `correction_blocks`.
-    carried_impulse: Vec<f32>,
-    /// The blocks the last substep touched: where `correction` may be non-zero.
-    correction_blocks: Vec<u32>,
-}
-
-impl Workspace {
-    fn fit(&mut self, nodes: usize, particles: usize) {
-        if self.mass.len() != nodes {
-            for v in [
-                &mut self.v_star,
-                &mut self.v,
-                &mut self.trial,
-                &mut self.elastic_grad,
-                &mut self.grad,
-                &mut self.step,
-                &mut self.residual,
-                &mut self.precond_residual,
-                &mut self.direction,
-                &mut self.product,
-                &mut self.prescribed,
-                &mut self.normal,
-            ] {
-                *v = vec![Vec3::zeros(); nodes];
-            }
-            self.mass = vec![0.0; nodes];
-            self.slip_weight = vec![0.0; nodes];
-            self.surface = vec![Surface::still(); nodes];
-            self.correction = vec![Vec3::zeros(); nodes];
-            self.carried_impulse = vec![0.0; nodes];
-            self.correction_blocks.clear();
-            self.free = vec![Mat3::zeros(); nodes];
-            self.block = vec![Mat3::zeros(); nodes];
-        }
-        if self.stiffness.len() != particles {
-            self.stiffness = vec![Mat9::zeros(); particles];
-        }
-    }
-}
-
-impl<T> SharedMut<T> {
-    /// Element `i`.
-    ///
-    /// # Safety
-    /// `i` is in bounds and no other thread touches element `i` meanwhile.
-    #[allow(clippy::mut_from_ref)]
-    #[inline(always)]
-    unsafe fn at(&self, i: usize) -> &mut T {
-        &mut *self.0.add(i)
-    }
-}
-
-/// The 27 stencil nodes of a particle: storage index and MLS kernel gradient
-/// ∇wᵢₚ = wᵢₚ·4/dx²·(xᵢ − xₚ) (1/m).
-#[inline(always)]
-fn stencil_gradients(layout: &GridLayout, x: Vec3) -> ([usize; 27], [Vec3; 27]) {
-    let s = Stencil::new((x - layout.origin) * layout.inv_dx);
-    let offs = axis_offsets(layout, s.base);
-    // Offsets are in grid units: 4/dx² · dx = 4/dx.
-    let scale = 4.0 * layout.inv_dx;
-    let mut idx = [0usize; 27];
-    let mut grad = [Vec3::zeros(); 27];
-    for a in 0..3 {
-        for b in 0..3 {
-            for c in 0..3 {
-                let k = 9 * a + 3 * b + c;
-                idx[k] = offs[0][a] + offs[1][b] + offs[2][c];
-                let w = s.w[a].x * s.w[b].y * s.w[c].z;
-                grad[k] = (Vec3::new(a as f32, b as f32, c as f32) - s.fx) * (w * scale);
-            }
-        }
-    }
-    (idx, grad)
-}
-
-/// Σᵢ vᵢ ∇wᵢₚᵀ over a particle's stencil.
-#[inline(always)]
-fn velocity_gradient(v: &[Vec3], idx: &[usize; 27], grad: &[Vec3; 27]) -> Mat3 {
-    let mut g = Mat3::zeros();
-    for (&i, d) in idx.iter().zip(grad) {
-        g += v[i] * d.transpose();
-    }
-    g
-}
-
-/// Flattened column-major, as the 9×9 stiffness expects.
-#[inline(always)]
-fn flatten(m: &Mat3) -> nalgebra::SVector<f32, 9> {
-    nalgebra::SVector::<f32, 9>::from_column_slice(m.as_slice())
-}
-
-#[inline(always)]
-fn unflatten(v: &nalgebra::SVector<f32, 9>) -> Mat3 {
-    Mat3::from_column_slice(v.as_slice())
-}
+use super::{CpuSolver, SharedMut, SolvedContact, SubstepInput};
+use crate::mpm::grid::NODES_PER_BLOCK;
+use crate::mpm::implicit_params::{
+    forcing_term, ARMIJO, CONTACT_ROUNDS, ENERGY_ROUNDING, LINE_SEARCH_TRIALS, RESIDUAL_FLOOR,
+    SLIP_THRESHOLD,
+};
+use crate::mpm::{SolveCounts, SubstepStats, Vec3};
+use workspace::NodeWriter;
+pub use workspace::Workspace;
 
 impl CpuSolver {
     /// One implicit substep (module docs).
@@ -234,40 +98,6 @@ impl CpuSolver {
         &self.implicit_work.residuals
     }
 
-    /// Runs every node of the touched blocks through `f` (each index once, in parallel).
-    fn for_each_node(&self, f: impl Fn(usize) + Sync + Send) {
-        self.bins.touched.par_iter().with_min_len(4).for_each(|&b| {
-            let start = b as usize * NODES_PER_BLOCK;
-            (start..start + NODES_PER_BLOCK).for_each(&f);
-        });
-    }
-
-    /// Σ over the nodes of the touched blocks, in f64.
-    fn sum_nodes(&self, f: impl Fn(usize) -> f64 + Sync + Send) -> f64 {
-        self.bins
-            .touched
-            .par_iter()
-            .with_min_len(4)
-            .map(|&b| {
-                let start = b as usize * NODES_PER_BLOCK;
-                (start..start + NODES_PER_BLOCK).map(&f).sum::<f64>()
-            })
-            .sum()
-    }
-
-    /// Runs every particle through `f`, block colours in turn, so that particles running
-    /// at the same time scatter to disjoint nodes (see `binning`).
-    fn for_each_particle_coloured(&self, f: impl Fn(usize) + Sync + Send) {
-        let order = &self.bins.order[..];
-        for color in &self.bins.by_color {
-            color.par_iter().for_each(|range| {
-                for &p in &order[range.start as usize..range.end as usize] {
-                    f(p as usize);
-                }
-            });
-        }
-    }
-
     /// Newton's method on the grid velocities; leaves pⁿ + dt·f(v) and m in the grid for
     /// `update_grid`.
     fn solve_velocities(&mut self, input: &SubstepInput) -> SolveCounts {
@@ -278,7 +108,7 @@ impl CpuSolver {
         self.prepare_nodes(&mut ws, input);
         self.choose_warm_start(&mut ws, dt);
         let mass_norm = self.sum_nodes(|i| (ws.mass[i] as f64).powi(2)).sqrt();
-        let floor = 1e-5 * mass_norm * (self.layout.dx / dt) as f64;
+        let floor = RESIDUAL_FLOOR * mass_norm * (self.layout.dx / dt) as f64;
         // The momentum gravity gives the nodes in one step (N·s): the scale of the residual
         // a warm start that ignores the elastic forces would leave. The tolerance is taken
         // relative to it as well as to the first residual, so that a warm start close to
@@ -459,152 +289,6 @@ impl CpuSolver {
         ws.carried_impulse = carried;
     }
 
-    /// Φ at `ws.v`; ∂E/∂v into `elastic_grad`, the projected ∇Φ into `grad`, and with
-    /// `hessian` the particles' stiffness and the preconditioner.
-    fn evaluate(&self, ws: &mut Workspace, dt: f32, hessian: bool) -> f64 {
-        let layout = self.layout;
-        let parts = &self.particles;
-        let materials = &self.materials[..];
-        let precondition = hessian && self.implicit.preconditioner == Preconditioner::BlockJacobi;
-        {
-            let out = NodeWriter::new(ws);
-            self.for_each_node(|i| unsafe {
-                *out.elastic_grad.at(i) = Vec3::zeros();
-                *out.block.at(i) = Mat3::zeros();
-            });
-        }
-        let v = &ws.v[..];
-        let eg = SharedMut(ws.elastic_grad.as_mut_ptr());
-        let block = SharedMut(ws.block.as_mut_ptr());
-        let stiffness = SharedMut(ws.stiffness.as_mut_ptr());
-        let mut elastic = 0.0f64;
-        let order = &self.bins.order[..];
-        for color in &self.bins.by_color {
-            elastic += color
-                .par_iter()
-                .map(|range| {
-                    let mut e = 0.0f64;
-                    for &p in &order[range.start as usize..range.end as usize] {
-                        let p = p as usize;
-                        let (idx, grad) = stencil_gradients(&layout, parts.x[p]);
-                        let f_n = parts.f[p];
-                        let f = (Mat3::identity() + velocity_gradient(v, &idx, &grad) * dt) * f_n;
-                        let mat = materials[parts.material[p] as usize];
-                        let vol = parts.volume0[p];
-                        e += vol as f64 * energy_density(mat.model, mat.lame, &f);
-                        let piola =
-                            first_piola(mat.model, mat.lame, &f).unwrap_or_else(Mat3::zeros);
-                        let q = piola * f_n.transpose() * (vol * dt);
-                        for (&i, d) in idx.iter().zip(&grad) {
-                            // SAFETY: particles of one colour scatter to disjoint nodes.
-                            unsafe { *eg.at(i) += q * d };
-                        }
-                        if hessian {
-                            let kp = velocity_gradient_stiffness(
-                                mat.model,
-                                mat.lame,
-                                &f,
-                                &f_n,
-                                vol * dt * dt,
-                            );
-                            // SAFETY: each particle writes its own entry.
-                            unsafe { *stiffness.at(p) = kp };
-                            if precondition {
-                                for (&i, d) in idx.iter().zip(&grad) {
-                                    // Block (a, b) = Σ_c Σ_c' K[a + 3c, b + 3c'] d_c d_c'.
-                                    let blk = Mat3::from_fn(|a, b| {
-                                        let mut s = 0.0;
-                                        for (c, dc) in d.iter().enumerate() {
-                                            for (cc, dcc) in d.iter().enumerate() {
-                                                s += kp[(a + 3 * c, b + 3 * cc)] * dc * dcc;
-                                            }
-                                        }
-                                        s
-                                    });
-                                    // SAFETY: as above.
-                                    unsafe { *block.at(i) += blk };
-                                }
-                            }
-                        }
-                    }
-                    e
-                })
-                .sum::<f64>();
-        }
-        let threshold = ws.slip_threshold;
-        let out = NodeWriter::new(ws);
-        let nodal = self.sum_nodes(|i| unsafe {
-            let m = *out.mass.at(i);
-            if m <= 0.0 {
-                return 0.0;
-            }
-            let v = *out.v.at(i);
-            let dv = v - *out.v_star.at(i);
-            let free = *out.free.at(i);
-            let mut g = dv * m + *out.elastic_grad.at(i);
-            let mut d = Mat3::identity() * m;
-            let mut dissipation = 0.0;
-            if let Some(slip) = out.slip(i, threshold) {
-                let terms = slip.terms(&v);
-                g += terms.gradient;
-                d += terms.hessian;
-                dissipation = terms.energy;
-            }
-            *out.grad.at(i) = free * g;
-            if hessian {
-                if precondition {
-                    d += *out.block.at(i);
-                }
-                // Inverse on the free subspace: (S D S + I − S)⁻¹ restricted by S.
-                let restricted = free * d * free + (Mat3::identity() - free);
-                let inv = restricted
-                    .try_inverse()
-                    .unwrap_or_else(|| Mat3::identity() / m);
-                *out.block.at(i) = free * inv * free;
-            }
-            0.5 * m as f64 * dv.norm_squared() as f64 + dissipation
-        });
-        nodal + elastic
-    }
-
-    /// Φ at velocities `v` (no derivatives); infinite where a step would crush a particle
-    /// to `J_MIN` or invert it, so the line search never steps there (the clamped
-    /// Neo-Hookean energy stops being the potential of its stress below it).
-    fn energy_at(&self, ws: &Workspace, v: &[Vec3], dt: f32) -> f64 {
-        let layout = self.layout;
-        let parts = &self.particles;
-        let materials = &self.materials[..];
-        let elastic: f64 = (0..parts.len())
-            .into_par_iter()
-            .with_min_len(256)
-            .map(|p| {
-                let (idx, grad) = stencil_gradients(&layout, parts.x[p]);
-                let f = (Mat3::identity() + velocity_gradient(v, &idx, &grad) * dt) * parts.f[p];
-                if f.determinant() <= J_MIN {
-                    return f64::INFINITY;
-                }
-                let mat = materials[parts.material[p] as usize];
-                parts.volume0[p] as f64 * energy_density(mat.model, mat.lame, &f)
-            })
-            .sum();
-        let nodal = self.sum_nodes(|i| {
-            let m = ws.mass[i];
-            if m <= 0.0 {
-                return 0.0;
-            }
-            let slip = slip_of(
-                m,
-                ws.normal[i],
-                &ws.surface[i],
-                ws.slip_weight[i],
-                ws.slip_threshold,
-            );
-            0.5 * m as f64 * (v[i] - ws.v_star[i]).norm_squared() as f64
-                + slip.map_or(0.0, |s| s.energy(&v[i]))
-        });
-        nodal + elastic
-    }
-
     /// Warm start: of v* (the last step's velocities as the particles carried them, plus
     /// gravity), of rest (only the prescribed velocities) and of v* plus the last step's
     /// elastic velocity change dt·f/m at the same node (extrapolated: the elastic forces
@@ -651,7 +335,7 @@ impl CpuSolver {
     fn line_search(&self, ws: &mut Workspace, dt: f32, energy: f64) -> Option<(f64, bool)> {
         let slope = self.sum_nodes(|i| ws.grad[i].dot(&ws.step[i]) as f64);
         // Φ is summed from f32 deformation gradients: a change below this is rounding.
-        let noise = 1e-6 * energy.abs();
+        let noise = ENERGY_ROUNDING * energy.abs();
         if -0.5 * slope <= noise {
             {
                 let out = NodeWriter::new(ws);
@@ -668,7 +352,7 @@ impl CpuSolver {
         }
         let mut alpha = 1.0f32;
         let mut trial_energy = f64::NAN;
-        for _ in 0..8 {
+        for _ in 0..LINE_SEARCH_TRIALS {
             {
                 let out = NodeWriter::new(ws);
                 self.for_each_node(|i| unsafe {
@@ -676,7 +360,7 @@ impl CpuSolver {
                 });
             }
             trial_energy = self.energy_at(ws, &ws.trial, dt);
-            if trial_energy <= energy + 1e-4 * alpha as f64 * slope + noise {
+            if trial_energy <= energy + ARMIJO * alpha as f64 * slope + noise {
                 break;
             }
             alpha *= 0.5;
@@ -684,248 +368,17 @@ impl CpuSolver {
         std::mem::swap(&mut ws.v, &mut ws.trial);
         Some((trial_energy, false))
     }
-
-    /// Preconditioned CG on H·step = −∇Φ over the free components until its residual is
-    /// below `target` (N·s); returns its iterations.
-    fn conjugate_gradients(&self, ws: &mut Workspace, params: &ImplicitParams, target: f64) -> u32 {
-        {
-            let out = NodeWriter::new(ws);
-            self.for_each_node(|i| unsafe {
-                let r = -*out.grad.at(i);
-                let z = *out.block.at(i) * r;
-                *out.step.at(i) = Vec3::zeros();
-                *out.residual.at(i) = r;
-                *out.precond_residual.at(i) = z;
-                *out.direction.at(i) = z;
-            });
-        }
-        let mut rz = self.sum_nodes(|i| ws.residual[i].dot(&ws.precond_residual[i]) as f64);
-        let mut iterations = 0;
-        while iterations < params.cg_iterations {
-            self.hessian_product(ws);
-            let pap = self.sum_nodes(|i| ws.direction[i].dot(&ws.product[i]) as f64);
-            if pap.is_nan() || pap <= 0.0 {
-                break;
-            }
-            let alpha = (rz / pap) as f32;
-            iterations += 1;
-            let r_norm = {
-                let out = NodeWriter::new(ws);
-                self.sum_nodes(|i| unsafe {
-                    *out.step.at(i) += *out.direction.at(i) * alpha;
-                    let r = *out.residual.at(i) - *out.product.at(i) * alpha;
-                    *out.residual.at(i) = r;
-                    *out.precond_residual.at(i) = *out.block.at(i) * r;
-                    r.norm_squared() as f64
-                })
-                .sqrt()
-            };
-            if r_norm <= target {
-                break;
-            }
-            let rz_new = self.sum_nodes(|i| ws.residual[i].dot(&ws.precond_residual[i]) as f64);
-            let beta = (rz_new / rz) as f32;
-            rz = rz_new;
-            let out = NodeWriter::new(ws);
-            self.for_each_node(|i| unsafe {
-                *out.direction.at(i) = *out.precond_residual.at(i) + *out.direction.at(i) * beta;
-            });
-        }
-        iterations
-    }
-
-    /// `product` = S·H·S `direction`: inertia plus the particles' stiffness, matrix-free
-    /// (gather of the velocity gradient, 9×9 product, scatter).
-    fn hessian_product(&self, ws: &mut Workspace) {
-        let layout = self.layout;
-        let parts = &self.particles;
-        {
-            let out = NodeWriter::new(ws);
-            self.for_each_node(|i| unsafe { *out.product.at(i) = Vec3::zeros() });
-        }
-        let x = &ws.direction[..];
-        let stiffness = &ws.stiffness[..];
-        let product = SharedMut(ws.product.as_mut_ptr());
-        self.for_each_particle_coloured(|p| {
-            let (idx, grad) = stencil_gradients(&layout, parts.x[p]);
-            let dg = velocity_gradient(x, &idx, &grad);
-            let q = unflatten(&(stiffness[p] * flatten(&dg)));
-            for (&i, d) in idx.iter().zip(&grad) {
-                // SAFETY: particles of one colour scatter to disjoint nodes.
-                unsafe { *product.at(i) += q * d };
-            }
-        });
-        let threshold = ws.slip_threshold;
-        let out = NodeWriter::new(ws);
-        self.for_each_node(|i| unsafe {
-            let m = *out.mass.at(i);
-            let free = *out.free.at(i);
-            let d = *out.direction.at(i);
-            let mut q = *out.product.at(i) + d * m;
-            if let Some(slip) = out.slip(i, threshold) {
-                q += slip.terms(&*out.v.at(i)).hessian * d;
-            }
-            *out.product.at(i) = free * q;
-        });
-    }
-}
-
-/// Times the active set of constraints may grow after Newton converged (see
-/// `activate_constraints`); each round reruns Newton from the projected solution.
-pub const CONTACT_ROUNDS: usize = 3;
-
-/// The Eisenstat–Walker forcing term η of a Newton iteration at residual `norm` (CG stops at
-/// η·norm): their choice 2, η = γ(‖gₖ‖/‖gₖ₋₁‖)² with γ = 0.9, safeguarded by γηₖ₋₁² while
-/// that exceeds 0.1 (`previous` holds the last residual and η), starting at and never
-/// looser than `loosest`. A linear solve far more exact than the Newton iterate it
-/// corrects is wasted work; as Newton converges the ratio falls and η with it. Never
-/// tighter than needed to bring the residual to half the Newton `goal`: the last step
-/// solves only as far as stopping needs.
-pub fn forcing_term(norm: f64, previous: Option<(f64, f64)>, goal: f64, loosest: f64) -> f64 {
-    const GAMMA: f64 = 0.9;
-    let eta = match previous {
-        None => loosest,
-        Some((previous_norm, previous_eta)) => {
-            let eta = GAMMA * (norm / previous_norm).powi(2);
-            let safeguard = GAMMA * previous_eta * previous_eta;
-            if safeguard > 0.1 {
-                eta.max(safeguard)
-            } else {
-                eta
-            }
-        }
-    };
-    eta.max(0.5 * goal / norm).min(loosest)
-}
-
-/// The slip term of a node of mass `m` with surface normal `normal` (zero: none), sliding
-/// on `surface` with friction weight `weight`.
-#[inline(always)]
-fn slip_of(m: f32, normal: Vec3, surface: &Surface, weight: f32, threshold: f32) -> Option<Slip> {
-    if normal.norm_squared() == 0.0 {
-        return None;
-    }
-    let slip = Slip {
-        normal,
-        surface: surface.velocity,
-        friction: weight,
-        drag: m * surface.drag / (1.0 - surface.drag),
-        threshold,
-    };
-    (!slip.is_none()).then_some(slip)
-}
-
-/// Raw pointers to the workspace's node arrays for the node loops, each of which writes
-/// every node index once.
-struct NodeWriter {
-    mass: SharedMut<f32>,
-    v_star: SharedMut<Vec3>,
-    v: SharedMut<Vec3>,
-    trial: SharedMut<Vec3>,
-    elastic_grad: SharedMut<Vec3>,
-    grad: SharedMut<Vec3>,
-    step: SharedMut<Vec3>,
-    residual: SharedMut<Vec3>,
-    precond_residual: SharedMut<Vec3>,
-    direction: SharedMut<Vec3>,
-    product: SharedMut<Vec3>,
-    free: SharedMut<Mat3>,
-    prescribed: SharedMut<Vec3>,
-    normal: SharedMut<Vec3>,
-    surface: SharedMut<Surface>,
-    slip_weight: SharedMut<f32>,
-    block: SharedMut<Mat3>,
-}
-
-impl NodeWriter {
-    fn new(ws: &mut Workspace) -> Self {
-        NodeWriter {
-            mass: SharedMut(ws.mass.as_mut_ptr()),
-            v_star: SharedMut(ws.v_star.as_mut_ptr()),
-            v: SharedMut(ws.v.as_mut_ptr()),
-            trial: SharedMut(ws.trial.as_mut_ptr()),
-            elastic_grad: SharedMut(ws.elastic_grad.as_mut_ptr()),
-            grad: SharedMut(ws.grad.as_mut_ptr()),
-            step: SharedMut(ws.step.as_mut_ptr()),
-            residual: SharedMut(ws.residual.as_mut_ptr()),
-            precond_residual: SharedMut(ws.precond_residual.as_mut_ptr()),
-            direction: SharedMut(ws.direction.as_mut_ptr()),
-            product: SharedMut(ws.product.as_mut_ptr()),
-            free: SharedMut(ws.free.as_mut_ptr()),
-            prescribed: SharedMut(ws.prescribed.as_mut_ptr()),
-            normal: SharedMut(ws.normal.as_mut_ptr()),
-            surface: SharedMut(ws.surface.as_mut_ptr()),
-            slip_weight: SharedMut(ws.slip_weight.as_mut_ptr()),
-            block: SharedMut(ws.block.as_mut_ptr()),
-        }
-    }
-
-    /// Clears node `i` of every array.
-    ///
-    /// # Safety
-    /// No other thread may touch node `i` meanwhile.
-    unsafe fn zero(&self, i: usize) {
-        for p in [
-            &self.v_star,
-            &self.v,
-            &self.trial,
-            &self.elastic_grad,
-            &self.grad,
-            &self.step,
-            &self.residual,
-            &self.precond_residual,
-            &self.direction,
-            &self.product,
-            &self.prescribed,
-            &self.normal,
-        ] {
-            *p.at(i) = Vec3::zeros();
-        }
-        *self.free.at(i) = Mat3::zeros();
-        *self.block.at(i) = Mat3::zeros();
-        *self.surface.at(i) = Surface::still();
-        *self.slip_weight.at(i) = 0.0;
-    }
-
-    /// Sets node `i`'s constraint `c`, chosen at velocity `v`, and projects `v` onto it
-    /// into the iterate. Its friction weight is μ times the normal impulse `carried` over
-    /// from the last substep where that was one, else the impulse that stops `v` at the
-    /// surface (a node arriving), until the solve gives a better one.
-    ///
-    /// # Safety
-    /// No other thread may touch node `i` meanwhile.
-    unsafe fn constrain(&self, i: usize, c: &constraints::NodeConstraint, v: Vec3, carried: f32) {
-        let m = *self.mass.at(i);
-        let arrival = m * (c.surface.velocity - v).dot(&c.normal).max(0.0);
-        let impulse = if carried > 0.0 { carried } else { arrival };
-        *self.free.at(i) = c.free;
-        *self.prescribed.at(i) = c.prescribed;
-        *self.normal.at(i) = c.normal;
-        *self.surface.at(i) = c.surface;
-        *self.slip_weight.at(i) = c.surface.friction * impulse;
-        *self.v.at(i) = c.free * v + c.prescribed;
-    }
-
-    /// The slip term of node `i` (see `slip`), if it has one.
-    ///
-    /// # Safety
-    /// No other thread may write node `i` meanwhile.
-    unsafe fn slip(&self, i: usize, threshold: f32) -> Option<Slip> {
-        slip_of(
-            *self.mass.at(i),
-            *self.normal.at(i),
-            &*self.surface.at(i),
-            *self.slip_weight.at(i),
-            threshold,
-        )
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mpm::grid::{Boundary, TableHold};
-    use crate::mpm::{Lame, MaterialModel, MaterialParams, Method, Particles, SolverSetup};
+    use crate::mpm::grid::{Boundary, GridLayout, TableHold};
+    use crate::mpm::material::energy_density;
+    use crate::mpm::{
+        ImplicitParams, Lame, MaterialModel, MaterialParams, Method, Particles, Preconditioner,
+        SolverSetup,
+    };
 
     /// A 8 × 8 × 6 mm block bonded to a table, `e` Pa, ν 0.45, under gravity.
     fn block(e: f64, model: MaterialModel) -> CpuSolver {
@@ -1138,22 +591,6 @@ mod tests {
             gained <= 0.1 * work,
             "gained {gained} J, tool work {work} J"
         );
-    }
-
-    #[test]
-    fn forcing_terms_loosen_far_from_the_solution_and_never_oversolve() {
-        let goal = 1e-3;
-        // The first Newton iteration takes the loosest term.
-        assert_eq!(forcing_term(1.0, None, goal, 0.1), 0.1);
-        // Fast convergence (residual down 10×) tightens it to γ·0.01.
-        let eta = forcing_term(0.1, Some((1.0, 0.1)), goal, 0.1);
-        assert!((eta - 0.009).abs() < 1e-9, "{eta}");
-        // Slow convergence keeps it loose.
-        assert_eq!(forcing_term(0.9, Some((1.0, 0.1)), goal, 0.1), 0.1);
-        // Near the goal CG only needs to reach half of it: at 10× the goal, η = 0.05
-        // instead of γ(0.01)² = 9e-5.
-        let eta = forcing_term(0.01, Some((1.0, 0.1)), goal, 0.1);
-        assert!((eta - 0.05).abs() < 1e-12, "{eta}");
     }
 
     #[test]

@@ -287,7 +287,7 @@ fn rotation_of(a: mat3x3<f32>) -> mat3x3<f32> {
 
 fn kirchhoff_stress(mat: Material, f: mat3x3<f32>) -> mat3x3<f32> {
     let id = mat3x3<f32>(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0));
-    if (mat.model == 0u) {
+    if (mat.model == NEO_HOOKEAN) {
         let j = max(determinant(f), J_MIN);
         let tau = (f * transpose(f)) * mat.mu;
         return tau + id * (mat.lambda * log(j) - mat.mu);
@@ -466,12 +466,12 @@ fn sdf_mesh_spine(p: vec3<f32>, blade: u32, thickness: f32) -> Hit {
 fn tool_query(t: Tool, p: vec3<f32>) -> Hit {
     let s = t.shape;
     switch t.kind.x {
-        case 0u: { return sdf_sphere(p, s.x); }
-        case 1u: { return sdf_capsule(p, s.x, s.y); }
-        case 2u: { return sdf_box(p, s.xyz); }
-        case 3u: { return sdf_gripper(p, t.lin.w, s.x, s.y, s.z); }
-        case 4u: { return sdf_needle(p, s.x, s.y, s.z); }
-        case 5u: { return sdf_slicer_spine(p, s.x, s.z); }
+        case SPHERE_KIND: { return sdf_sphere(p, s.x); }
+        case CAPSULE_KIND: { return sdf_capsule(p, s.x, s.y); }
+        case BOX_KIND: { return sdf_box(p, s.xyz); }
+        case GRIPPER_KIND: { return sdf_gripper(p, t.lin.w, s.x, s.y, s.z); }
+        case NEEDLE_KIND: { return sdf_needle(p, s.x, s.y, s.z); }
+        case SLICER_KIND: { return sdf_slicer_spine(p, s.x, s.z); }
         default: { return sdf_mesh_spine(p, t.kind.z, s.x); }
     }
 }
@@ -524,8 +524,8 @@ fn resolve(sticky: bool, friction: f32, drag: f32, v_node: vec3<f32>, v_tool: ve
 fn apply_boundary(ijk: vec3<u32>, x: vec3<f32>, v_in: vec3<f32>) -> vec3<f32> {
     var v = v_in;
     let table = sim.blocks.w;
-    if (table != 0u && x.z <= sim.table.x + 1e-3 * sim.origin_dx.w) {
-        if (table == 1u) {
+    if (table != TABLE_NONE && x.z <= sim.table.x + 1e-3 * sim.origin_dx.w) {
+        if (table == TABLE_BONDED) {
             v = vec3<f32>(0.0);
         } else {
             v = resolve(false, sim.table.y, 0.0, v, vec3<f32>(0.0), vec3<f32>(0.0, 0.0, 1.0), vec3<f32>(0.0));
@@ -549,7 +549,7 @@ fn apply_boundary(ijk: vec3<u32>, x: vec3<f32>, v_in: vec3<f32>) -> vec3<f32> {
 // The region reaches one grid cell beyond the jaws (the CPU's `grip_reach`).
 fn grip_region(t: Tool, x: vec3<f32>) -> vec2<f32> {
     let outside = vec2<f32>(-1.0, 0.0);
-    if (t.kind.x != 3u || !in_aabb(t, x)) {
+    if (t.kind.x != GRIPPER_KIND || !in_aabb(t, x)) {
         return outside;
     }
     let reach = sim.origin_dx.w;

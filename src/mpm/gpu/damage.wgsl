@@ -18,7 +18,7 @@ fn damage_split(mat: Material, f: mat3x3<f32>) -> Split {
     var volume_stress: f32;
     var volume_energy: f32;
     var dilated: bool;
-    if (mat.model == 0u) {
+    if (mat.model == NEO_HOOKEAN) {
         // Neo-Hookean: ψ_μ = μ/2 (tr b − 3) − μ ln J, ψ_λ = λ/2 (ln J)².
         let j = max(determinant(f), J_MIN);
         let ln_j = log(j);

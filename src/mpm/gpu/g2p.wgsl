@@ -88,7 +88,7 @@ fn finalize_guard() {
         return;
     }
     let part = particles[atomicLoad(&stats[S_GUARD_PARTICLE])];
-    atomicStore(&stats[S_GUARD_KIND], select(1u, 0u, part.v.w < 0.0));
+    atomicStore(&stats[S_GUARD_KIND], select(GUARD_RUNAWAY, GUARD_NON_FINITE, part.v.w < 0.0));
     atomicStore(&stats[S_GUARD_SPEED], bitcast<u32>(part.v.w));
     atomicStore(&stats[S_GUARD_POS], bitcast<u32>(part.x.x));
     atomicStore(&stats[S_GUARD_POS + 1u], bitcast<u32>(part.x.y));

@@ -116,7 +116,7 @@ fn update_block(wid: vec3<u32>, lid: u32, settled_by_solve: bool) {
         if (hit_tool != NO_TOOL && !handled) {
             let tool = tools[st.substep * sim.n_tools + hit_tool];
             let v_tool = surface_velocity(tool, x, best_hit.part);
-            let v_new = resolve(tool.kind.y == 1u, tool.aabb_min.w, tool.aabb_max.w, v, v_tool,
+            let v_new = resolve(tool.kind.y == STICKY, tool.aabb_min.w, tool.aabb_max.w, v, v_tool,
                                 best_hit.normal, best_hit.tangent);
             dp = (v - v_new) * m;
             dl = cross(x - tool.trans.xyz, dp);

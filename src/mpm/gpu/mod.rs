@@ -362,7 +362,7 @@ impl GpuSolver {
             with_args: &res.with_args,
         };
         let implicit = (setup.method == Method::Implicit).then(|| {
-            let module = builder.module("implicit", implicit::SOURCE);
+            let module = builder.module("implicit", &implicit::source());
             ImplicitStages::new(
                 device,
                 &res,

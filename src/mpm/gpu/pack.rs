@@ -32,6 +32,8 @@ macro_rules! shared_struct {
     };
 }
 
+pub(super) use shared_struct;
+
 /// The WGSL type with the layout of a Rust field type (vec3 and mat3x3 columns padded to
 /// 16 bytes, so only 4-wide vectors appear).
 macro_rules! wgsl_type {
@@ -51,6 +53,7 @@ macro_rules! wgsl_type {
         "mat3x3<f32>"
     };
 }
+pub(super) use wgsl_type;
 
 shared_struct! {
     /// Per-solver constants (uniform `sim`).
@@ -62,7 +65,7 @@ shared_struct! {
         pub n_tools: u32,
         /// Nodes per axis; w: block count.
         pub nodes: [u32; 4],
-        /// Blocks per axis; w: table (0 none, 1 bonded, 2 resting).
+        /// Blocks per axis; w: the table (`TABLE_*`).
         pub blocks: [u32; 4],
         /// x: table height, y: table friction.
         pub table: [f32; 4],
@@ -98,7 +101,7 @@ shared_struct! {
 
 shared_struct! {
     pub struct GpuMaterial as "Material" {
-        /// 0 Neo-Hookean, 1 fixed-corotated.
+        /// [`NEO_HOOKEAN`] or [`FIXED_COROTATED`].
         pub model: u32,
         pub mu: f32,
         pub lambda: f32,
@@ -127,16 +130,47 @@ shared_struct! {
         pub aabb_max: [f32; 4],
         /// The shape's dimensions; a gripper's w: its grip ratio.
         pub shape: [f32; 4],
-        /// x: shape (0 sphere, 1 capsule, 2 box, 3 gripper, 4 needle, 5 slicer, 6 mesh
-        /// slicer); y: 1 sticky; z: a mesh slicer's blade record in `blades` (`blade.rs`).
+        /// x: shape (`*_KIND`); y: [`STICKY`] or 0; z: a mesh slicer's blade record in
+        /// `blades` (`blade.rs`).
         pub kind: [u32; 4],
     }
 }
 
-/// `GpuTool::kind.x` of a slicer.
+/// `GpuTool::kind.x`: the tool's shape.
+pub const SPHERE_KIND: u32 = 0;
+pub const CAPSULE_KIND: u32 = 1;
+pub const BOX_KIND: u32 = 2;
+pub const GRIPPER_KIND: u32 = 3;
+pub const NEEDLE_KIND: u32 = 4;
 pub const SLICER_KIND: u32 = 5;
-/// `GpuTool::kind.x` of a slicer from a mesh file.
+/// A slicer from a mesh file.
 pub const MESH_SLICER_KIND: u32 = 6;
+/// `GpuTool::kind.y` of a sticky tool (0: Coulomb contact).
+pub const STICKY: u32 = 1;
+/// `GpuMaterial::model`.
+pub const NEO_HOOKEAN: u32 = 0;
+pub const FIXED_COROTATED: u32 = 1;
+/// `SimUniform::blocks.w`: no table, a bonded one, a resting one.
+pub const TABLE_NONE: u32 = 0;
+pub const TABLE_BONDED: u32 = 1;
+pub const TABLE_RESTING: u32 = 2;
+
+/// The codes above by their WGSL names, for the prelude.
+pub const WGSL_CODES: [(&str, u32); 13] = [
+    ("SPHERE_KIND", SPHERE_KIND),
+    ("CAPSULE_KIND", CAPSULE_KIND),
+    ("BOX_KIND", BOX_KIND),
+    ("GRIPPER_KIND", GRIPPER_KIND),
+    ("NEEDLE_KIND", NEEDLE_KIND),
+    ("SLICER_KIND", SLICER_KIND),
+    ("MESH_SLICER_KIND", MESH_SLICER_KIND),
+    ("STICKY", STICKY),
+    ("NEO_HOOKEAN", NEO_HOOKEAN),
+    ("FIXED_COROTATED", FIXED_COROTATED),
+    ("TABLE_NONE", TABLE_NONE),
+    ("TABLE_BONDED", TABLE_BONDED),
+    ("TABLE_RESTING", TABLE_RESTING),
+];
 
 /// Every shared struct's WGSL declaration, for the prelude.
 pub const WGSL_STRUCTS: [&str; 5] = [
@@ -173,22 +207,22 @@ pub fn unpack_mat3(cols: &[[f32; 4]]) -> Mat3 {
 impl From<&ToolKinematics> for GpuTool {
     fn from(t: &ToolKinematics) -> Self {
         let (shape, kind) = match t.shape {
-            Shape::Sphere { radius } => ([radius, 0.0, 0.0, 0.0], 0),
+            Shape::Sphere { radius } => ([radius, 0.0, 0.0, 0.0], SPHERE_KIND),
             Shape::Capsule {
                 radius,
                 half_length,
-            } => ([radius, half_length, 0.0, 0.0], 1),
-            Shape::Box { half_extents: h } => ([h[0], h[1], h[2], 0.0], 2),
+            } => ([radius, half_length, 0.0, 0.0], CAPSULE_KIND),
+            Shape::Box { half_extents: h } => ([h[0], h[1], h[2], 0.0], BOX_KIND),
             Shape::Gripper {
                 jaw_length,
                 jaw_width,
                 jaw_thickness,
-            } => ([jaw_length, jaw_width, jaw_thickness, t.grip], 3),
+            } => ([jaw_length, jaw_width, jaw_thickness, t.grip], GRIPPER_KIND),
             Shape::Needle {
                 radius,
                 arc_angle,
                 wire_radius,
-            } => ([radius, arc_angle, wire_radius, 0.0], 4),
+            } => ([radius, arc_angle, wire_radius, 0.0], NEEDLE_KIND),
             // The spine's contact and the edge's crack marking (crack.wgsl) read these.
             Shape::Slicer {
                 length,
@@ -201,7 +235,7 @@ impl From<&ToolKinematics> for GpuTool {
         };
         let (friction, drag, sticky) = match t.contact {
             ContactModel::Coulomb { friction, drag } => (friction, drag, 0),
-            ContactModel::Sticky => (0.0, 0.0, 1),
+            ContactModel::Sticky => (0.0, 0.0, STICKY),
         };
         GpuTool {
             rot: m3(&t.rotation),
@@ -267,8 +301,8 @@ pub fn materials(m: &[MaterialParams], dx: f32) -> Vec<GpuMaterial> {
     m.iter()
         .map(|m| GpuMaterial {
             model: match m.model {
-                MaterialModel::NeoHookean => 0,
-                MaterialModel::FixedCorotated => 1,
+                MaterialModel::NeoHookean => NEO_HOOKEAN,
+                MaterialModel::FixedCorotated => FIXED_COROTATED,
             },
             mu: m.lame.mu,
             lambda: m.lame.lambda,

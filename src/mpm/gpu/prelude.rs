@@ -17,14 +17,14 @@
 
 use super::blade;
 use super::grid_update::IMPULSE_WORDS;
-use super::pack::{MESH_SLICER_KIND, SLICER_KIND, WGSL_STRUCTS};
+use super::pack::{WGSL_CODES, WGSL_STRUCTS};
 use super::readback::word;
 use super::resources::{Binding, ARGS_GROUP};
 use super::WG;
-use crate::mpm::cpu::implicit::slip::SLIP_THRESHOLD;
 use crate::mpm::crack::MIN_OFFSET_CELLS;
 use crate::mpm::damage::TORN;
 use crate::mpm::grid::{Node, BLOCK, NODES_PER_BLOCK, WALL_NODES};
+use crate::mpm::implicit_params::SLIP_THRESHOLD;
 use crate::mpm::material::{J_MIN, ROTATION_ITERATIONS};
 use crate::mpm::MAX_TOOLS;
 use crate::tools::slicer::STENCIL_REACH_CELLS;
@@ -51,8 +51,10 @@ fn prelude(float_p2g: bool, cutting: bool) -> String {
     writeln!(out, "const SLIP_THRESHOLD: f32 = {SLIP_THRESHOLD:?};").unwrap();
     // Cutting: whether particles carry cracks, and the constants of crack.rs / slicer.rs.
     writeln!(out, "const CUTTING: bool = {cutting};").unwrap();
-    writeln!(out, "const SLICER_KIND: u32 = {SLICER_KIND}u;").unwrap();
-    writeln!(out, "const MESH_SLICER_KIND: u32 = {MESH_SLICER_KIND}u;").unwrap();
+    // The codes the shared structs' fields take (pack.rs).
+    for (name, value) in WGSL_CODES {
+        writeln!(out, "const {name}: u32 = {value}u;").unwrap();
+    }
     out.push_str(&blade::wgsl_constants());
     writeln!(
         out,
@@ -69,6 +71,13 @@ fn prelude(float_p2g: bool, cutting: bool) -> String {
     for (name, value) in word::ALL {
         writeln!(out, "const S_{name}: u32 = {value}u;").unwrap();
     }
+    writeln!(
+        out,
+        "const GUARD_NON_FINITE: u32 = {}u;",
+        word::GUARD_NON_FINITE
+    )
+    .unwrap();
+    writeln!(out, "const GUARD_RUNAWAY: u32 = {}u;", word::GUARD_RUNAWAY).unwrap();
     out.push('\n');
     for s in WGSL_STRUCTS {
         out.push_str(s);
@@ -193,7 +202,7 @@ mod tests {
             }
         }
         // The implicit solve runs only with f32 atomics and without cuts.
-        let source = shader_source(super::super::implicit::SOURCE, true, false);
+        let source = shader_source(&super::super::implicit::source(), true, false);
         let module = naga::front::wgsl::parse_str(&source)
             .unwrap_or_else(|e| panic!("implicit: {}", e.emit_to_string(&source)));
         naga::valid::Validator::new(

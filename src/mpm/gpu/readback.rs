@@ -22,13 +22,18 @@ pub mod word {
     pub const SUBSTEPS: usize = 4;
     /// Blocks with tool contact in this substep.
     pub const CONTACT_BLOCKS: usize = 5;
-    /// 0 non-finite, 1 runaway.
+    /// [`GUARD_NON_FINITE`] or [`GUARD_RUNAWAY`].
     pub const GUARD_KIND: usize = 6;
     pub const GUARD_SPEED: usize = 7;
     /// 3 words.
     pub const GUARD_POS: usize = 8;
     /// MAX_TOOLS × IMPULSE_WORDS (see `IMPULSE_WORDS`).
     pub const IMPULSE: usize = 16;
+
+    /// The values of the `GUARD_KIND` word: a particle's state went non-finite, or its speed
+    /// passed the guard's.
+    pub const GUARD_NON_FINITE: usize = 0;
+    pub const GUARD_RUNAWAY: usize = 1;
 
     /// Names (without the `S_` the shaders prefix) and indices, for the shader prelude.
     pub const ALL: [(&str, usize); 10] = [
@@ -301,7 +306,7 @@ fn parse_stats(w: &[u32]) -> FrameStats {
     }
     if w[word::GUARD] != 0 {
         out.substeps_done = w[word::GUARD] - 1;
-        let non_finite = w[word::GUARD_KIND] == 0;
+        let non_finite = w[word::GUARD_KIND] == word::GUARD_NON_FINITE as u32;
         out.guard = Some(GuardEvent {
             kind: if non_finite {
                 GuardKind::NonFinite

@@ -222,9 +222,9 @@ fn sim_uniform(setup: &SolverSetup) -> SimUniform {
     let mass_unit = density * layout.dx.powi(3);
     let momentum_unit = mass_unit * (setup.max_speed / 8.0).max(1e-6);
     let (table_kind, table_height, table_friction) = match setup.boundary.table {
-        None => (0, 0.0, 0.0),
-        Some((h, TableHold::Bonded)) => (1, h, 0.0),
-        Some((h, TableHold::Resting { friction })) => (2, h, friction),
+        None => (pack::TABLE_NONE, 0.0, 0.0),
+        Some((h, TableHold::Bonded)) => (pack::TABLE_BONDED, h, 0.0),
+        Some((h, TableHold::Resting { friction })) => (pack::TABLE_RESTING, h, friction),
     };
     SimUniform {
         origin_dx: [layout.origin.x, layout.origin.y, layout.origin.z, layout.dx],

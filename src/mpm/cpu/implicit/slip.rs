@@ -13,7 +13,7 @@
 //! function; the normal force changes little from one step to the next, and re-solving
 //! with updated weights measured two to three times the Newton iterations on the
 //! implicit GPU agreement test's sphere press), and f₀ is |u| smoothed below the slip
-//! threshold ε:
+//! threshold ε ([`SLIP_THRESHOLD`](crate::mpm::implicit_params::SLIP_THRESHOLD)·dx/dt):
 //! f₀(s) = −s³/(3ε²) + s²/ε + ε/3 under ε, s above it, so that f₀′ = f₁ rises from 0 to 1
 //! over [0, ε]. Its gradient, −λ f₁(s) û, is Coulomb friction: of magnitude λ while the node
 //! slides, and a stiff viscous hold while it moves slower than ε relative to the surface
@@ -27,11 +27,6 @@
 //! the tool's recorded work and the tissue's energy disagree.
 
 use crate::mpm::{Mat3, Vec3};
-
-/// The slip threshold ε as a share of dx/dt: a node held by static friction creeps by at
-/// most this share of a cell per step. A tenth of this (1e-3) took up to 1.5 times the
-/// Newton iterations on the sphere press of the implicit GPU agreement test.
-pub const SLIP_THRESHOLD: f32 = 1e-2;
 
 /// The slip term of one node.
 #[derive(Clone, Copy, Debug)]
