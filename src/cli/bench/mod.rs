@@ -274,7 +274,7 @@ fn run_sweep(quick: bool, out: &Path, backends: Option<Vec<BackendChoice>>) -> R
     let provenance = report::Provenance::here(gpu.as_deref());
     let [md, csv] = report::write(out, "bench", &provenance, &table, Some(&sweep::csv(&rows)))?;
     let png = out.join("bench.png");
-    plot::render(&sweep::panels(&rows), "wall time (s)", "|error| (%)")
+    plot::render(&sweep::panels(&rows), "wall time (s)", "|error| (%)")?
         .write_png(&png)
         .with_context(|| format!("cannot write {}", png.display()))?;
     println!(
