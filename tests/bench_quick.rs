@@ -1,5 +1,5 @@
-//! `bench --quick` as CI runs it: every analytic run within its error bound, and the CSV,
-//! Markdown and PNG written. No timing is asserted.
+//! `bench --quick` as CI runs it: every explicit run at the coarse resolutions within its
+//! error bound, and the CSV, Markdown and PNG written. No timing is asserted.
 
 mod support;
 
@@ -12,11 +12,11 @@ fn quick_bench_meets_error_bounds_and_writes_its_files() {
             .arg(&out_dir),
     );
     let csv = std::fs::read_to_string(out_dir.join("bench.csv")).unwrap();
-    let mut lines = csv.lines();
+    let mut lines = csv.lines().filter(|l| !l.starts_with('#'));
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
     let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    assert_eq!(rows.len(), 19, "{csv}");
+    assert_eq!(rows.len(), 12, "{csv}");
     assert!(
         rows.iter().any(|r| r[column("solver")] == "PB-MPM"),
         "{csv}"
@@ -25,17 +25,7 @@ fn quick_bench_meets_error_bounds_and_writes_its_files() {
         rows.iter().any(|r| r[column("solver")] == "PIC-MPM"),
         "{csv}"
     );
-    assert!(
-        rows.iter().any(|r| r[column("solver")] == "implicit"),
-        "{csv}"
-    );
-    for scene in [
-        "hertz",
-        "bar",
-        "stretch",
-        "stretch-stiff-60kPa",
-        "stretch-stiff-1MPa",
-    ] {
+    for scene in ["hertz", "bar", "stretch"] {
         assert!(rows.iter().any(|r| r[column("scene")] == scene), "{csv}");
     }
     for r in &rows {
@@ -46,7 +36,17 @@ fn quick_bench_meets_error_bounds_and_writes_its_files() {
         assert!(substeps > 0, "{r:?}");
     }
     let md = std::fs::read_to_string(out_dir.join("bench.md")).unwrap();
-    assert_eq!(md.lines().count(), 2 + rows.len());
+    for key in ["command", "commit", "date", "machine"] {
+        assert!(
+            md.starts_with("- command: `") && md.contains(&format!("- {key}: `")),
+            "{md}"
+        );
+        assert!(csv.contains(&format!("# {key}: ")), "{csv}");
+    }
+    assert_eq!(
+        md.lines().filter(|l| l.starts_with('|')).count(),
+        2 + rows.len()
+    );
     let png = std::fs::read(out_dir.join("bench.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
     let _ = std::fs::remove_dir_all(&out_dir);

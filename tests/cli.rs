@@ -154,9 +154,13 @@ fn headless_run_writes_snapshots_at_the_asked_interval() {
 }
 
 #[test]
-fn bench_frame_prints_a_row_per_backend_with_both_timings() {
-    let stdout =
-        support::stdout_of_success(support::binary().args(["bench", "frame", "--frames", "2"]));
+fn bench_frame_prints_a_row_per_backend_with_both_timings_and_writes_them() {
+    let dir = std::env::temp_dir().join(format!("dts-bench-frame-{}", std::process::id()));
+    let stdout = support::stdout_of_success(
+        support::binary()
+            .args(["bench", "frame", "--frames", "2", "--out"])
+            .arg(&dir),
+    );
     let rows: Vec<Vec<&str>> = stdout
         .lines()
         .filter(|l| l.starts_with("| cpu") || l.starts_with("| gpu"))
@@ -174,4 +178,95 @@ fn bench_frame_prints_a_row_per_backend_with_both_timings() {
         assert!(serial > 0.0 && pipelined > 0.0, "{r:?}");
         assert!(cloud > 0.0 && cloud < serial, "{r:?}");
     }
+    // The files: the provenance header, then the very rows printed.
+    let md = std::fs::read_to_string(dir.join("frame.md")).unwrap();
+    let csv = std::fs::read_to_string(dir.join("frame.csv")).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    for key in ["command", "commit", "date", "machine"] {
+        assert!(md.contains(&format!("- {key}: `")), "{md}");
+        assert!(csv.contains(&format!("# {key}: ")), "{csv}");
+    }
+    assert!(md.contains("bench frame --frames 2 --out"), "{md}");
+    assert!(md.contains(" cores, "), "{md}");
+    let printed: Vec<&str> = stdout.lines().filter(|l| l.starts_with('|')).collect();
+    let in_md: Vec<&str> = md.lines().filter(|l| l.starts_with('|')).collect();
+    assert_eq!(in_md, printed);
+    let in_csv: Vec<Vec<&str>> = csv
+        .lines()
+        .filter(|l| !l.is_empty() && !l.starts_with('#'))
+        .map(|l| l.split(',').collect())
+        .collect();
+    let printed_cells: Vec<Vec<&str>> = printed
+        .iter()
+        .filter(|l| !l.starts_with("|---"))
+        .map(|l| l.trim_matches('|').split('|').map(str::trim).collect())
+        .collect();
+    assert_eq!(in_csv, printed_cells, "{csv}");
+}
+
+/// `config/knot.toml` ties its knot by its last keyframe: a headless run without `--seconds`
+/// must get there.
+#[test]
+fn the_knot_scene_script_ends_after_its_last_keyframe_and_the_settle_time() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/config/knot.toml");
+    let scene = dvrk_tissue_sim::config::load(std::path::Path::new(path)).unwrap();
+    let last = scene
+        .tools
+        .iter()
+        .flat_map(|t| &t.keyframes)
+        .map(|k| k.t)
+        .fold(f64::MIN, f64::max);
+    assert_eq!(last, 16.65);
+    assert_eq!(scene.settle_s, 0.5, "the default settle time");
+    assert_eq!(scene.script_end_s(), Some(16.65 + 0.5));
+}
+
+#[test]
+fn headless_run_without_seconds_runs_the_script_to_its_end() {
+    let dir = std::env::temp_dir().join(format!("dts-script-end-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let probe = |settle: &str| {
+        format!(
+            "name = \"probe\"\n{settle}\n[domain]\norigin = [-0.02, -0.02, 0.0]\n\
+             size = [0.04, 0.04, 0.04]\ndx = 0.004\n[[tool]]\nname = \"probe\"\n\
+             shape = {{ type = \"sphere\", radius = 0.004 }}\n\
+             [[tool.keyframe]]\nt = 0.0\nposition = [0.0, 0.0, 0.03]\n\
+             [[tool.keyframe]]\nt = 0.05\nposition = [0.0, 0.0, 0.02]\n\
+             [[tissue]]\nname = \"block\"\ncenter = [0.0, 0.0, 0.014]\n\
+             size = [0.008, 0.008, 0.008]\nparticles_per_axis = 2\n[tissue.material]\n\
+             model = \"neo_hookean\"\nyoungs_modulus = 5000.0\npoisson_ratio = 0.3\n\
+             density = 1000.0\n"
+        )
+    };
+    let scene = dir.join("probe.toml");
+    std::fs::write(&scene, probe("settle_s = 0.05")).unwrap();
+    let out = support::binary()
+        .args(["run", "--headless", "--scene"])
+        .arg(&scene)
+        .output()
+        .unwrap();
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    assert!(
+        stderr.contains("running 0.1 s simulated (the last keyframe plus settle_s)"),
+        "{stderr}"
+    );
+    assert!(
+        stdout.contains("summary: 6 frames, 0.100 s simulated"),
+        "{stdout}"
+    );
+
+    let bad = dir.join("bad.toml");
+    std::fs::write(&bad, probe("settle_s = -1.0")).unwrap();
+    let out = support::binary().arg("check").arg(&bad).output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(!out.status.success());
+    assert!(
+        stdout.contains("settle_s = -1.0: simulated seconds after the last keyframe"),
+        "{stdout}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
 }

@@ -4,6 +4,7 @@
 use crate::scene_args::SolverOverrides;
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use dvrk_tissue_sim::config::Scene;
 use dvrk_tissue_sim::output::snapshot::{SnapshotOptions, SnapshotSchedule};
 use dvrk_tissue_sim::output::TissueSurface;
 use dvrk_tissue_sim::ros;
@@ -21,7 +22,9 @@ pub struct RunArgs {
     /// Scripted run: no ROS, no network socket; prints a line per frame and a summary.
     #[arg(long)]
     headless: bool,
-    /// Simulated seconds to run (headless default 2; the node runs until Ctrl-C).
+    /// Simulated seconds to run. Headless default: the tools' script to its end (the last
+    /// keyframe plus the scene's `settle_s`), or 2 s for a scene without keyframes; the node
+    /// runs until Ctrl-C.
     #[arg(long)]
     seconds: Option<f64>,
     /// ROS node name.
@@ -68,7 +71,7 @@ pub fn run(args: RunArgs) -> Result<()> {
     if args.headless && args.replay.is_none() {
         return run_headless(
             &args.scene,
-            args.seconds.unwrap_or(2.0),
+            args.seconds,
             args.print_every.max(1),
             &args.solver,
             snapshots,
@@ -126,15 +129,30 @@ fn snapshot_schedule(every: Option<f64>, dir: PathBuf) -> Result<Option<Snapshot
     )))
 }
 
+/// Simulated seconds a headless run of a scene without keyframes lasts.
+const UNSCRIPTED_SECONDS: f64 = 2.0;
+
+/// How long a headless run lasts: `--seconds` when given, else the scene's script to its end,
+/// else [`UNSCRIPTED_SECONDS`]; with the reason, for the log.
+fn headless_seconds(scene: &Scene, asked: Option<f64>) -> (f64, &'static str) {
+    match (asked, scene.script_end_s()) {
+        (Some(s), _) => (s, "--seconds"),
+        (None, Some(end)) => (end, "the last keyframe plus settle_s"),
+        (None, None) => (UNSCRIPTED_SECONDS, "no keyframes: the default"),
+    }
+}
+
 fn run_headless(
     path: &Path,
-    seconds: f64,
+    seconds: Option<f64>,
     print_every: u32,
     solver: &SolverOverrides,
     snapshots: Option<SnapshotSchedule>,
     record: Option<(&Path, f64, bool)>,
 ) -> Result<()> {
     let scene = solver.load(path)?;
+    let (seconds, why) = headless_seconds(&scene, seconds);
+    tracing::info!("running {seconds} s simulated ({why})");
     let world = World::try_new(&scene).context("choosing the solver backend")?;
     let frames = (seconds * scene.frame_rate_hz).round().max(1.0) as u32;
     println!(

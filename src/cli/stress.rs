@@ -2,9 +2,9 @@
 //! closing, pulling apart, dropping, a long soak) as a table, and the suture thread's cases.
 
 use crate::bench::stress::{self, Matrix};
-use crate::bench::thread_stress;
+use crate::bench::{report, thread_stress};
 use crate::scene_args::scene_value;
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use clap::Args;
 use dvrk_tissue_sim::mpm::backend::BackendChoice;
 use std::path::PathBuf;
@@ -20,8 +20,9 @@ pub struct StressArgs {
     /// Only the cases whose group or name contains this text.
     #[arg(long)]
     only: Option<String>,
-    /// Markdown table written here too.
-    #[arg(long)]
+    /// Folder to write the table to as stress.md and stress.csv, each headed by the command
+    /// line, commit, date and machine (without it the table is only printed).
+    #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
 }
 
@@ -65,7 +66,7 @@ pub fn run(args: StressArgs) -> Result<()> {
         );
         if cases.is_empty() {
             print!("{table}");
-            return finish(&table, out.as_deref(), &failures, results.len());
+            return finish(&table, out.as_deref(), backend, &failures, results.len());
         }
     }
     let progress = indicatif::ProgressBar::new(cases.len() as u64).with_style(
@@ -92,18 +93,22 @@ pub fn run(args: StressArgs) -> Result<()> {
     let checked = results.iter().filter(|r| r.in_envelope).count()
         + if threads { thread_stress::CASES } else { 0 };
     failures.extend(stress::envelope_failures(&results));
-    finish(&table, out.as_deref(), &failures, checked)
+    finish(&table, out.as_deref(), backend, &failures, checked)
 }
 
-/// Writes the table to `out` and fails when any case inside the safe envelope did.
+/// Writes the table under `out` and fails when any case inside the safe envelope did.
 fn finish(
     table: &str,
     out: Option<&std::path::Path>,
+    backend: BackendChoice,
     failures: &[String],
     checked: usize,
 ) -> Result<()> {
-    if let Some(path) = out {
-        std::fs::write(path, table).with_context(|| format!("cannot write {}", path.display()))?;
+    if let Some(dir) = out {
+        let gpu = (backend != BackendChoice::Cpu).then(crate::bench::adapter_name);
+        let provenance = report::Provenance::here(gpu.as_deref());
+        let [md, csv] = report::write(dir, "stress", &provenance, table, None)?;
+        println!("wrote {} and {}", md.display(), csv.display());
     }
     if !failures.is_empty() {
         for f in failures {

@@ -83,6 +83,7 @@ pub fn scene(
     Scene {
         name: name.into(),
         frame_rate_hz,
+        settle_s: super::scene::default_settle_s(),
         domain,
         solver: Solver::default(),
         table,

@@ -21,6 +21,10 @@ pub struct Scene {
     /// Simulation frames per second (output and command exchange rate).
     #[serde(default = "default_frame_rate")]
     pub frame_rate_hz: f64,
+    /// Simulated seconds a headless run without `--seconds` goes on after the tools' last
+    /// keyframe, for the scene to come to rest (s, finite, ≥ 0).
+    #[serde(default = "default_settle_s")]
+    pub settle_s: f64,
     /// `[domain]`: the simulated box and its grid.
     pub domain: Domain,
     #[serde(default)]
@@ -57,6 +61,22 @@ fn default_name() -> String {
 }
 fn default_frame_rate() -> f64 {
     60.0
+}
+pub(crate) fn default_settle_s() -> f64 {
+    0.5
+}
+
+impl Scene {
+    /// Where the tools' script ends: the last keyframe's time plus [`Scene::settle_s`], or
+    /// `None` when no tool has a keyframe.
+    pub fn script_end_s(&self) -> Option<f64> {
+        self.tools
+            .iter()
+            .flat_map(|t| &t.keyframes)
+            .map(|k| k.t)
+            .reduce(f64::max)
+            .map(|last| last + self.settle_s)
+    }
 }
 
 /// The simulated box of space and its background grid.

@@ -102,6 +102,12 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
         scene.frame_rate_hz,
         "0 < frame_rate_hz ≤ 10000",
     );
+    c.require(
+        scene.settle_s.is_finite() && scene.settle_s >= 0.0,
+        "settle_s",
+        scene.settle_s,
+        "simulated seconds after the last keyframe: a finite number ≥ 0",
+    );
 
     let d = &scene.domain;
     c.positive("domain.dx", d.dx);

@@ -1,10 +1,12 @@
 //! `bench`: the runtime-against-error sweep over the analytic scenes (the default), and
 //! throughput, scaling, frame, skip, surface and accuracy tables. Each is a command that
-//! prints a table (and writes CSV/PNG where it says so); none is library API.
+//! prints a table and writes it as Markdown and CSV under `--out` ([`report`]); none is
+//! library API.
 
 pub mod accuracy;
 pub mod frame;
 pub mod plot;
+pub mod report;
 pub mod scaling;
 pub mod skip;
 pub mod stress;
@@ -26,11 +28,13 @@ use sweep::SweepPlan;
 pub struct BenchArgs {
     #[command(subcommand)]
     which: Option<BenchCommand>,
-    /// Coarse resolutions only (under two minutes on two CPU cores).
+    /// Coarse resolutions only, without the stiff group (`bench stiff`).
     #[arg(long)]
     quick: bool,
-    /// Folder for bench.csv, bench.md and bench.png.
-    #[arg(long, default_value = "target/bench")]
+    /// Folder for the tables as Markdown and CSV, each headed by the command line, commit,
+    /// date and machine: bench.md, bench.csv and bench.png for the sweep, NAME.md and
+    /// NAME.csv for `bench NAME`.
+    #[arg(long, default_value = "target/bench", global = true)]
     out: PathBuf,
     /// Backends to sweep (default: cpu, plus gpu when a hardware GPU adapter exists).
     #[arg(long, value_delimiter = ',', value_parser = scene_value::<BackendChoice>)]
@@ -108,7 +112,7 @@ pub enum BenchCommand {
 }
 
 /// The first GPU adapter, as the benchmark tables name it.
-fn adapter_name() -> String {
+pub fn adapter_name() -> String {
     adapter::adapters()
         .first()
         .map(|a| {
@@ -122,6 +126,14 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let Some(which) = args.which else {
         return run_sweep(args.quick, &args.out, args.backends);
     };
+    let out = args.out;
+    // Each table is printed, then written under `out` as `<stem>.md` and `<stem>.csv`.
+    let print_and_write = |stem: &str, table: &str, gpu: Option<&str>| -> Result<()> {
+        print!("{table}");
+        let [md, csv] = report::write(&out, stem, &report::Provenance::here(gpu), table, None)?;
+        println!("wrote {} and {}", md.display(), csv.display());
+        Ok(())
+    };
     match which {
         BenchCommand::Skip {
             frames,
@@ -129,7 +141,8 @@ pub fn run(args: BenchArgs) -> Result<()> {
             only,
         } => {
             let rows = skip::run(backend, frames.max(1), only.as_deref())?;
-            print!("{}", skip::table(&rows));
+            let gpu = (backend != BackendChoice::Cpu).then(adapter_name);
+            print_and_write("skip", &skip::table(&rows), gpu.as_deref())?;
             let over = skip::over_target(&rows);
             if !over.is_empty() {
                 bail!("over target: {}", over.join("; "));
@@ -138,8 +151,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         }
         BenchCommand::Throughput { frames } => {
             let result = throughput::run_seed000(frames);
-            print!("{}", result.table());
-            Ok(())
+            print_and_write("throughput", &result.table(), None)
         }
         BenchCommand::Scaling {
             counts,
@@ -147,13 +159,23 @@ pub fn run(args: BenchArgs) -> Result<()> {
         } => {
             let counts = counts.unwrap_or_else(|| scaling::COUNTS.to_vec());
             let rows = scaling::run(&counts, min_seconds);
-            print!("{}", scaling::table(&rows, &adapter_name()));
-            Ok(())
+            let adapter = adapter_name();
+            let gpu = rows.iter().any(|r| r.backend.starts_with("gpu"));
+            print_and_write(
+                "scaling",
+                &scaling::table(&rows, &adapter),
+                gpu.then_some(adapter.as_str()),
+            )
         }
         BenchCommand::Frame { frames } => {
             let rows = frame::run(frames);
-            print!("{}", frame::table(&rows, &adapter_name()));
-            Ok(())
+            let adapter = adapter_name();
+            let gpu = rows.iter().any(|r| r.backend.starts_with("gpu"));
+            print_and_write(
+                "frame",
+                &frame::table(&rows, &adapter),
+                gpu.then_some(adapter.as_str()),
+            )
         }
         BenchCommand::Surface {
             scene,
@@ -167,18 +189,18 @@ pub fn run(args: BenchArgs) -> Result<()> {
             let loaded = solver.load(&scene)?;
             let result = surface::run(&loaded, seconds, every)
                 .with_context(|| format!("surface bench on {}", scene.display()))?;
-            print!("{}", result.table());
-            Ok(())
+            let gpu = (loaded.solver.backend != BackendChoice::Cpu).then(adapter_name);
+            print_and_write("surface", &result.table(), gpu.as_deref())
         }
         BenchCommand::Thread { frames } => {
             let frames = frames.max(1);
-            print!(
-                "{}",
-                thread::table(&thread::run(&thread::SEGMENTS, frames), frames)
+            let table = format!(
+                "{}{}{}",
+                thread::table(&thread::run(&thread::SEGMENTS, frames), frames),
+                thread::substep_table(frames),
+                thread::analytic_table()
             );
-            print!("{}", thread::substep_table(frames));
-            print!("{}", thread::analytic_table());
-            Ok(())
+            print_and_write("thread", &table, None)
         }
         BenchCommand::Stiff => {
             let plan = SweepPlan::stiff(vec![BackendChoice::Cpu]);
@@ -191,17 +213,14 @@ pub fn run(args: BenchArgs) -> Result<()> {
                     row.wall_s
                 )
             });
-            print!(
+            let table = format!(
                 "{}\n{}",
                 sweep::markdown(&rows),
                 sweep::stiff_summary(&rows)
             );
-            Ok(())
+            print_and_write("stiff", &table, None)
         }
-        BenchCommand::Accuracy => {
-            print!("{}", accuracy::table());
-            Ok(())
-        }
+        BenchCommand::Accuracy => print_and_write("accuracy", &accuracy::table(), None),
     }
 }
 
@@ -221,12 +240,12 @@ fn run_sweep(quick: bool, out: &Path, backends: Option<Vec<BackendChoice>>) -> R
     if backends.contains(&BackendChoice::Gpu) && adapter::adapters().is_empty() {
         bail!("--backends gpu: no GPU adapter (hardware or software) is available here");
     }
+    let gpu = backends.contains(&BackendChoice::Gpu).then(adapter_name);
     let plan = if quick {
         SweepPlan::quick(backends)
     } else {
         SweepPlan::full(backends)
     };
-    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let progress = indicatif::ProgressBar::new(plan.len() as u64).with_style(
         indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} [{elapsed}] {msg}")
             .expect("valid progress template"),
@@ -244,26 +263,32 @@ fn run_sweep(quick: bool, out: &Path, backends: Option<Vec<BackendChoice>>) -> R
         progress.inc(1);
     });
     progress.finish_and_clear();
-    let table = sweep::markdown(&rows);
-    print!(
-        "{table}\nStiff tissue, explicit MLS-MPM (CFL 0.5) against implicit:\n\n{}",
-        sweep::stiff_summary(&rows)
-    );
-    let write = |name: &str, text: &str| {
-        let path = out.join(name);
-        std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))
-    };
-    write("bench.csv", &sweep::csv(&rows))?;
-    write("bench.md", &table)?;
+    let mut table = sweep::markdown(&rows);
+    if rows.iter().any(|r| r.case.is_stiff()) {
+        table += &format!(
+            "\nStiff tissue, explicit MLS-MPM (CFL 0.5) against implicit:\n\n{}",
+            sweep::stiff_summary(&rows)
+        );
+    }
+    print!("{table}");
+    let provenance = report::Provenance::here(gpu.as_deref());
+    let [md, csv] = report::write(out, "bench", &provenance, &table, Some(&sweep::csv(&rows)))?;
     let png = out.join("bench.png");
-    plot::render(&sweep::panels(&rows), "wall time (s)", "|error| (%)")
+    plot::render(&sweep::panels(&rows), "wall time (s)", "|error| (%)")?
         .write_png(&png)
         .with_context(|| format!("cannot write {}", png.display()))?;
     println!(
-        "wrote {}, bench.md and bench.png",
-        out.join("bench.csv").display()
+        "wrote {}, {} and {}",
+        md.display(),
+        csv.display(),
+        png.display()
     );
-    let failures = sweep::failures(&rows);
+    fail_out_of_bounds(&rows)
+}
+
+/// Fails when a run is outside its error bound, naming each.
+fn fail_out_of_bounds(rows: &[sweep::Row]) -> Result<()> {
+    let failures = sweep::failures(rows);
     if !failures.is_empty() {
         for f in &failures {
             eprintln!("out of bounds: {f}");
