@@ -93,7 +93,7 @@ fn mesh_cut_agrees(method: Method, p2g: P2gAtomics, position_tolerance: f32) {
 }
 
 fn scene_cut_agrees(scene: SceneOf, method: Method, p2g: P2gAtomics, position_tolerance: f32) {
-    if !support::gpu_ready(p2g) {
+    if !support::gpu::ready(p2g) {
         return;
     }
     let mut cpu = World::new(&scene(BackendChoice::Cpu, method, p2g));

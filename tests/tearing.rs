@@ -1071,7 +1071,7 @@ fn gpu_tear_agrees(
     position_tolerance: f32,
     torn_off_tolerance: f32,
 ) {
-    if !support::gpu_ready(p2g) {
+    if !support::gpu::ready(p2g) {
         return;
     }
     let mut cpu = World::new(&quick_tearing(BackendChoice::Cpu, p2g));
