@@ -9,6 +9,7 @@
 //! benchmarks and stress sweeps are the binary's (`src/cli/`).
 
 pub mod config;
+pub mod math;
 pub mod mpm;
 pub mod output;
 pub mod robot;
@@ -16,7 +17,6 @@ pub mod rod;
 pub mod ros;
 pub mod sim;
 pub mod sleep;
-pub mod thread_body;
 pub mod tools;
 pub mod validation;
 pub mod world;

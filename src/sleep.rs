@@ -9,7 +9,7 @@
 //! that could meet, so a contact is never missed: the first frame in which one could happen
 //! is stepped in full. Editing particles or resetting the tissue wakes it too.
 
-use crate::mpm::Vec3;
+use crate::math::Vec3;
 use serde::{Deserialize, Serialize};
 
 /// `[sleep]` in a scene file.

@@ -167,10 +167,10 @@ fn auto_and_gpu_backends_take_a_slicer_scene() {
 
 /// Pixels of a picture within 0.2 (per channel, 0–255 scale) of a shade of `colour`: the
 /// colour times a light factor, as particles are shaded.
-fn pixels_of_colour(rgb: &[u8], colour: dvrk_tissue_sim::mpm::Vec3) -> usize {
+fn pixels_of_colour(rgb: &[u8], colour: dvrk_tissue_sim::math::Vec3) -> usize {
     rgb.chunks_exact(3)
         .filter(|p| {
-            let c = dvrk_tissue_sim::mpm::Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) / 255.0;
+            let c = dvrk_tissue_sim::math::Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) / 255.0;
             let shade = c.dot(&colour) / colour.norm_squared();
             shade > 0.3 && (c - colour * shade).amax() < 0.06
         })
@@ -347,7 +347,7 @@ fn remembered_planes(world: &World, start_y: &[f32]) -> [(f32, f32); 2] {
     let p = world.particles();
     let mut planes = [(f32::MAX, f32::MIN); 2];
     for (i, (x, crack)) in p.x.iter().zip(&p.crack).enumerate() {
-        if *crack != dvrk_tissue_sim::mpm::Vec3::zeros() {
+        if *crack != dvrk_tissue_sim::math::Vec3::zeros() {
             let side = &mut planes[(start_y[i] > 0.0) as usize];
             let plane = x.y - crack.y;
             *side = (side.0.min(plane), side.1.max(plane));
@@ -480,7 +480,7 @@ fn flat_mesh_blade(length: f32, height: f32, columns: usize) -> Shape {
 }
 
 /// The cracks a tool of `shape` at the world's current tool pose gives its particles now.
-fn cracks_now(world: &World, shape: Shape) -> Vec<dvrk_tissue_sim::mpm::Vec3> {
+fn cracks_now(world: &World, shape: Shape) -> Vec<dvrk_tissue_sim::math::Vec3> {
     use dvrk_tissue_sim::tools::{ToolKinematics, ToolVelocity};
     let tool = &world.tools()[0];
     let dx = world.scene().domain.dx as f32;
@@ -492,7 +492,7 @@ fn cracks_now(world: &World, shape: Shape) -> Vec<dvrk_tissue_sim::mpm::Vec3> {
         dx,
     );
     let x = &world.particles().x;
-    let mut crack = vec![dvrk_tissue_sim::mpm::Vec3::zeros(); x.len()];
+    let mut crack = vec![dvrk_tissue_sim::math::Vec3::zeros(); x.len()];
     dvrk_tissue_sim::mpm::crack::mark(&[kinematics], x, &mut crack, dx);
     crack
 }

@@ -17,8 +17,9 @@
 //! off it, its block is still in one piece at 0.2 s on both backends (README).
 
 use dvrk_tissue_sim::config::{self, Scene};
+use dvrk_tissue_sim::math::Vec3;
 use dvrk_tissue_sim::mpm::backend::{BackendChoice, P2gAtomics};
-use dvrk_tissue_sim::mpm::{pieces, Method, Particles, Vec3};
+use dvrk_tissue_sim::mpm::{pieces, Method, Particles};
 use dvrk_tissue_sim::world::World;
 use std::sync::OnceLock;
 

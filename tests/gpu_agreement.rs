@@ -6,10 +6,10 @@
 
 use dvrk_tissue_sim::config::builders::*;
 use dvrk_tissue_sim::config::Scene;
+use dvrk_tissue_sim::math::{Mat3, Vec3};
 use dvrk_tissue_sim::mpm::backend::{BackendChoice, P2gAtomics};
 use dvrk_tissue_sim::mpm::gpu::adapter;
 use dvrk_tissue_sim::mpm::guard::GuardPolicy;
-use dvrk_tissue_sim::mpm::{Mat3, Vec3};
 use dvrk_tissue_sim::output::strain::StrainMeasure;
 use dvrk_tissue_sim::output::{CloudOptions, TissueCloud};
 use dvrk_tissue_sim::validation::analytic;

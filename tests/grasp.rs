@@ -4,7 +4,7 @@
 //! Also: slip at μ × the squeeze, and jaws closing on air hold nothing.
 
 use dvrk_tissue_sim::config::{self, Scene};
-use dvrk_tissue_sim::mpm::Vec3;
+use dvrk_tissue_sim::math::Vec3;
 use dvrk_tissue_sim::world::World;
 
 fn shipped(name: &str) -> Scene {

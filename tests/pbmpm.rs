@@ -3,8 +3,9 @@
 
 use dvrk_tissue_sim::config::builders::*;
 use dvrk_tissue_sim::config::{Hold, Scene, Table};
+use dvrk_tissue_sim::math::Vec3;
 use dvrk_tissue_sim::mpm::backend::BackendChoice;
-use dvrk_tissue_sim::mpm::{timestep, Lame, Method, Vec3};
+use dvrk_tissue_sim::mpm::{timestep, Lame, Method};
 use dvrk_tissue_sim::tools::{ContactModel, Shape};
 use dvrk_tissue_sim::world::World;
 

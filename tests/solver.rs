@@ -2,8 +2,9 @@
 
 use dvrk_tissue_sim::config::builders::*;
 use dvrk_tissue_sim::config::Scene;
+use dvrk_tissue_sim::math::Vec3;
 use dvrk_tissue_sim::mpm::guard::GuardPolicy;
-use dvrk_tissue_sim::mpm::{timestep, Lame, Method, Vec3};
+use dvrk_tissue_sim::mpm::{timestep, Lame, Method};
 use dvrk_tissue_sim::tools::{ContactModel, Shape};
 use dvrk_tissue_sim::world::{StepError, World};
 
@@ -188,7 +189,7 @@ fn guard_stops_on_non_finite_state_and_restores_the_last_good_frame() {
     world.step_frame().unwrap();
     let good = world.particles().x.clone();
     let t_good = world.time();
-    world.particles_mut().f[17] = dvrk_tissue_sim::mpm::Mat3::from_element(f32::NAN);
+    world.particles_mut().f[17] = dvrk_tissue_sim::math::Mat3::from_element(f32::NAN);
     match world.step_frame() {
         Err(StepError::Guard { event, .. }) => {
             assert!(event.to_string().contains("non-finite"), "{event}")

@@ -42,13 +42,14 @@
 //! particles tear and the pieces are the same.
 
 use dvrk_tissue_sim::config::{self, Scene, SceneError};
+use dvrk_tissue_sim::math::Vec3;
 use dvrk_tissue_sim::mpm::backend::BackendChoice;
 use dvrk_tissue_sim::mpm::cpu::{CpuSolver, SubstepInput};
 use dvrk_tissue_sim::mpm::damage::{self, TORN};
 use dvrk_tissue_sim::mpm::material::energy_density;
 use dvrk_tissue_sim::mpm::{
     Boundary, GridLayout, ImplicitParams, Lame, MaterialModel, MaterialParams, Method, P2gAtomics,
-    Particles, PbMpmParams, SolverSetup, Vec3,
+    Particles, PbMpmParams, SolverSetup,
 };
 use dvrk_tissue_sim::tools::{ContactModel, Shape, ToolKinematics, ToolPose, ToolVelocity};
 use dvrk_tissue_sim::world::World;

@@ -2,7 +2,7 @@
 //! F/(EA) hanging, swinging and pulled; iteration-count independence; the rest Darboux sign;
 //! the beam cases of `validation::thread` (cantilever, end moment, Euler, catenary).
 
-use dvrk_tissue_sim::mpm::Vec3;
+use dvrk_tissue_sim::math::Vec3;
 use dvrk_tissue_sim::rod::solver::RodSolverSettings;
 use dvrk_tissue_sim::rod::{Rod, RodSolver, ThreadMaterial};
 use dvrk_tissue_sim::validation::thread::{self as validation, RodCheck};

@@ -276,7 +276,7 @@ fn run_headless(
         println!(
             "summary: knot thread {}: det {det} ({})",
             t.name,
-            dvrk_tissue_sim::thread_body::knot::knot_name(det)
+            dvrk_tissue_sim::rod::knot::knot_name(det)
         );
     }
     // The recorder's writer ends once the loop, which holds its sending end, is gone.

@@ -1,6 +1,7 @@
 //! Scene files: the serde model, loading, and validation with clear errors.
 
 pub mod builders;
+pub mod outputs;
 mod scene;
 pub mod thread;
 mod validate;

@@ -2,12 +2,11 @@
 //!
 //! Units are SI (m, kg, s, Pa) unless a name says otherwise (`rpy_deg`, `jaw_deg`).
 
+use super::outputs::{StrainMeasure, SurfaceKind};
 use crate::mpm::backend::{BackendChoice, P2gAtomics};
 use crate::mpm::guard::GuardPolicy;
 use crate::mpm::material::MaterialModel;
 use crate::mpm::{ImplicitParams, Method, Preconditioner};
-use crate::output::strain::StrainMeasure;
-use crate::output::SurfaceKind;
 use crate::tools::{ContactModel, Shape};
 use serde::{Deserialize, Serialize};
 

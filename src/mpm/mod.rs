@@ -6,6 +6,7 @@ pub mod backend;
 pub mod cpu;
 pub mod crack;
 pub mod damage;
+pub mod frame_plan;
 pub mod gpu;
 pub mod grid;
 pub mod guard;
@@ -15,9 +16,7 @@ pub mod particles;
 pub mod pieces;
 pub mod timestep;
 
-pub type Vec3 = nalgebra::Vector3<f32>;
-pub type IVec3 = nalgebra::Vector3<i32>;
-pub type Mat3 = nalgebra::Matrix3<f32>;
+pub use crate::math::{IVec3, Mat3, Vec3};
 
 use serde::{Deserialize, Serialize};
 

@@ -8,7 +8,9 @@
 //! The fraction uses rest volumes, since positions are all every backend reads back each
 //! frame: where the tissue has more than doubled its volume the level set thins out.
 
-use crate::mpm::{Particles, Vec3};
+use crate::math::Vec3;
+
+use crate::mpm::Particles;
 use std::collections::{HashMap, HashSet};
 
 /// Level of the volume fraction taken as the surface.

@@ -7,7 +7,9 @@
 //! and UVs never change; positions and normals are updated per frame from positions alone,
 //! which every backend reads back every frame.
 
-use crate::mpm::{Particles, Vec3};
+use crate::math::Vec3;
+
+use crate::mpm::Particles;
 use nalgebra::{Matrix3, Vector3};
 use std::collections::HashMap;
 
@@ -395,7 +397,7 @@ mod tests {
         let particles = block();
         let mut mesh = TissueMesh::build(&particles, 0.001).unwrap();
         let rotation = Rotation3::from_euler_angles(0.3f32, -0.5, 1.2).into_inner();
-        let stretch = crate::mpm::Mat3::new(1.3, 0.2, 0.0, 0.0, 0.9, 0.1, 0.05, 0.0, 0.8);
+        let stretch = crate::math::Mat3::new(1.3, 0.2, 0.0, 0.0, 0.9, 0.1, 0.05, 0.0, 0.8);
         let map = |x: &Vec3| rotation * stretch * x + Vec3::new(0.01, -0.02, 0.005);
         let moved: Vec<Vec3> = particles.x.iter().map(map).collect();
         let triangles = mesh.triangles.clone();

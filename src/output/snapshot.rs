@@ -3,7 +3,7 @@
 //! checkerboard. A CPU renderer, so it works on any machine (no display, no GPU).
 
 use super::strain::{self, StrainMeasure};
-use crate::mpm::Vec3;
+use crate::math::Vec3;
 use crate::tools::Shape;
 use crate::world::World;
 use std::io::BufWriter;

@@ -1,20 +1,9 @@
 //! Per-particle deformation scalars for colouring point clouds and pictures.
 
-use crate::mpm::{Mat3, Particles, Vec3};
-use serde::{Deserialize, Serialize};
+use crate::math::{Mat3, Vec3};
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum StrainMeasure {
-    /// Volume change J − 1 (negative: compressed, positive: expanded).
-    Volumetric,
-    /// Equivalent (von Mises) Green strain √(2/3 · dev E : dev E), E = ½(FᵀF − I): shape change.
-    #[default]
-    Equivalent,
-    /// Tearing damage d ∈ [0, 1] (see [`crate::mpm::damage`]; 1: torn through). Particle
-    /// state, not a function of F: 0 where the tissue cannot tear.
-    Damage,
-}
+pub use crate::config::outputs::StrainMeasure;
+use crate::mpm::Particles;
 
 impl StrainMeasure {
     /// The measure at deformation gradient `f` (0 for [`StrainMeasure::Damage`], which
@@ -113,7 +102,7 @@ mod tests {
         // Isochoric stretch: shape change, no volume change.
         let s = 1.2f32;
         let stretch =
-            Mat3::from_diagonal(&crate::mpm::Vec3::new(s, 1.0 / s.sqrt(), 1.0 / s.sqrt()));
+            Mat3::from_diagonal(&crate::math::Vec3::new(s, 1.0 / s.sqrt(), 1.0 / s.sqrt()));
         assert!(StrainMeasure::Volumetric.of(&stretch).abs() < 1e-6);
         assert!(StrainMeasure::Equivalent.of(&stretch) > 0.1);
     }

@@ -6,21 +6,8 @@
 use super::isosurface;
 use super::mesh::{MeshError, TissueMesh};
 use super::strain::{colour_range, StrainMeasure};
+pub use crate::config::outputs::SurfaceKind;
 use crate::mpm::Particles;
-use serde::{Deserialize, Serialize};
-
-/// Which surface a scene publishes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum SurfaceKind {
-    /// Triangulated once at rest and carried by the particles: vertex count, triangles and
-    /// UVs never change, so the tissue cannot be cut.
-    #[default]
-    Mesh,
-    /// The ½ volume-fraction level set by marching cubes (split into tetrahedra), rebuilt
-    /// every frame: follows any change of topology, no UVs, one colour.
-    Isosurface,
-}
 
 /// One frame's surface as a triangle list: three corners a triangle, in a fixed order.
 #[derive(Clone, Debug, Default, PartialEq)]

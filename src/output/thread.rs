@@ -2,7 +2,7 @@
 //! it, independent of any transport (the node wraps them in a LINE_STRIP marker and a
 //! PointCloud2 with fields x, y, z, tension).
 
-use crate::thread_body::ThreadBody;
+use crate::world::thread_body::ThreadBody;
 
 /// Bytes per point of the tension cloud: x, y, z, tension as little-endian f32.
 pub const THREAD_POINT_STEP: usize = 16;

@@ -12,10 +12,8 @@
 //! Linearisations are in f64: see `direct` for why.
 
 use super::state::{Quat, Rod};
-use nalgebra::{Matrix3, UnitQuaternion, Vector3};
-
-pub type V3 = Vector3<f64>;
-pub type M3 = Matrix3<f64>;
+use crate::math::{Mat3d, Vec3d};
+use nalgebra::UnitQuaternion;
 
 /// Compliances per segment and per joint (stiffness inverted once, not per iteration).
 #[derive(Clone, Debug, Default)]
@@ -24,7 +22,7 @@ pub struct Compliance {
     /// energy ½·l·(κGA·|γ⊥|² + EA·γ₃²)).
     pub stretch_shear: Vec<(f64, f64)>,
     /// l̄/(4·(EI, EI, GJ)) per joint: Im(q̄q′) ≈ ½·κ·l̄, energy ½·K·l̄·κ² = ½·(4K/l̄)·C².
-    pub bend_twist: Vec<V3>,
+    pub bend_twist: Vec<Vec3d>,
 }
 
 impl Compliance {
@@ -42,7 +40,7 @@ impl Compliance {
                 .windows(2)
                 .map(|w| {
                     let mean = 0.5 * (w[0] + w[1]) as f64;
-                    V3::new(mean / (4.0 * ei), mean / (4.0 * ei), mean / (4.0 * gj))
+                    Vec3d::new(mean / (4.0 * ei), mean / (4.0 * ei), mean / (4.0 * gj))
                 })
                 .collect(),
         }
@@ -52,13 +50,13 @@ impl Compliance {
 /// Stretch-shear of one segment linearised at the current state.
 #[derive(Clone, Copy, Debug)]
 pub struct StretchShear {
-    pub value: V3,
+    pub value: Vec3d,
     /// ∂C/∂pⱼ₊₁ = I/l (and ∂C/∂pⱼ = −I/l).
     pub inv_length: f64,
     /// d3 of the frame: ∂C/∂θⱼ = [d3]×.
-    pub d3: V3,
+    pub d3: Vec3d,
     /// World-frame compliance matrix (before the 1/h² of XPBD).
-    pub compliance: M3,
+    pub compliance: Mat3d,
 }
 
 pub fn stretch_shear(rod: &Rod, j: usize, compliance: (f64, f64)) -> StretchShear {
@@ -70,17 +68,17 @@ pub fn stretch_shear(rod: &Rod, j: usize, compliance: (f64, f64)) -> StretchShea
         value: d * inv_length - d3,
         inv_length,
         d3,
-        compliance: M3::identity() * across + d3 * d3.transpose() * (along - across),
+        compliance: Mat3d::identity() * across + d3 * d3.transpose() * (along - across),
     }
 }
 
 /// Bend-twist of one joint linearised at the current state.
 #[derive(Clone, Copy, Debug)]
 pub struct BendTwist {
-    pub value: V3,
+    pub value: Vec3d,
     /// ∂C/∂θⱼ₊₁ = E and ∂C/∂θⱼ = −E, E = ½·(D.w·I − [d]×)·R(qⱼ)ᵀ with D = q̄ⱼqⱼ₊₁ = (D.w, d):
     /// D.w is ≈ −1 when one frame's sign is flipped, and the gradient flips with it.
-    pub jacobian: M3,
+    pub jacobian: Mat3d,
 }
 
 pub fn bend_twist(rod: &Rod, j: usize) -> BendTwist {
@@ -94,7 +92,8 @@ pub fn bend_twist(rod: &Rod, j: usize) -> BendTwist {
     };
     let ra = UnitQuaternion::new_unchecked(qa).to_rotation_matrix();
     let d = darboux.imag();
-    let jacobian = (M3::identity() * darboux.w - d.cross_matrix()) * ra.matrix().transpose() * 0.5;
+    let jacobian =
+        (Mat3d::identity() * darboux.w - d.cross_matrix()) * ra.matrix().transpose() * 0.5;
     BendTwist {
         value: diff.imag(),
         jacobian,
@@ -108,14 +107,14 @@ fn quat64(q: &Quat) -> nalgebra::Quaternion<f64> {
 /// q·e3·q̄ in f64, of unit length: the f32 quaternion is unit only to f32 rounding (the
 /// constraint would target a length off by that much, and [d3]× would not be the
 /// Jacobian's exact cross matrix of a unit vector).
-fn rotate_z(q: &Quat) -> V3 {
+fn rotate_z(q: &Quat) -> Vec3d {
     super::state::rotate_z(q).cast::<f64>().normalize()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mpm::Vec3;
+    use crate::math::Vec3;
     use crate::rod::state::add_rotation;
     use crate::rod::ThreadMaterial;
 
@@ -185,7 +184,7 @@ mod tests {
                 moved.points[j + 1][axis] += step;
                 let numeric =
                     (stretch_shear(&moved, j, c.stretch_shear[j]).value - lin.value) / step as f64;
-                let mut analytic = V3::zeros();
+                let mut analytic = Vec3d::zeros();
                 analytic[axis] = lin.inv_length;
                 assert!(
                     (numeric - analytic).norm() < 1e-2 * lin.inv_length,

@@ -23,7 +23,7 @@
 
 use super::self_contact::{segment_distance, SelfContacts};
 use super::state::Rod;
-use crate::mpm::Vec3;
+use crate::math::Vec3;
 
 /// Distance, in diameters, between the centrelines at a coplanar instant below which a pair
 /// counts as meeting: far above the f64 rounding at the root (~1e-15 m), and small, since

@@ -22,9 +22,9 @@
 // The 6×6 algebra below indexes rows and columns as the formulas do.
 #![allow(clippy::needless_range_loop)]
 
-use super::constraints::{bend_twist, stretch_shear, Compliance, M3, V3};
+use super::constraints::{bend_twist, stretch_shear, Compliance};
 use super::state::{add_rotation, Rod};
-use crate::mpm::Vec3;
+use crate::math::{Mat3d, Vec3, Vec3d};
 use nalgebra::Vector6;
 
 type V6 = Vector6<f64>;
@@ -45,10 +45,10 @@ pub struct DirectScratch {
     upper: Vec<Block>,
     /// Per group: the right-hand side, then D̃ₖ⁻¹·b̃ₖ, then Δλ.
     rhs: Vec<[f64; 6]>,
-    d3: Vec<V3>,
-    bend_jacobian: Vec<M3>,
+    d3: Vec<Vec3d>,
+    bend_jacobian: Vec<Mat3d>,
     inv_length: Vec<f64>,
-    rotation: Vec<V3>,
+    rotation: Vec<Vec3d>,
     /// The factorisation is that of the last successful [`solve`] of this many segments.
     factored: Option<usize>,
 }
@@ -71,10 +71,10 @@ pub fn solve(
     s.factor.resize(n, ZERO);
     s.upper.resize(n, ZERO);
     s.rhs.resize(n, [0.0; 6]);
-    s.d3.resize(n, V3::zeros());
-    s.bend_jacobian.resize(n, M3::zeros());
+    s.d3.resize(n, Vec3d::zeros());
+    s.bend_jacobian.resize(n, Mat3d::zeros());
     s.inv_length.resize(n, 0.0);
-    s.rotation.resize(n, V3::zeros());
+    s.rotation.resize(n, Vec3d::zeros());
     // Linearise every constraint at the current state: right-hand sides, compliance blocks.
     for (j, lam) in lambda.iter().enumerate().take(n) {
         let ss = stretch_shear(rod, j, compliance.stretch_shear[j]);
@@ -98,7 +98,7 @@ pub fn solve(
             }
         } else {
             // No joint after the last segment: an identity row with a zero right-hand side.
-            s.bend_jacobian[j] = M3::zeros();
+            s.bend_jacobian[j] = Mat3d::zeros();
             rhs[3..].fill(0.0);
             for a in 3..6 {
                 diag[a][a] = 1.0;
@@ -117,7 +117,7 @@ pub fn solve(
         // inverse inertia of ~1e13 is a negative axial term beside axial compliances of
         // ~1e5. A piece of chain held at both ends has no point mass to give along its axis,
         // so its axial pivot is that compliance alone, and the factorisation failed there.
-        let ss = M3::identity() * ((w0 + w1) * il * il) + d3x * d3x.transpose() * wq;
+        let ss = Mat3d::identity() * ((w0 + w1) * il * il) + d3x * d3x.transpose() * wq;
         let sb = -(d3x * e.transpose()) * wq;
         let wq_next = if j + 1 < n {
             rod.inv_inertia[j + 1] as f64
@@ -135,7 +135,7 @@ pub fn solve(
         if j + 1 < n {
             let il_next = s.inv_length[j + 1];
             // Sⱼ·Sⱼ₊₁ share pⱼ₊₁; Bⱼ shares qⱼ₊₁ with Sⱼ₊₁ and Bⱼ₊₁.
-            put3(upper, 0, 0, &(M3::identity() * (-w1 * il * il_next)));
+            put3(upper, 0, 0, &(Mat3d::identity() * (-w1 * il * il_next)));
             put3(upper, 3, 0, &(-(e * s.d3[j + 1].cross_matrix()) * wq_next));
             put3(
                 upper,
@@ -249,7 +249,7 @@ fn substitute(s: &mut DirectScratch, n: usize) -> bool {
 
 /// Δx = W·Jᵀ·Δλ, from all Δλ at once, with the Jacobians of the last [`solve`].
 fn apply(rod: &mut Rod, lambda: &mut [V6], s: &mut DirectScratch, n: usize) {
-    s.rotation.fill(V3::zeros());
+    s.rotation.fill(Vec3d::zeros());
     for (j, lam) in lambda.iter_mut().enumerate().take(n) {
         let dl = V6::from_column_slice(&s.rhs[j]);
         *lam += dl;
@@ -278,7 +278,7 @@ fn apply(rod: &mut Rod, lambda: &mut [V6], s: &mut DirectScratch, n: usize) {
 }
 
 /// Writes the 3×3 `block` into `m` at (`row`, `col`), adding to what is there.
-fn put3(m: &mut Block, row: usize, col: usize, block: &M3) {
+fn put3(m: &mut Block, row: usize, col: usize, block: &Mat3d) {
     for r in 0..3 {
         for c in 0..3 {
             m[row + r][col + c] += block[(r, c)];

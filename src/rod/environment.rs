@@ -26,7 +26,7 @@
 //! the tangential one) and shortened by μ·d otherwise (kinetic).
 
 use super::state::Rod;
-use crate::mpm::{Mat3, Vec3};
+use crate::math::{Mat3, Vec3};
 use crate::tools::sdf::{jaw_angle, rotate_x};
 use crate::tools::{Shape, ToolPose};
 

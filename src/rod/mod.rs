@@ -12,6 +12,7 @@ pub mod constraints;
 pub mod crossing;
 pub mod direct;
 pub mod environment;
+pub mod knot;
 pub mod material;
 pub mod self_contact;
 pub mod solver;

@@ -44,7 +44,7 @@
 use super::crossing::pair_crossed;
 use super::environment::friction_correction;
 use super::state::Rod;
-use crate::mpm::Vec3;
+use crate::math::Vec3;
 use nalgebra::{RealField, Vector3};
 
 /// Reused buffers of the broad and narrow phase.
@@ -229,11 +229,9 @@ impl SelfContacts {
     ///
     /// Successive calls sweep the pairs in opposite orders (symmetric Gauss–Seidel). A
     /// sweep always in chain order leaves every pass's last word to the pairs further
-    /// along, and that bias pumped thread through a tight knot: the knot of config/knot.toml
-    /// pulled on at 10 mm/s ran along the standing part towards the higher segment numbers
-    /// (its crossings from segments 62–79 to 134–145 within 0.5 s), and with the thread's
-    /// numbering reversed it ran the other way, off the tail. Alternating, it stays and
-    /// jams (tests/thread_scene.rs, `knot_toml_pulled_hard_stays_where_it_was_tied`).
+    /// along, a bias that pumps thread through a tight knot in the direction of the
+    /// numbering; alternating sweeps have none, and a pulled knot jams where it was tied
+    /// (tests/thread_scene.rs, `knot_toml_pulled_hard_stays_where_it_was_tied`).
     pub fn project(&mut self, rod: &mut Rod, start: &[Vec3], mu: f32, least: f32) -> u32 {
         let diameter = 2.0 * rod.material.radius;
         let mut active = 0;

@@ -9,7 +9,7 @@ use super::environment::{
 };
 use super::self_contact::SelfContacts;
 use super::state::{Quat, Rod};
-use crate::mpm::Vec3;
+use crate::math::Vec3;
 use nalgebra::Vector6;
 use serde::{Deserialize, Serialize};
 
@@ -329,16 +329,15 @@ impl RodSolver {
     /// solve that kept them left `stress`'s loop 1.4 % long, frame after frame). Solved from
     /// λ = 0 the segments come back to their length.
     /// The points are free in these solves: holding the points that touch something along
-    /// their contact normals (inverse mass w·(I − n·nᵀ)) was tried and let the coil pile
-    /// blow up (strain 98 after a second of `stress`'s coil drop), while free points leave
-    /// it at 1.4 diameters' closest approach (before the bend-twist multipliers were kept).
-    /// The tension reported is the sum of both sets of multipliers.
+    /// their contact normals (inverse mass w·(I − n·nᵀ)) stiffens a pile of coils against
+    /// its own contacts until it blows up (`stress`'s coil drop). The tension reported is the
+    /// sum of both sets of multipliers.
     ///
     /// Only the stretch-shear multipliers start from zero: the bend-twist ones keep the
     /// rounds' values. Solved from zero, a compliant bend-twist constraint finds its whole
-    /// multiplier again and applies the bending impulse a second time in the substep.
-    /// Measured (tests/scenes/knot_laid.toml at 100 substeps, pulled 90 mm a side): largest
-    /// elongation 7.7e-4 at 3.0 s with both sets from zero, 3.1e-6 keeping bend-twist.
+    /// multiplier again and applies the bending impulse a second time in the substep, which
+    /// stretches a hard-pulled knot (tests/scenes/knot_laid.toml) by orders of magnitude
+    /// more than the length budget.
     fn restore_length(&mut self, rod: &mut Rod, inv_h2: f64) {
         self.round_lambda.clone_from(&self.lambda);
         for lambda in &mut self.lambda {

@@ -3,7 +3,7 @@
 //! the rest shape the elastic constraints return to.
 
 use super::material::ThreadMaterial;
-use crate::mpm::Vec3;
+use crate::math::Vec3;
 use nalgebra::{Quaternion, UnitQuaternion};
 
 /// Frame quaternions are kept unit length by the solver; stored raw so that the constraint

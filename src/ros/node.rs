@@ -26,7 +26,7 @@ use crate::ros::session::{finish_recording, prepare, NodeSettings, SessionError}
 use crate::ros::sim_clock::SimClock;
 use crate::ros::status::{backend_and_adapter, Progress, StatusReport};
 use crate::sim::log::RateLimitedLog;
-use crate::sim::thread::{self, SimHandle};
+use crate::sim::realtime::{self, SimHandle};
 use crate::sim::{Frame, RecordedInput, SimInput};
 
 /// Why the node could not start or ended with an error.
@@ -360,7 +360,7 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
         substeps: 0,
     });
 
-    let mut sim = thread::spawn(setup);
+    let mut sim = realtime::spawn(setup);
     tracing::info!(
         "node {} in namespace {} up: {} arm(s), {} tool(s), frames at {} Hz",
         settings.name,

@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 
 use crate::mpm::backend::Backend;
 use crate::ros::msgs::{DiagnosticArray, DiagnosticStatus, Header, KeyValue, Time};
-use crate::sim::thread::slower_than_real_time;
+use crate::sim::realtime::slower_than_real_time;
 use crate::world::World;
 
 /// Below this real-time factor the status is a warning: the simulation runs slower than

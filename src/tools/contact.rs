@@ -7,7 +7,7 @@
 //! tools (the arc needle) keep only the component along their own tangent. Sticky contact
 //! (grips, bonded fixtures) matches the tool velocity exactly.
 
-use crate::mpm::Vec3;
+use crate::math::Vec3;
 use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

@@ -34,7 +34,7 @@
 
 use super::sdf::{jaw_angle, rotate_x};
 use super::{Shape, ToolKinematics};
-use crate::mpm::Vec3;
+use crate::math::Vec3;
 
 /// What the grip does to one grid node.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -12,7 +12,7 @@
 
 use super::obj::{self, Obj};
 use super::SdfHit;
-use crate::mpm::Vec3;
+use crate::math::Vec3;
 use parry3d::math::Point;
 use parry3d::query::{PointQuery, PointQueryWithLocation};
 use parry3d::shape::{TriMesh, TrianglePointLocation};

@@ -17,7 +17,7 @@ pub use pose::{ToolPose, ToolVelocity};
 pub use sdf::{SdfHit, Shape};
 pub use trajectory::Trajectory;
 
-use crate::mpm::{Mat3, Vec3};
+use crate::math::{Mat3, Vec3};
 
 /// Everything the grid update needs to know about one tool during one substep, in f32 and
 /// world frame: pose at the start of the substep, its velocity over the substep, and a

@@ -3,7 +3,7 @@
 //! back from the last vertex read) and `l` polylines. Every other statement (`vt`, `vn`, `o`,
 //! `g`, `s`, `usemtl`, `mtllib`, comments) is skipped: a blade has no texture or material.
 
-use crate::mpm::Vec3;
+use crate::math::Vec3;
 
 /// What an OBJ file holds, with the line each face and polyline came from (for messages).
 #[derive(Clone, Debug, Default, PartialEq)]

@@ -5,7 +5,7 @@
 //! shapes (the arc needle) also return the unit tangent of the curve at the nearest point.
 
 use super::mesh_slicer::BladeFile;
-use crate::mpm::Vec3;
+use crate::math::Vec3;
 use serde::{Deserialize, Serialize};
 
 /// Tool geometry. Lengths in metres, angles in radians unless the name says otherwise.

@@ -11,7 +11,7 @@
 //! al. 2018; seed 002 Fig. 6b).
 
 use super::SdfHit;
-use crate::mpm::Vec3;
+use crate::math::Vec3;
 
 /// How far (in cells) from the blade plane a particle's stencil reaches: quadratic B-spline
 /// nodes lie up to 1.5 cells from the particle along each axis, so up to 1.5·√3 cells along

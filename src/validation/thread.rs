@@ -7,7 +7,7 @@
 //! The discrete rod lumps its bending at the joints and its mass at the points, a first-order
 //! error in the segment length.
 
-use crate::mpm::Vec3;
+use crate::math::Vec3;
 use crate::rod::solver::RodSolverSettings;
 use crate::rod::{Rod, RodSolver, ThreadMaterial};
 

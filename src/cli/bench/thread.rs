@@ -7,7 +7,7 @@
 //! gives the thread's own CPU time, which other processes on a loaded machine do not inflate.
 //! A second table: the analytic beam cases of `validation::thread` against segment count.
 
-use dvrk_tissue_sim::mpm::Vec3;
+use dvrk_tissue_sim::math::Vec3;
 use dvrk_tissue_sim::rod::solver::RodSolverSettings;
 use dvrk_tissue_sim::rod::{Rod, RodSolver, ThreadMaterial};
 use dvrk_tissue_sim::validation::thread as analytic;

@@ -4,7 +4,7 @@
 //! Each case must stay finite, never bring two segments closer than 90 % of a diameter
 //! (no pass-through) and keep every segment's strain below 1 %.
 
-use dvrk_tissue_sim::mpm::Vec3;
+use dvrk_tissue_sim::math::Vec3;
 use dvrk_tissue_sim::rod::self_contact::min_self_distance;
 use dvrk_tissue_sim::rod::solver::RodSolverSettings;
 use dvrk_tissue_sim::rod::{Rod, RodAttachment, RodEnvironment, RodSolver, ThreadMaterial};

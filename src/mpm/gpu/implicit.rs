@@ -65,8 +65,8 @@
 
 use super::resources::Resources;
 use super::{GpuSolver, Groups};
-use crate::mpm::backend::FramePlan;
 use crate::mpm::cpu::implicit::{forcing_term, CONTACT_ROUNDS};
+use crate::mpm::frame_plan::FramePlan;
 use crate::mpm::{ImplicitParams, Preconditioner, SolveCounts};
 use std::sync::mpsc;
 

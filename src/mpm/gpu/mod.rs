@@ -57,7 +57,8 @@ mod readback;
 mod resources;
 mod sparse;
 
-use super::backend::{FramePlan, FrameStats, P2gAtomics};
+use super::backend::P2gAtomics;
+use super::frame_plan::{FramePlan, FrameStats};
 use super::grid::Node;
 use super::{GridLayout, Method, Particles, PbMpmParams, SolveCounts, SolverSetup, MAX_TOOLS};
 use crate::tools::Shape;

@@ -4,7 +4,7 @@
 
 use super::grid_update::IMPULSE_WORDS;
 use super::pack::{self, GpuParticle};
-use crate::mpm::backend::FrameStats;
+use crate::mpm::frame_plan::FrameStats;
 use crate::mpm::guard::{GuardEvent, GuardKind};
 use crate::mpm::{Particles, Vec3, MAX_TOOLS};
 use std::sync::mpsc;

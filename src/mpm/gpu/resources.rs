@@ -9,7 +9,7 @@ use super::grid_update::IMPULSE_WORDS;
 use super::p2g::FIXED_SCALE;
 use super::pack::{self, GpuMaterial, GpuParticle, GpuTool, SimUniform, StepUniform};
 use super::readback::{self, extract_bytes_per_particle, CRACK_BYTES, STATS_BYTES};
-use crate::mpm::backend::FramePlan;
+use crate::mpm::frame_plan::FramePlan;
 use crate::mpm::grid::Node;
 use crate::mpm::{SolverSetup, TableHold, Vec3, MAX_TOOLS};
 use crate::tools::Shape;

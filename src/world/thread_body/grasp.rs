@@ -13,7 +13,7 @@
 //! z from the hinge to the tips): |x| ≤ width/2 + r, −r ≤ z ≤ length + r, |y| ≤ thickness + r.
 //! A point that far from the faces' plane was swept between them as they closed.
 
-use crate::mpm::Vec3;
+use crate::math::Vec3;
 use crate::rod::{Rod, RodAttachment};
 use crate::tools::{Shape, ToolPose};
 use crate::world::WorldTool;

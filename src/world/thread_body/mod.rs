@@ -3,15 +3,14 @@
 //! ([`grasp`]). The world steps each thread once per frame alongside the tissue, through
 //! [`RodSolver::step_frame_in`] with one [`RodEnvironment`] per frame.
 //!
-//! `knot` tells whether its centreline is knotted.
+//! [`crate::rod::knot`] tells whether its centreline is knotted.
 
 pub mod grasp;
-pub mod knot;
 
 use crate::config::thread::RestShape;
 use crate::config::{Scene, Thread};
+use crate::math::Vec3;
 use crate::mpm::grid::WALL_NODES;
-use crate::mpm::Vec3;
 use crate::rod::{Rod, RodAttachment, RodCollider, RodEnvironment, RodSolver};
 use crate::tools::ContactModel;
 use crate::world::WorldTool;
@@ -177,11 +176,11 @@ impl ThreadBody {
         self.rod.length() as f64 / self.rod.rest_length() as f64 - 1.0
     }
 
-    /// The knot determinant of the centreline (see [`knot`]): 1 unknotted, 3 an overhand
+    /// The knot determinant of the centreline (see [`crate::rod::knot`]): 1 unknotted, 3 an overhand
     /// knot (trefoil).
     pub fn knot_determinant(&self) -> u128 {
         let points: Vec<_> = self.rod.points.iter().map(|p| p.cast::<f64>()).collect();
-        knot::knot_determinant(&points)
+        crate::rod::knot::knot_determinant(&points)
     }
 
     /// Points held by grippers now.

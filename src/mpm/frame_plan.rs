@@ -1,0 +1,41 @@
+//! One frame as a backend runs it: the plan decided before the first substep (equal
+//! substeps, every substep's tool kinematics) and the statistics reported back.
+
+use super::guard::GuardEvent;
+use super::{SolveCounts, ToolImpulse, Vec3, MAX_TOOLS};
+use crate::tools::ToolKinematics;
+
+/// Everything one frame's substeps need, decided before the first of them runs.
+#[derive(Clone, Copy, Debug)]
+pub struct FramePlan<'a> {
+    pub dt: f32,
+    pub substeps: u32,
+    pub gravity: Vec3,
+    /// Tools per substep.
+    pub tool_count: usize,
+    /// `substeps × tool_count` entries, substep-major.
+    pub tools: &'a [ToolKinematics],
+}
+
+impl FramePlan<'_> {
+    pub fn substep_tools(&self, s: usize) -> &[ToolKinematics] {
+        &self.tools[s * self.tool_count..(s + 1) * self.tool_count]
+    }
+}
+
+/// What a frame reports back.
+#[derive(Clone, Debug, Default)]
+pub struct FrameStats {
+    /// Impulse on each tool summed over the completed substeps.
+    pub tool_impulses: [ToolImpulse; MAX_TOOLS],
+    /// Largest particle speed over the frame (m/s).
+    pub max_speed: f32,
+    pub clamped_particles: u32,
+    /// Substeps completed before the guard tripped (all of them when it did not).
+    pub substeps_done: u32,
+    /// The guard event of the first substep that tripped; the state is unusable then and
+    /// must be restored (`restore_frame_start` or `reset_to_rest`).
+    pub guard: Option<GuardEvent>,
+    /// Newton and CG iterations of the implicit solver over the frame.
+    pub solve: SolveCounts,
+}
