@@ -46,7 +46,7 @@ def message_type(name):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--minutes", type=float, default=30.0, help="simulated minutes")
-    parser.add_argument("--scene", default="tests/ros/scenes/small.toml")
+    parser.add_argument("--scene", default="tests/scenes/small.toml")
     parser.add_argument("--binary", default=os.path.join(ROOT, "target/release/dvrk-tissue-sim"))
     parser.add_argument("--warmup", type=float, default=30.0, help="simulated s before the first memory reading")
     parser.add_argument("--log", default="/tmp/dvrk-soak.log")

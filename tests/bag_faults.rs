@@ -14,10 +14,11 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-mod common;
-use common::{network_prerequisites, python, root, skip_or_fail};
+mod support;
+use support::dds::{network_prerequisites, python, skip_or_fail};
+use support::root;
 
-const SMALL: &str = "tests/ros/scenes/small.toml";
+const SMALL: &str = "tests/scenes/small.toml";
 
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("dvrk-bag-faults-{}", std::process::id()));

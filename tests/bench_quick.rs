@@ -3,6 +3,8 @@
 
 mod support;
 
+use std::collections::BTreeSet;
+
 #[test]
 fn quick_bench_meets_error_bounds_and_writes_its_files() {
     let out_dir = std::env::temp_dir().join(format!("dvrk-bench-quick-{}", std::process::id()));
@@ -16,7 +18,27 @@ fn quick_bench_meets_error_bounds_and_writes_its_files() {
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
     let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    assert_eq!(rows.len(), 12, "{csv}");
+    // The quick plan (its size is pinned beside it, in `SweepPlan::quick`'s unit test) is every
+    // analytic case under every explicit solver setting: the rows are that grid, each run once.
+    let case_columns = [
+        column("scene"),
+        column("resolution_cells"),
+        column("backend"),
+    ];
+    let setting_columns = [column("solver"), column("step")];
+    let case = |r: &Vec<&str>| pick(r, &case_columns);
+    let setting = |r: &Vec<&str>| pick(r, &setting_columns);
+    let cases: BTreeSet<_> = rows.iter().map(case).collect();
+    let settings: BTreeSet<_> = rows.iter().map(setting).collect();
+    let runs: BTreeSet<_> = rows.iter().map(|r| (case(r), setting(r))).collect();
+    assert_eq!(runs.len(), rows.len(), "a run listed twice\n{csv}");
+    assert_eq!(rows.len(), cases.len() * settings.len(), "{csv}");
+    for r in &rows {
+        assert!(
+            r[column("solver")] != "implicit" && !r[column("scene")].contains("-stiff-"),
+            "the implicit and stiff rows belong to the full bench: {r:?}"
+        );
+    }
     assert!(
         rows.iter().any(|r| r[column("solver")] == "PB-MPM"),
         "{csv}"
@@ -50,4 +72,9 @@ fn quick_bench_meets_error_bounds_and_writes_its_files() {
     let png = std::fs::read(out_dir.join("bench.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
     let _ = std::fs::remove_dir_all(&out_dir);
+}
+
+/// The fields of `row` in `columns`.
+fn pick(row: &[&str], columns: &[usize]) -> Vec<String> {
+    columns.iter().map(|&c| row[c].to_owned()).collect()
 }

@@ -10,9 +10,10 @@
 
 use std::process::Command;
 
-mod common;
-use common::node::{run_rclpy, NodeProcess};
-use common::{network_prerequisites, root};
+mod support;
+use support::dds::network_prerequisites;
+use support::node::{run_rclpy, NodeProcess};
+use support::root;
 
 #[test]
 fn clock_follows_the_simulation_and_the_status_reports_its_real_time_factor() {
@@ -56,7 +57,7 @@ fn no_ros_distro_warning_without_a_ros_installation() {
             .args([
                 "run",
                 "--scene",
-                "tests/ros/scenes/small.toml",
+                "tests/scenes/small.toml",
                 "--backend",
                 "cpu",
                 "--seconds",

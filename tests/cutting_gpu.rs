@@ -19,8 +19,9 @@
 use dvrk_tissue_sim::config::{self, Scene};
 use dvrk_tissue_sim::math::Vec3;
 use dvrk_tissue_sim::mpm::backend::{BackendChoice, P2gAtomics};
-use dvrk_tissue_sim::mpm::{pieces, Method};
+use dvrk_tissue_sim::mpm::{pieces, Method, Particles};
 use dvrk_tissue_sim::world::World;
+use std::sync::OnceLock;
 
 mod support;
 
@@ -57,23 +58,32 @@ fn quick_cutting_scene(
     scene
 }
 
-/// `config/cutting.toml` quick: the quad blade's edge from 2 mm above the block to 1 mm
-/// below the table.
-fn cutting_scene(backend: BackendChoice, method: Method, p2g: P2gAtomics) -> Scene {
-    quick_cutting_scene("cutting.toml", None, backend, method, p2g)
+/// The shipped cutting scenes, made quick by [`quick_cutting_scene`].
+#[derive(Clone, Copy)]
+enum Blade {
+    /// `config/cutting.toml`: the quad blade's edge from 2 mm above the block to 1 mm below
+    /// the table.
+    Quad,
+    /// `config/cutting_mesh.toml` (the scalpel of `config/meshes/scalpel.obj`): the same
+    /// block, the straight part of the edge from 2 mm above it down to where the belly, at
+    /// the block's tip-side face (x = 6 mm, 19.0 mm below the spine), is 0.9 mm below the
+    /// table. (With the spine ending at 22.0 mm instead of 22.1, PB-MPM's fixed-point run
+    /// drifts from the CPU's by 0.18 mm from t = 0.13 s, while its f32 run agrees within
+    /// 1.5e-8 m, and ending at 21.9 or 22.1 mm the fixed-point run agrees within 6e-8 m: a
+    /// sensitivity of that one path, most likely a particle that the band's boundary meets
+    /// within the fixed point's rounding of its position, cut a substep apart.)
+    Mesh,
 }
 
-/// The mesh-blade cutting scene (`config/cutting_mesh.toml`, the scalpel of
-/// `config/meshes/scalpel.obj`) made as quick: the same block, the straight part of the
-/// edge from 2 mm above it down to where the belly, at the block's tip-side face (x = 6 mm,
-/// 19.0 mm below the spine), is 0.9 mm below the table. (With the spine ending at 22.0 mm
-/// instead of 22.1, PB-MPM's fixed-point run drifts from the CPU's by 0.18 mm from
-/// t = 0.13 s, while its f32 run agrees within 1.5e-8 m, and ending at 21.9 or 22.1 mm the
-/// fixed-point run agrees within 6e-8 m: a sensitivity of that one path, most likely a
-/// particle that the band's boundary meets within the fixed point's rounding of its
-/// position, cut a substep apart.)
-fn mesh_cutting_scene(backend: BackendChoice, method: Method, p2g: P2gAtomics) -> Scene {
-    quick_cutting_scene("cutting_mesh.toml", Some(0.0221), backend, method, p2g)
+impl Blade {
+    fn scene(self, backend: BackendChoice, method: Method, p2g: P2gAtomics) -> Scene {
+        match self {
+            Blade::Quad => quick_cutting_scene("cutting.toml", None, backend, method, p2g),
+            Blade::Mesh => {
+                quick_cutting_scene("cutting_mesh.toml", Some(0.0221), backend, method, p2g)
+            }
+        }
+    }
 }
 
 /// How far the blade's plane lies from the node plane y = 0 with MLS-MPM (m; module docs).
@@ -82,31 +92,47 @@ const BLADE_OFF_NODE_PLANE: f64 = 0.00025;
 /// Time (s) at which the edge has cut the block through.
 const CUT_THROUGH: f64 = 0.2;
 
-/// The quad slicer's scene and the mesh blade's.
-type SceneOf = fn(BackendChoice, Method, P2gAtomics) -> Scene;
-
-fn cut_agrees(method: Method, p2g: P2gAtomics, position_tolerance: f32) {
-    scene_cut_agrees(cutting_scene, method, p2g, position_tolerance);
+/// The CPU reference of a quick cutting scene run to `CUT_THROUGH`.
+struct CpuCut {
+    /// Substeps of each frame.
+    substeps: Vec<u32>,
+    particles: Particles,
+    dx: f32,
+    name: String,
 }
 
-fn mesh_cut_agrees(method: Method, p2g: P2gAtomics, position_tolerance: f32) {
-    scene_cut_agrees(mesh_cutting_scene, method, p2g, position_tolerance);
+/// The CPU run of `blade` with `method`. The CPU backend has no P2G atomics, so both GPU
+/// variants' tests compare with the same run: it is made once per test binary.
+fn cpu_cut(blade: Blade, method: Method) -> &'static CpuCut {
+    static RUNS: [OnceLock<CpuCut>; 4] = [const { OnceLock::new() }; 4];
+    let slot = 2 * blade as usize + usize::from(method == Method::PbMpm);
+    RUNS[slot].get_or_init(|| {
+        let mut cpu = World::new(&blade.scene(BackendChoice::Cpu, method, P2gAtomics::default()));
+        let mut substeps = Vec::new();
+        while cpu.time() < CUT_THROUGH - 1e-9 {
+            substeps.push(cpu.step_frame().unwrap().substeps);
+        }
+        CpuCut {
+            substeps,
+            particles: cpu.particles().clone(),
+            dx: cpu.layout().dx,
+            name: cpu.scene().name.clone(),
+        }
+    })
 }
 
-fn scene_cut_agrees(scene: SceneOf, method: Method, p2g: P2gAtomics, position_tolerance: f32) {
-    if !support::gpu_ready(p2g) {
+fn scene_cut_agrees(blade: Blade, method: Method, p2g: P2gAtomics, position_tolerance: f32) {
+    if !support::gpu::ready(p2g) {
         return;
     }
-    let mut cpu = World::new(&scene(BackendChoice::Cpu, method, p2g));
-    let mut gpu = World::new(&scene(BackendChoice::Gpu, method, p2g));
+    let cpu = cpu_cut(blade, method);
+    let mut gpu = World::new(&blade.scene(BackendChoice::Gpu, method, p2g));
     assert_ne!(gpu.backend().name(), "cpu");
-    while cpu.time() < CUT_THROUGH - 1e-9 {
-        let rc = cpu.step_frame().unwrap();
-        let rg = gpu.step_frame().unwrap();
-        assert_eq!(rc.substeps, rg.substeps);
+    for &substeps in &cpu.substeps {
+        assert_eq!(gpu.step_frame().unwrap().substeps, substeps);
     }
     gpu.sync_particles();
-    let (pc, pg) = (cpu.particles(), gpu.particles());
+    let (pc, pg) = (&cpu.particles, gpu.particles());
     let n = pc.len();
     assert_eq!(pc.crack.len(), n, "the CPU has cut");
     assert_eq!(pg.crack.len(), n, "the GPU read its cracks back");
@@ -137,13 +163,13 @@ fn scene_cut_agrees(scene: SceneOf, method: Method, p2g: P2gAtomics, position_to
             .zip(&pg.x)
             .map(|(p, q)| (p - q).norm())
             .fold(0.0, f32::max);
-    let name = &cpu.scene().name;
+    let name = &cpu.name;
     println!(
         "{name} {method:?} {p2g:?}: {both} particles cut on both, {only_one} on one only; crack normals \
          within {p99_angle:e} rad for 99 %, {worst_angle:e} rad for all; plane offsets within {worst_offset:e} m; positions \
          within {diff:e} m"
     );
-    let dx = cpu.layout().dx;
+    let dx = cpu.dx;
     // The band of particles cut: within 1.5·√3 cells of the blade plane, across the block.
     assert!(both > n / 4, "{both} of {n} particles cut on both backends");
     assert!(
@@ -179,24 +205,24 @@ fn scene_cut_agrees(scene: SceneOf, method: Method, p2g: P2gAtomics, position_to
 
 #[test]
 fn gpu_cut_agrees_with_cpu_f32_atomics() {
-    cut_agrees(Method::MlsMpm, P2gAtomics::Float, 2e-5);
+    scene_cut_agrees(Blade::Quad, Method::MlsMpm, P2gAtomics::Float, 2e-5);
 }
 
 #[test]
 fn gpu_cut_agrees_with_cpu_fixed_point() {
-    cut_agrees(Method::MlsMpm, P2gAtomics::Fixed, 5e-5);
+    scene_cut_agrees(Blade::Quad, Method::MlsMpm, P2gAtomics::Fixed, 5e-5);
 }
 
 // PB-MPM: the crack's side tests in its momentum-only P2G (a cut particle's affine momentum
 // about its kept nodes, common.wgsl `scatter_apic_about_kept`) and every iteration's G2P.
 #[test]
 fn gpu_pb_mpm_cut_agrees_with_cpu_f32_atomics() {
-    cut_agrees(Method::PbMpm, P2gAtomics::Float, 2e-5);
+    scene_cut_agrees(Blade::Quad, Method::PbMpm, P2gAtomics::Float, 2e-5);
 }
 
 #[test]
 fn gpu_pb_mpm_cut_agrees_with_cpu_fixed_point() {
-    cut_agrees(Method::PbMpm, P2gAtomics::Fixed, 5e-5);
+    scene_cut_agrees(Blade::Quad, Method::PbMpm, P2gAtomics::Fixed, 5e-5);
 }
 
 // The slicer from a mesh file: its closest-point query over the blade's triangles, the cut
@@ -204,20 +230,20 @@ fn gpu_pb_mpm_cut_agrees_with_cpu_fixed_point() {
 // its spine's capsule chain (common.wgsl `sdf_mesh_spine`), under the same bounds.
 #[test]
 fn gpu_mesh_cut_agrees_with_cpu_f32_atomics() {
-    mesh_cut_agrees(Method::MlsMpm, P2gAtomics::Float, 2e-5);
+    scene_cut_agrees(Blade::Mesh, Method::MlsMpm, P2gAtomics::Float, 2e-5);
 }
 
 #[test]
 fn gpu_mesh_cut_agrees_with_cpu_fixed_point() {
-    mesh_cut_agrees(Method::MlsMpm, P2gAtomics::Fixed, 5e-5);
+    scene_cut_agrees(Blade::Mesh, Method::MlsMpm, P2gAtomics::Fixed, 5e-5);
 }
 
 #[test]
 fn gpu_pb_mpm_mesh_cut_agrees_with_cpu_f32_atomics() {
-    mesh_cut_agrees(Method::PbMpm, P2gAtomics::Float, 2e-5);
+    scene_cut_agrees(Blade::Mesh, Method::PbMpm, P2gAtomics::Float, 2e-5);
 }
 
 #[test]
 fn gpu_pb_mpm_mesh_cut_agrees_with_cpu_fixed_point() {
-    mesh_cut_agrees(Method::PbMpm, P2gAtomics::Fixed, 5e-5);
+    scene_cut_agrees(Blade::Mesh, Method::PbMpm, P2gAtomics::Fixed, 5e-5);
 }

@@ -15,11 +15,11 @@ use std::process::Stdio;
 use std::sync::{Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
-mod common;
-use common::network_prerequisites;
-use common::node::{rclpy_command, run_rclpy, NodeProcess};
+mod support;
+use support::dds::network_prerequisites;
+use support::node::{rclpy_command, run_rclpy, NodeProcess};
 
-const SMALL: [&str; 4] = ["--scene", "tests/ros/scenes/small.toml", "--backend", "cpu"];
+const SMALL: [&str; 4] = ["--scene", "tests/scenes/small.toml", "--backend", "cpu"];
 
 /// The tests here compare a node's frame rate with itself, and the flood's publisher takes a
 /// whole core by design: run one at a time, so that no test's node and driver share the

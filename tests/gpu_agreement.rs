@@ -94,7 +94,7 @@ fn free_block_on_both(scene: &Scene, p2g: P2gAtomics) -> (World, World, f32) {
 }
 
 fn free_block_agrees(p2g: P2gAtomics, tolerance: f32, momentum_tolerance: f64) {
-    if !support::gpu_ready(p2g) {
+    if !support::gpu::ready(p2g) {
         return;
     }
     let (cpu, mut gpu, diff) = free_block_on_both(&free_block_scene(), p2g);
@@ -128,7 +128,7 @@ fn gpu_free_block_agrees_with_cpu_fixed_point() {
 /// on one side the terminal speed differs by about α·dt/2 ≈ 1.5 % at the ≈ 150 µs substep,
 /// tens of µm of position after 0.1 s and far past the max-speed check of every frame.
 fn damped_free_block_agrees(p2g: P2gAtomics, tolerance: f32) {
-    if !support::gpu_ready(p2g) {
+    if !support::gpu::ready(p2g) {
         return;
     }
     let mut scene = free_block_scene();
@@ -154,7 +154,7 @@ fn gpu_damping_dominated_free_block_agrees_with_cpu_fixed_point() {
 /// The cloud's scalars on the GPU come from the per-frame deformation readback: they match
 /// a full download of the device state exactly, and the CPU's within rounding.
 fn cloud_scalars_agree(p2g: P2gAtomics, tolerance: f32) {
-    if !support::gpu_ready(p2g) {
+    if !support::gpu::ready(p2g) {
         return;
     }
     let scene = free_block_scene();
@@ -214,7 +214,7 @@ fn grasp_scene() -> Scene {
 /// Jaws closing (jaw velocity), friction, resting table, lifting: positions and the
 /// gripper's wrench frame by frame.
 fn grasp_agrees(p2g: P2gAtomics, position_tolerance: f32) {
-    if !support::gpu_ready(p2g) {
+    if !support::gpu::ready(p2g) {
         return;
     }
     let scene = grasp_scene();
@@ -270,7 +270,7 @@ fn gpu_grasp_positions_and_wrench_agree_with_cpu_fixed_point() {
 /// through a lift: positions, the wrench, the jaw opening the servo reaches from the
 /// tissue's torque, and the grip's sums, frame by frame.
 fn grip_agrees(p2g: P2gAtomics, position_tolerance: f32) {
-    if !support::gpu_ready(p2g) {
+    if !support::gpu::ready(p2g) {
         return;
     }
     // dVRK's jaw closes 70° in about 0.7 s at its effort limit.
@@ -327,7 +327,7 @@ fn gpu_grip_agrees_with_cpu_fixed_point() {
 }
 
 fn hertz_agrees(p2g: P2gAtomics) {
-    if !support::gpu_ready(p2g) {
+    if !support::gpu::ready(p2g) {
         return;
     }
     let cpu = analytic::hertz_on(4.0, BackendChoice::Cpu, p2g);
@@ -361,7 +361,7 @@ fn gpu_hertz_error_agrees_with_cpu_fixed_point() {
 
 #[test]
 fn gpu_guard_stops_and_restores_the_frame_start_on_the_device() {
-    if !support::gpu_ready(P2gAtomics::Fixed) {
+    if !support::gpu::ready(P2gAtomics::Fixed) {
         return;
     }
     let mut world = on(&free_block_scene(), BackendChoice::Gpu, P2gAtomics::Auto);
@@ -468,7 +468,7 @@ fn frame_in_flight_keeps_the_previous_frame_cpu() {
 
 #[test]
 fn frame_in_flight_keeps_the_previous_frame_gpu() {
-    if support::gpu_ready(P2gAtomics::Fixed) {
+    if support::gpu::ready(P2gAtomics::Fixed) {
         frame_in_flight_keeps_the_previous_frame(BackendChoice::Gpu, P2gAtomics::Fixed);
     }
 }
@@ -481,7 +481,7 @@ fn pb_mpm(mut scene: Scene) -> Scene {
 /// PB-MPM: the free block (gravity, translation, spin, squeeze) at the default 1/240 s
 /// substep, 5 iterations each.
 fn pb_free_block_agrees(p2g: P2gAtomics, tolerance: f32) {
-    if !support::gpu_ready(p2g) {
+    if !support::gpu::ready(p2g) {
         return;
     }
     let (_, _, diff) = free_block_on_both(&pb_mpm(free_block_scene()), p2g);
@@ -504,7 +504,7 @@ fn gpu_pb_mpm_free_block_agrees_with_cpu_fixed_point() {
 /// PB-MPM: a block resting on a slab tool; the tool's wrench (impulses summed over the
 /// iterations) and the positions agree.
 fn pb_slab_agrees(p2g: P2gAtomics, position_tolerance: f32, force_tolerance: f64) {
-    if !support::gpu_ready(p2g) {
+    if !support::gpu::ready(p2g) {
         return;
     }
     let scene = pb_mpm(scene(
@@ -577,7 +577,7 @@ fn gpu_pb_mpm_slab_wrench_agrees_with_cpu_fixed_point() {
 
 /// The PIC reference: the free block as above with PIC velocity transfer.
 fn pic_free_block_agrees(p2g: P2gAtomics, tolerance: f32) {
-    if !support::gpu_ready(p2g) {
+    if !support::gpu::ready(p2g) {
         return;
     }
     let mut scene = free_block_scene();

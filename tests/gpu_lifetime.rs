@@ -21,14 +21,14 @@ const CYCLES: usize = 30;
 /// Every `IMPLICIT_EVERY`th of them solves implicitly (where the adapter has f32 atomics).
 const IMPLICIT_EVERY: usize = 5;
 
-/// `support::small_block_scene` of 5 kPa on a bonded table, on the GPU.
+/// `support::scenes::small_block` of 5 kPa on a bonded table, on the GPU.
 fn block(method: Method) -> Scene {
     let table = Table {
         height: 0.002,
         hold: Hold::Bonded,
         friction: 0.5,
     };
-    let mut s = support::small_block_scene("lifetime-block", 5000.0, table, vec![]);
+    let mut s = support::scenes::small_block("lifetime-block", 5000.0, table, vec![]);
     s.solver.method = method;
     s.solver.backend = BackendChoice::Gpu;
     s
@@ -94,11 +94,11 @@ fn cycle(scene: &Scene, before: &Held) {
 
 #[test]
 fn gpu_worlds_built_and_dropped_free_their_device_buffers_and_threads() {
-    if !support::gpu_ready(P2gAtomics::Fixed) {
+    if !support::gpu::ready(P2gAtomics::Fixed) {
         return;
     }
     // The GPU refuses implicit worlds without f32 atomics.
-    let implicit = support::gpu_ready(P2gAtomics::Float);
+    let implicit = support::gpu::ready(P2gAtomics::Float);
     if !implicit {
         println!("adapter without f32 atomics: implicit worlds left out (the GPU refuses them)");
     }

@@ -29,9 +29,9 @@ fn on(scene: &Scene, backend: BackendChoice) -> World {
     w
 }
 
-/// `support::small_block_scene` solved implicitly.
+/// `support::scenes::small_block` solved implicitly.
 fn block_scene(e: f64, table: Table, tools: Vec<dvrk_tissue_sim::config::Tool>) -> Scene {
-    let mut s = support::small_block_scene("implicit-block", e, table, tools);
+    let mut s = support::scenes::small_block("implicit-block", e, table, tools);
     s.solver.method = Method::Implicit;
     s
 }
@@ -140,7 +140,7 @@ fn assert_counts_comparable(frames: usize, cpu: SolveCounts, gpu: SolveCounts) {
 
 #[test]
 fn gpu_implicit_block_on_a_bonded_table_agrees_with_cpu() {
-    if !support::gpu_ready(P2gAtomics::Float) {
+    if !support::gpu::ready(P2gAtomics::Float) {
         return;
     }
     // A 20 kPa block settling under its own weight at one 60 Hz step a frame: its top
@@ -164,7 +164,7 @@ fn gpu_implicit_block_on_a_bonded_table_agrees_with_cpu() {
 
 #[test]
 fn gpu_implicit_sphere_pressing_on_a_resting_block_agrees_with_cpu() {
-    if !support::gpu_ready(P2gAtomics::Float) {
+    if !support::gpu::ready(P2gAtomics::Float) {
         return;
     }
     // A 3 mm sphere moving down into a 50 kPa block that rests on a table with friction:
@@ -236,7 +236,7 @@ fn the_gpu_backend_builds_implicit_where_it_has_f32_atomics() {
     match World::try_new(&s) {
         Ok(w) => {
             assert!(
-                support::gpu_ready(P2gAtomics::Float),
+                support::gpu::ready(P2gAtomics::Float),
                 "implicit built on a GPU without f32 atomics"
             );
             assert_ne!(w.backend().name(), "cpu");

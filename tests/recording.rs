@@ -17,10 +17,11 @@ use dvrk_tissue_sim::ros::outputs::OutputLayout;
 use dvrk_tissue_sim::ros::recorder::Recorder;
 use dvrk_tissue_sim::sim::{Due, Frame, FrameRecord, FrameSink, RecordedInput};
 
-mod common;
-use common::{network_prerequisites, python, root, skip_or_fail};
+mod support;
+use support::dds::{network_prerequisites, python, skip_or_fail};
+use support::root;
 
-const SMALL: &str = "tests/ros/scenes/small.toml";
+const SMALL: &str = "tests/scenes/small.toml";
 
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("dvrk-recording-{}", std::process::id()));
@@ -503,7 +504,7 @@ fn a_scripted_headless_run_records_its_outputs() {
     let o = sim(&[
         "run",
         "--scene",
-        "tests/ros/scenes/small_scripted.toml",
+        "tests/scenes/small_scripted.toml",
         "--headless",
         "--backend",
         "cpu",

@@ -18,9 +18,9 @@ use ros2_client::{
     Subscription,
 };
 
-mod common;
-use common::network_prerequisites as prerequisites;
-use common::node::{run_rclpy, NodeProcess};
+mod support;
+use support::dds::network_prerequisites as prerequisites;
+use support::node::{run_rclpy, NodeProcess};
 
 /// One node at a time: two cores, and every test's timing matters.
 static SERIAL: Mutex<()> = Mutex::new(());
@@ -44,7 +44,7 @@ fn rclpy_test(script: &str, scene: &str, domain: u16) -> Option<String> {
     Some(stdout)
 }
 
-const SMALL: &str = "tests/ros/scenes/small.toml";
+const SMALL: &str = "tests/scenes/small.toml";
 
 #[test]
 fn rclpy_sees_node_topics_and_exact_types() {
@@ -58,7 +58,7 @@ fn rclpy_servo_jp_moves_measured_js_and_measured_cp_matches_fk() {
 
 #[test]
 fn rclpy_measured_cp_matches_fk_with_a_dvrk_model_layout_urdf() {
-    rclpy_test("test_servo.py", "tests/ros/scenes/official_layout.toml", 18);
+    rclpy_test("test_servo.py", "tests/scenes/official_layout.toml", 18);
 }
 
 #[test]
@@ -73,7 +73,7 @@ fn rclpy_teleop_follows_at_scale_and_holds_while_clutched() {
 
 #[test]
 fn rclpy_jaw_servo_and_effort_commands_follow_dvrk() {
-    rclpy_test("test_jaw.py", "tests/ros/scenes/gripper.toml", 20);
+    rclpy_test("test_jaw.py", "tests/scenes/gripper.toml", 20);
 }
 
 #[test]
@@ -110,11 +110,7 @@ fn rclpy_bad_input_is_rejected_and_node_keeps_publishing() {
 
 #[test]
 fn rclpy_receives_30k_point_clouds_whole_at_30_hz() {
-    rclpy_test(
-        "test_cloud_throughput.py",
-        "tests/ros/scenes/cloud30k.toml",
-        16,
-    );
+    rclpy_test("test_cloud_throughput.py", "tests/scenes/cloud30k.toml", 16);
 }
 
 // ---- crtk_msgs topics (no Python wheel): a ros2-client peer ----

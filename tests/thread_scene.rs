@@ -192,14 +192,18 @@ fn headless_record_of_thread_toml_holds_the_thread_topics_and_the_summary_report
             _ => {}
         }
     }
-    // 1.5 s at thread_rate_hz = 30.
-    assert_eq!((markers.len(), clouds.len()), (45, 45));
+    // A message of each per period of the scene's thread rate through the 1.5 s run, and a
+    // centreline point per joint of the thread's segments.
+    let shipped =
+        config::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("config/thread.toml")).unwrap();
+    let per_topic = (1.5 * shipped.outputs.thread_rate_hz).round() as usize;
+    assert_eq!((markers.len(), clouds.len()), (per_topic, per_topic));
     let last = markers.last().unwrap();
     assert_eq!(
         (last.kind, last.header.frame_id.as_str()),
         (Marker::LINE_STRIP, "world")
     );
-    assert_eq!(last.points.len(), 61);
+    assert_eq!(last.points.len(), shipped.threads[0].segments as usize + 1);
     let cloud = clouds.last().unwrap();
     let names: Vec<&str> = cloud.fields.iter().map(|f| f.name.as_str()).collect();
     assert_eq!(names, ["x", "y", "z", "tension"]);

@@ -18,7 +18,7 @@ fn check(scene: &str) -> (bool, String) {
 /// says ok; the same scene with the fixture's jaw renamed is refused with the file and reason.
 #[test]
 fn check_opens_the_si_layout_urdf() {
-    let (ok, text) = check("tests/ros/scenes/si_layout.toml");
+    let (ok, text) = check("tests/scenes/si_layout.toml");
     assert!(ok, "{text}");
     assert!(
         text.contains("si_layout.toml: ok (scene \"ros-test-si-layout\"")
@@ -32,7 +32,7 @@ fn check_opens_the_si_layout_urdf() {
     let urdf = std::fs::read_to_string(root.join("tests/urdf/PSM1_si_layout.urdf")).unwrap();
     let broken = dir.join("PSM1_si_no_jaw.urdf");
     std::fs::write(&broken, urdf.replace("joint=\"jaw\"", "joint=\"grip\"")).unwrap();
-    let scene = std::fs::read_to_string(root.join("tests/ros/scenes/si_layout.toml")).unwrap();
+    let scene = std::fs::read_to_string(root.join("tests/scenes/si_layout.toml")).unwrap();
     let broken_scene = dir.join("si_no_jaw.toml");
     std::fs::write(
         &broken_scene,
@@ -164,7 +164,7 @@ fn mutate(text: &str, rng: &mut Rng) -> (String, String) {
 fn fuzzed_urdfs_never_panic_and_are_refused_with_file_and_reason() {
     use dvrk_tissue_sim::config;
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let scene_text = std::fs::read_to_string(root.join("tests/ros/scenes/si_layout.toml")).unwrap();
+    let scene_text = std::fs::read_to_string(root.join("tests/scenes/si_layout.toml")).unwrap();
     let dir = std::env::temp_dir().join(format!("dvrk-urdf-fuzz-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let mut rng = Rng(0x0dd_b1a5_f00d);

@@ -1,12 +1,12 @@
 //! The node as a child process and the rclpy scripts that drive it, for the tests that start
-//! DDS participants. Each test binary uses part of this, so unused items are expected.
-#![allow(dead_code)]
+//! DDS participants.
 
 use std::path::PathBuf;
 use std::process::{Child, Command, ExitStatus, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use super::{python, root};
+use super::dds::python;
+use super::{binary, root};
 
 /// `dvrk-tissue-sim run ARGS` on DDS domain `domain`, its log (stderr) in a temporary file.
 /// Dropping it stops the node as Ctrl-C would.
@@ -25,8 +25,7 @@ impl NodeProcess {
     pub fn start_with(args: &[&str], domain: u16) -> NodeProcess {
         let log =
             std::env::temp_dir().join(format!("dvrk-node-{domain}-{}.log", std::process::id()));
-        let child = Command::new(env!("CARGO_BIN_EXE_dvrk-tissue-sim"))
-            .current_dir(root())
+        let child = binary()
             .arg("run")
             .args(args)
             .env("ROS_DOMAIN_ID", domain.to_string())

@@ -1,15 +1,11 @@
-//! What the tests that start DDS participants share: where the project and its Python venv
-//! are, and whether this is a place where DDS may run (a loopback-only network namespace).
+//! Whether DDS participants may start here (a loopback-only network namespace) and where
+//! the Python venv with the ROS 2 wheels is.
 //! Elsewhere, or without the venv, such tests print why and pass, unless `CI` is set, where
 //! a missing prerequisite fails them.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-pub mod node;
-
-pub fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
+use super::root;
 
 /// The venv `.ci/run` creates with the PyPI ROS 2 wheels and rosbags.
 pub fn python() -> PathBuf {
