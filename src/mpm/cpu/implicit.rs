@@ -54,7 +54,8 @@ pub mod hessian;
 pub mod slip;
 mod workspace;
 
-use super::{CpuSolver, SharedMut, SolvedContact, SubstepInput};
+use super::node_contact::SolvedContact;
+use super::{CpuSolver, SharedMut, SubstepInput};
 use crate::mpm::grid::NODES_PER_BLOCK;
 use crate::mpm::implicit_params::{
     forcing_term, ARMIJO, CONTACT_ROUNDS, ENERGY_ROUNDING, LINE_SEARCH_TRIALS, RESIDUAL_FLOOR,
