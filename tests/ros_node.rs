@@ -27,6 +27,11 @@ static SERIAL: Mutex<()> = Mutex::new(());
 
 /// Runs `tests/ros/<script>` against a node on `scene`; returns its stdout.
 fn rclpy_test(script: &str, scene: &str, domain: u16) -> Option<String> {
+    rclpy_test_with_log(script, scene, domain).map(|(stdout, _)| stdout)
+}
+
+/// As [`rclpy_test`], also returning the node's log.
+fn rclpy_test_with_log(script: &str, scene: &str, domain: u16) -> Option<(String, String)> {
     if !prerequisites(true) {
         return None;
     }
@@ -41,7 +46,7 @@ fn rclpy_test(script: &str, scene: &str, domain: u16) -> Option<String> {
         "{script} failed:\n{stdout}\n{stderr}\n--- node log ---\n{}",
         node.log()
     );
-    Some(stdout)
+    Some((stdout, node.log()))
 }
 
 const SMALL: &str = "tests/scenes/small.toml";
@@ -105,7 +110,24 @@ fn teleop_demo_grasps_lifts_and_releases_the_liver() {
 
 #[test]
 fn rclpy_bad_input_is_rejected_and_node_keeps_publishing() {
-    rclpy_test("test_bad_input.py", SMALL, 15);
+    let Some((_, log)) = rclpy_test_with_log("test_bad_input.py", SMALL, 15) else {
+        return;
+    };
+    // Oversized input is named by its size, in one short line, and never quoted.
+    for dropped in [
+        "/PSM1/servo_jp: dropped on receipt: position has 100000 values",
+        "/PSM1/servo_jp: dropped on receipt: a joint name is 100000 bytes long",
+    ] {
+        assert!(log.contains(dropped), "no '{dropped}' in\n{log}");
+    }
+    assert!(
+        !log.contains(&"y".repeat(1000)),
+        "an oversized name was quoted"
+    );
+    assert!(
+        log.contains("yaw\\nWARN forged") && !log.lines().any(|l| l.starts_with("WARN forged")),
+        "a joint name's newline forged a log line"
+    );
 }
 
 #[test]

@@ -100,7 +100,67 @@ impl InputKind {
     }
 }
 
+/// Most values an input array may hold: a PSM has six joints and its jaw one, an MTM seven
+/// and its gripper one, a Joy a few buttons. Anything longer cannot be a command the arms
+/// take, and is dropped on receipt.
+pub const MAX_INPUT_VALUES: usize = 16;
+
+/// Most bytes of a name (a joint name, a frame id) or a state command in an input message:
+/// ROS names are short; a megabyte name is an attack or a bug.
+pub const MAX_INPUT_NAME_BYTES: usize = 256;
+
 impl InputMessage {
+    /// Why the message is too large to be a command (an array longer than
+    /// [`MAX_INPUT_VALUES`], a string longer than [`MAX_INPUT_NAME_BYTES`]), stating the size
+    /// and nothing of the content; `None` when it is within bounds. Checked on receipt, before
+    /// the message is recorded, converted or quoted in a log line.
+    pub fn oversize(&self) -> Option<String> {
+        let arrays: Vec<(&str, usize)>;
+        let mut strings: Vec<(&str, usize)> = Vec::new();
+        match self {
+            InputMessage::Joints(m) => {
+                arrays = vec![
+                    ("name", m.name.len()),
+                    ("position", m.position.len()),
+                    ("velocity", m.velocity.len()),
+                    ("effort", m.effort.len()),
+                ];
+                strings.push(("frame_id", m.header.frame_id.len()));
+                let longest = m.name.iter().map(String::len).max().unwrap_or(0);
+                strings.push(("a joint name", longest));
+            }
+            InputMessage::Pose(m) => {
+                arrays = vec![];
+                strings.push(("frame_id", m.header.frame_id.len()));
+            }
+            InputMessage::Command(m) => {
+                arrays = vec![];
+                strings.push(("frame_id", m.header.frame_id.len()));
+                strings.push(("the command", m.string.len()));
+            }
+            InputMessage::Wrench(m) => {
+                arrays = vec![];
+                strings.push(("frame_id", m.header.frame_id.len()));
+            }
+            InputMessage::Joy(m) => {
+                arrays = vec![("axes", m.axes.len()), ("buttons", m.buttons.len())];
+                strings.push(("frame_id", m.header.frame_id.len()));
+            }
+            InputMessage::Empty(_) | InputMessage::Flag(_) => return None,
+        }
+        if let Some((field, n)) = arrays.iter().find(|(_, n)| *n > MAX_INPUT_VALUES) {
+            return Some(format!(
+                "{field} has {n} values, at most {MAX_INPUT_VALUES} are taken"
+            ));
+        }
+        strings
+            .iter()
+            .find(|(_, n)| *n > MAX_INPUT_NAME_BYTES)
+            .map(|(field, n)| {
+                format!("{field} is {n} bytes long, at most {MAX_INPUT_NAME_BYTES} are taken")
+            })
+    }
+
     /// The message as ROS 2 serializes it.
     pub fn to_cdr(&self) -> Result<Vec<u8>, CdrError> {
         match self {
@@ -333,6 +393,51 @@ impl InputTopic {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn oversized_inputs_are_named_by_size_not_content() {
+        let huge = InputMessage::Joints(JointState {
+            position: vec![0.0; 1_000_000],
+            ..Default::default()
+        });
+        let why = huge.oversize().expect("a million positions is too many");
+        assert!(why.contains("position has 1000000 values"), "{why}");
+        let long_name = InputMessage::Joints(JointState {
+            name: vec!["x".repeat(1 << 20)],
+            position: vec![0.0],
+            ..Default::default()
+        });
+        let why = long_name.oversize().expect("a 1 MB joint name is too long");
+        assert!(
+            why.contains("1048576 bytes") && !why.contains("xxx"),
+            "{why}"
+        );
+        let command = InputMessage::Command(StringStamped {
+            string: "enable".repeat(100),
+            ..Default::default()
+        });
+        assert!(command.oversize().is_some());
+        let psm = InputMessage::Joints(JointState {
+            name: [
+                "yaw",
+                "pitch",
+                "insertion",
+                "roll",
+                "wrist_pitch",
+                "wrist_yaw",
+            ]
+            .map(String::from)
+            .to_vec(),
+            position: vec![0.0; 6],
+            ..Default::default()
+        });
+        assert_eq!(psm.oversize(), None);
+        let pedals = InputMessage::Joy(Joy {
+            buttons: vec![1],
+            ..Default::default()
+        });
+        assert_eq!(pedals.oversize(), None);
+    }
+
     use super::*;
 
     #[test]

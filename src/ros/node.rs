@@ -561,6 +561,14 @@ impl Io {
                         break;
                     }
                 };
+                if let Some(why) = message.oversize() {
+                    let topic = &input.topic.topic;
+                    let line = format!("{topic}: dropped on receipt: {why}");
+                    if let Some(line) = self.log.admit(topic, &line) {
+                        tracing::warn!("{line}");
+                    }
+                    continue;
+                }
                 let record = if self.recording {
                     match message.to_cdr() {
                         Ok(cdr) => Some(RecordedInput {

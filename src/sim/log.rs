@@ -11,9 +11,18 @@ pub struct RateLimitedLog {
 }
 
 impl RateLimitedLog {
-    /// Returns the line to log (and publish) now, or `None` when it is held back.
+    /// Returns the line to log (and publish) now, or `None` when it is held back. Control
+    /// characters in `message` come back escaped (`\n`, `\u{1b}`): text from the network
+    /// (a joint name) cannot start a line of its own in the log.
     pub fn admit(&mut self, key: &str, message: &str) -> Option<String> {
         let now = Instant::now();
+        let escaped;
+        let message = if message.chars().any(char::is_control) {
+            escaped = escape_control(message);
+            escaped.as_str()
+        } else {
+            message
+        };
         match self.last.get_mut(key) {
             Some((at, held)) if now.duration_since(*at) < Duration::from_secs(1) => {
                 *held += 1;
@@ -37,6 +46,19 @@ impl RateLimitedLog {
     }
 }
 
+/// `text` with its control characters escaped, everything else as it is.
+fn escape_control(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        if c.is_control() {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -47,5 +69,14 @@ mod tests {
         assert!(log.admit("a", "first").is_some());
         assert!(log.admit("a", "again").is_none());
         assert!(log.admit("b", "other key").is_some());
+    }
+
+    #[test]
+    fn control_characters_cannot_forge_a_log_line() {
+        let mut log = RateLimitedLog::default();
+        let line = log
+            .admit("a", "unknown joint `yaw\nWARN forged`, é kept")
+            .unwrap();
+        assert_eq!(line, "unknown joint `yaw\\nWARN forged`, é kept");
     }
 }

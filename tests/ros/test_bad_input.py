@@ -70,6 +70,28 @@ for topic, reason, publisher, msg in BAD:
     # One line per topic and second: wait so the next rejection on this topic is logged too.
     rec.spin_for(1.05)
 
+# A joint name carrying a newline is quoted escaped: it cannot forge a line of the log or of
+# `error`.
+before_errors = rec.count("/PSM1/error")
+servo.publish(JointState(name=["yaw\nWARN forged"] + NAMES[1:], position=valid))
+rec.wait_for(lambda: rec.count("/PSM1/error") > before_errors, 5.0, "the forged name's rejection")
+text = rec.messages["/PSM1/error"][before_errors][1].data
+check("\n" not in text and "yaw\\nWARN forged" in text, f"the newline is escaped: {text!r}")
+rec.spin_for(1.05)
+
+# Oversized input (a hundred thousand positions, a 100 kB joint name) is dropped on receipt:
+# not converted, not quoted on `error`, and the node goes on with the last valid command.
+before_errors = rec.count("/PSM1/error")
+servo.publish(JointState(name=NAMES, position=[0.0] * 100_000))
+rec.spin_for(1.05)  # one log line per topic and second
+servo.publish(JointState(name=["y" * 100_000] + NAMES[1:], position=valid))
+n = rec.count("/PSM1/measured_js")
+rec.spin_for(1.0)
+check(rec.count("/PSM1/measured_js") > n + 20, "node keeps publishing after oversized input")
+check(rec.count("/PSM1/error") == before_errors, "oversized input is not echoed on error")
+check(list(rec.latest("/PSM1/measured_js").position) == valid,
+      "oversized input dropped, the last valid command holds")
+
 # MTM side: NaN poses and Joy without buttons are rejected too (logged by the node).
 mtm.publish(pose(math.nan, 0.0, 0.0))
 clutch.publish(Joy(buttons=[]))
