@@ -417,16 +417,9 @@ mod tests {
         });
         assert!(command.oversize().is_some());
         let psm = InputMessage::Joints(JointState {
-            name: [
-                "yaw",
-                "pitch",
-                "insertion",
-                "roll",
-                "wrist_pitch",
-                "wrist_yaw",
-            ]
-            .map(String::from)
-            .to_vec(),
+            name: crate::robot::psm::PSM_JOINT_NAMES
+                .map(String::from)
+                .to_vec(),
             position: vec![0.0; 6],
             ..Default::default()
         });
