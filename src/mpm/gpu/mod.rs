@@ -516,15 +516,7 @@ impl GpuSolver {
             self.res.bind_step(&mut pass, 0);
             self.g2p.record_frame_end(&mut pass, &groups);
         }
-        let copies = self.readback.record(
-            &mut encoder,
-            &self.res.stats,
-            &self.res.extract,
-            self.n as usize,
-            self.read_deformation,
-        );
-        self.ctx.queue.submit([encoder.finish()]);
-        self.readback.request(copies);
+        self.submit_with_readback(encoder);
     }
 
     /// Waits for the frame in flight, copies its positions (and deformation gradients while
@@ -591,6 +583,20 @@ impl GpuSolver {
 
     /// Device-side copy of `from` into the particles; the cracks are copied from
     /// `cracks_from`, or cleared without one (the rest state is uncut).
+    /// Records the copies the frame's outputs need after a frame's passes, submits the frame
+    /// and asks for the readback (shared by the explicit and the implicit frames).
+    fn submit_with_readback(&mut self, mut encoder: wgpu::CommandEncoder) {
+        let copies = self.readback.record(
+            &mut encoder,
+            &self.res.stats,
+            &self.res.extract,
+            self.n as usize,
+            self.read_deformation,
+        );
+        self.ctx.queue.submit([encoder.finish()]);
+        self.readback.request(copies);
+    }
+
     fn submit_copy(&self, from: &wgpu::Buffer, cracks_from: Option<&wgpu::Buffer>) {
         let mut encoder = self
             .ctx

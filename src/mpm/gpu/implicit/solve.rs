@@ -334,15 +334,7 @@ impl GpuSolver {
             self.res.bind_step(&mut pass, 0);
             self.g2p.record_frame_end(&mut pass, &groups);
         }
-        let copies = self.readback.record(
-            &mut encoder,
-            &self.res.stats,
-            &self.res.extract,
-            self.n as usize,
-            self.read_deformation,
-        );
-        self.ctx.queue.submit([encoder.finish()]);
-        self.readback.request(copies);
+        self.submit_with_readback(encoder);
     }
 
     /// ‖∇Φ‖ over the free components at each Newton iterate of the last implicit substep
