@@ -204,6 +204,7 @@ fn specimen_solver(
             relaxation: 1.0,
         },
         implicit: ImplicitParams::default(),
+        split: dvrk_tissue_sim::mpm::split::SplitParams::OFF,
     })
 }
 

@@ -190,6 +190,8 @@ fn run_headless(
     let mut total_substeps: u64 = 0;
     let mut peak_force = vec![0.0f64; sim.world().tools().len()];
     let mut peak_speed = 0.0f32;
+    let mut peak_stretch = 0.0f32;
+    let mut split_refused = 0usize;
     let mut peak_elongation = vec![0.0f64; sim.world().threads().len()];
     let mut frame = 0u32;
     headless::run(&mut sim, |sim, stepped| -> Result<ControlFlow<()>> {
@@ -203,6 +205,8 @@ fn run_headless(
         let world = sim.world();
         total_substeps += report.substeps as u64;
         peak_speed = peak_speed.max(report.max_speed);
+        peak_stretch = peak_stretch.max(report.max_stretch);
+        split_refused += report.split.refused;
         for (p, w) in peak_force.iter_mut().zip(&report.wrenches) {
             *p = p.max(w.force.norm());
         }
@@ -230,6 +234,20 @@ fn run_headless(
                 "asleep (no tool within reach)".to_owned()
             } else {
                 format!("substeps={} dt={:.2e}s", report.substeps, report.dt_max)
+            };
+            let step = if report.max_stretch > 0.0 {
+                let at = report.max_stretch_at * 1e3;
+                format!(
+                    "{step} stretch={:.2}@({:.1},{:.1},{:.1})mm",
+                    report.max_stretch, at.x, at.y, at.z
+                )
+            } else {
+                step
+            };
+            let step = if report.split.split > 0 {
+                format!("{step} split={}", report.split.split)
+            } else {
+                step
             };
             // The implicit solve's work this frame (load-independent, unlike the wall time).
             let step = if report.solve.newton > 0 {
@@ -285,6 +303,14 @@ fn run_headless(
             com.x, com.y, com.z
         );
         println!("summary: pieces {}", world.pieces());
+        let added = world.particles().len() - world.scene_particles();
+        if peak_stretch > 0.0 {
+            println!(
+                "summary: particles {} ({added} added by splitting, {split_refused} splits refused \
+                 at solver.split_max_growth), largest stretch {peak_stretch:.2}",
+                world.particles().len()
+            );
+        }
     }
     for (t, peak) in world.threads().iter().zip(&peak_elongation) {
         let points = &t.rod.points;

@@ -161,9 +161,25 @@ pub struct Solver {
     /// `mass` (the node mass).
     #[serde(default)]
     pub preconditioner: Preconditioner,
+    /// A particle whose longest deformed edge exceeds this many cells splits in two at the
+    /// frame's end, so stretched tissue stays sampled (0, the default: never; see
+    /// [`crate::mpm::split`]). CPU backend.
+    #[serde(default = "default_split_max_edge_cells")]
+    pub split_max_edge_cells: f64,
+    /// Splitting stops when the tissue holds this many times its starting particles.
+    #[serde(default = "default_split_max_growth")]
+    pub split_max_growth: f64,
 }
 
 impl Solver {
+    /// The splitting settings for tissue that starts with `particles` particles.
+    pub fn split_params(&self, particles: usize) -> crate::mpm::split::SplitParams {
+        crate::mpm::split::SplitParams {
+            max_edge_cells: self.split_max_edge_cells as f32,
+            max_particles: (particles as f64 * self.split_max_growth) as usize,
+        }
+    }
+
     /// The implicit solver's settings from the scene keys.
     pub fn implicit_params(&self) -> ImplicitParams {
         ImplicitParams {
@@ -187,6 +203,13 @@ fn default_cg_iterations() -> u32 {
 }
 fn default_cg_tolerance() -> f64 {
     ImplicitParams::default().cg_tolerance as f64
+}
+
+fn default_split_max_edge_cells() -> f64 {
+    0.0
+}
+fn default_split_max_growth() -> f64 {
+    4.0
 }
 
 fn default_cfl() -> f64 {
@@ -227,6 +250,8 @@ impl Default for Solver {
             cg_iterations: default_cg_iterations(),
             cg_tolerance: default_cg_tolerance(),
             preconditioner: Preconditioner::default(),
+            split_max_edge_cells: default_split_max_edge_cells(),
+            split_max_growth: default_split_max_growth(),
         }
     }
 }

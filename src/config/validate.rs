@@ -211,6 +211,19 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
         s.cg_tolerance,
         "0 < cg_tolerance < 1 (implicit: CG residual relative to the Newton residual)",
     );
+    c.require(
+        s.split_max_edge_cells == 0.0 || (0.5..=8.0).contains(&s.split_max_edge_cells),
+        "solver.split_max_edge_cells",
+        s.split_max_edge_cells,
+        "0 (never split) or 0.5 ≤ value ≤ 8 cells (the longest deformed particle edge)",
+    );
+    c.within(
+        "solver.split_max_growth",
+        s.split_max_growth,
+        1.0,
+        64.0,
+        "× the starting particle count (the most splitting may reach)",
+    );
     c.within(
         "sleep.speed",
         scene.sleep.speed,

@@ -120,6 +120,14 @@ impl Backend {
                     out.solve.add(stats.solve);
                     out.substeps_done += 1;
                 }
+                if out.guard.is_none() && c.solver.split.max_edge_cells > 0.0 {
+                    let dx = c.solver.layout.dx;
+                    let params = c.solver.split;
+                    out.split = super::split::split_stretched(&mut c.solver.particles, dx, &params);
+                    let (stretch, p) = super::split::max_stretch(&c.solver.particles);
+                    out.max_stretch = stretch;
+                    out.max_stretch_at = c.solver.particles.x.get(p).copied().unwrap_or_default();
+                }
                 out
             }
             Backend::Gpu(g) => g.collect_frame(),

@@ -43,4 +43,12 @@ pub struct FrameStats {
     pub guard: Option<GuardEvent>,
     /// Newton and CG iterations of the implicit solver over the frame.
     pub solve: SolveCounts,
+    /// Particles split at the frame's end, and splits the particle cap refused (see
+    /// [`super::split`]).
+    pub split: super::split::SplitCount,
+    /// Largest principal stretch of any particle at the frame's end (see
+    /// [`super::split::max_stretch`]), measured where particles split (CPU); 0 elsewhere.
+    pub max_stretch: f32,
+    /// Where that particle is (m).
+    pub max_stretch_at: Vec3,
 }

@@ -214,6 +214,7 @@ pub mod kernel;
 pub mod material;
 pub mod particles;
 pub mod pieces;
+pub mod split;
 pub mod timestep;
 
 pub use crate::math::{IVec3, Mat3, Vec3};
@@ -289,6 +290,8 @@ pub struct SolverSetup {
     pub pb_mpm: PbMpmParams,
     /// Newton and CG settings, read when `method` is implicit.
     pub implicit: ImplicitParams,
+    /// When stretched particles split (see [`split`]).
+    pub split: split::SplitParams,
 }
 
 /// Most tools one scene may hold: per-tool impulses are reduced in fixed-size arrays so

@@ -39,6 +39,9 @@ pub struct Particles {
     pub crack: Vec<Vec3>,
     /// Per-particle damage in [0, 1] (see [`super::damage`]); empty when no material tears.
     pub damage: Vec<f32>,
+    /// Rest edges of each particle's parallelepiped (columns, m; see [`super::split`]);
+    /// empty until a particle first splits, the cube of the rest volume until then.
+    pub domain: Vec<Mat3>,
 }
 
 impl Particles {
@@ -83,8 +86,8 @@ impl Particles {
         }
     }
 
-    /// Copies the dynamic state (x, v, C, F, cracks, damage) of `other`, which has the same particles,
-    /// reusing this one's buffers.
+    /// Copies the state of `other` (x, v, C, F, cracks, damage, and the particles splitting
+    /// made or undid: mass, rest volume, material, rest edges), reusing this one's buffers.
     pub fn copy_state_from(&mut self, other: &Particles) {
         self.x.clone_from(&other.x);
         self.v.clone_from(&other.v);
@@ -92,6 +95,10 @@ impl Particles {
         self.f.clone_from(&other.f);
         self.crack.clone_from(&other.crack);
         self.damage.clone_from(&other.damage);
+        self.mass.clone_from(&other.mass);
+        self.volume0.clone_from(&other.volume0);
+        self.material.clone_from(&other.material);
+        self.domain.clone_from(&other.domain);
     }
 
     /// Total linear momentum (kg·m/s), f64.

@@ -39,6 +39,8 @@ pub struct World {
     /// Simulated time (s).
     time: f64,
     last_max_speed: f32,
+    /// Particles the scene's tissue starts with (splitting adds to them).
+    scene_particles: usize,
     warned_fixed_dt: bool,
     /// This frame's tool kinematics, substep-major (capacity reused across frames).
     kinematics: Vec<ToolKinematics>,
@@ -179,6 +181,8 @@ impl World {
                 )),
             })
             .collect();
+        let split = scene.solver.split_params(particles.len());
+        let scene_particles = particles.len();
         let setup = SolverSetup {
             layout,
             particles,
@@ -195,6 +199,7 @@ impl World {
                 relaxation: scene.solver.relaxation as f32,
             },
             implicit: scene.solver.implicit_params(),
+            split,
         };
         // A scene of threads alone has no tissue to step: its (empty) grid stays on the CPU.
         let gpu_context = if setup.particles.is_empty() {
@@ -215,6 +220,13 @@ impl World {
         };
         let backend = match gpu_context {
             Some(ctx) => {
+                if setup.split.max_edge_cells > 0.0 {
+                    tracing::warn!(
+                        "the GPU backend does not split stretched particles \
+                         (solver.split_max_edge_cells): tissue pulled past a cell per \
+                         particle may part by numerics; `backend = \"cpu\"` splits them"
+                    );
+                }
                 let shapes: Vec<_> = tools.iter().map(|t| t.shape).collect();
                 Backend::Gpu(Box::new(GpuSolver::new(ctx, setup, &shapes)?))
             }
@@ -224,6 +236,7 @@ impl World {
             scene: scene.clone(),
             params: StepParams::new(scene, wave_speed),
             last_max_speed: 0.0,
+            scene_particles,
             backend,
             tools,
             time: 0.0,
@@ -238,6 +251,12 @@ impl World {
                 .map(|t| ThreadBody::new(scene, t))
                 .collect(),
         })
+    }
+
+    /// Particles the scene's tissue started with; [`World::particles`] holds more once
+    /// stretched particles split (see [`crate::mpm::split`]).
+    pub fn scene_particles(&self) -> usize {
+        self.scene_particles
     }
 
     /// The scene this world was built from.
@@ -546,6 +565,9 @@ impl World {
             tissue_reset: None,
             asleep,
             solve: SolveCounts::default(),
+            split: Default::default(),
+            max_stretch: 0.0,
+            max_stretch_at: Vec3::zeros(),
         }
     }
 
@@ -625,6 +647,9 @@ impl World {
             tissue_reset: None,
             asleep: false,
             solve: stats.solve,
+            split: stats.split,
+            max_stretch: stats.max_stretch,
+            max_stretch_at: stats.max_stretch_at,
         };
         if let Some(event) = stats.guard {
             self.sleep.wake();

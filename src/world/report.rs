@@ -52,6 +52,13 @@ pub struct FrameReport {
     pub asleep: bool,
     /// Newton and CG iterations of the implicit solver over the frame.
     pub solve: SolveCounts,
+    /// Particles split at the frame's end and splits refused by the cap (see
+    /// [`crate::mpm::split`]).
+    pub split: crate::mpm::split::SplitCount,
+    /// Largest principal stretch of any particle at the frame's end; 0 where unmeasured.
+    pub max_stretch: f32,
+    /// Where the most stretched particle is (m).
+    pub max_stretch_at: crate::math::Vec3,
 }
 
 #[derive(Debug, thiserror::Error, PartialEq)]

@@ -51,6 +51,13 @@ impl Binning {
         }
     }
 
+    /// Holds `particles` particles from now on (allocates: only when splitting changed the
+    /// count).
+    pub fn resize(&mut self, particles: usize) {
+        self.key.resize(particles, 0);
+        self.order.resize(particles, 0);
+    }
+
     /// Groups particles by `key` (already filled by the caller) and lists touched blocks.
     pub fn rebuild(&mut self, layout: &GridLayout) {
         self.generation = self.generation.wrapping_add(1);

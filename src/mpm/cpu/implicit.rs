@@ -431,6 +431,7 @@ mod tests {
                 preconditioner,
                 ..ImplicitParams::default()
             },
+            split: crate::mpm::split::SplitParams::OFF,
         })
     }
 

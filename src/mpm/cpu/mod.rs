@@ -68,6 +68,8 @@ pub struct CpuSolver {
     pub pb_mpm: PbMpmParams,
     /// The implicit solver's Newton and CG settings.
     pub implicit: ImplicitParams,
+    /// When stretched particles split (see [`super::split`]), after each frame.
+    pub split: super::split::SplitParams,
     /// Damage onset energy of each material (see [`damage::onsets`]); empty when nothing
     /// tears, and then the particles keep no damage either.
     damage_onset: Vec<f32>,
@@ -217,6 +219,7 @@ impl CpuSolver {
             method: setup.method,
             pb_mpm: setup.pb_mpm,
             implicit: setup.implicit,
+            split: setup.split,
             bins,
             implicit_work: implicit::Workspace::default(),
         }
@@ -333,6 +336,10 @@ impl CpuSolver {
 
     fn bin_particles(&mut self) {
         let layout = self.layout;
+        if self.bins.key.len() != self.particles.len() {
+            // Splitting added particles (or a restore removed them) since the last substep.
+            self.bins.resize(self.particles.len());
+        }
         self.bins
             .key
             .par_iter_mut()
