@@ -77,10 +77,9 @@
 //!
 //! `/clock` carries the simulated time once per frame, so a node started with
 //! `use_sim_time:=true` follows the simulation, also when it runs slower than real time.
-//! ros2-client's spinner subscribes `/clock` itself, under the type `builtin_interfaces/msg/Time`,
-//! on the participant of the node it spins, and one DDS participant cannot carry a topic under
-//! two types. So `/clock` is published from a second participant with a node of its own,
-//! `<node name>_clock`, that never spins ([`sim_clock`]); `ros2 node list` shows both.
+//! The node never runs ros2-client's spinner, whose own `/clock` subscription (type
+//! `builtin_interfaces/msg/Time`) would give `/clock` a second type in the graph
+//! ([`sim_clock`]); `tests/ros_contract.rs` fails on any topic with two types.
 //!
 //! `sim/status` says how the simulation keeps up, measured over the last 5 s of wall time:
 //! `real_time_factor`, `substeps_per_frame`, `frames_per_second`, `simulated_time`, `backend`

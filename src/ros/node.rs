@@ -293,8 +293,7 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
     let mut node = context
         .new_node(node_name, NodeOptions::new().enable_rosout(true))
         .map_err(|e| err("node", e))?;
-    let spinner = node.spinner().map_err(|e| err("spinner", e))?;
-    let mut clock = SimClock::start(domain_id, &settings.name, &settings.namespace)?;
+    let mut clock = SimClock::start(&mut node)?;
 
     let mut topics = Topics {
         node: &mut node,
@@ -447,25 +446,8 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
             }
         }
     };
-    let spin = spinner.spin();
-    tokio::pin!(spin);
-    let spin_ended = tokio::select! {
-        r = &mut spin => Some(r),
-        _ = main => None,
-    };
-    let spin_result = match spin_ended {
-        Some(r) => r,
-        None => {
-            // Dropping the node signals its spinner to stop; waiting for the spinner after
-            // that (rather than dropping it first) lets the signal find it listening, so a
-            // normal shutdown logs no error.
-            drop(node);
-            spin.await
-        }
-    };
-    if let Err(e) = spin_result {
-        tracing::error!("ROS spinner stopped: {e:?}");
-    }
+    main.await;
+    drop(node);
     sim.shutdown();
     if let Some(summary) = finish_recording(recorder)? {
         if summary.stopped.is_some() {
