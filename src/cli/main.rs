@@ -62,6 +62,7 @@ fn main() {
         .with_writer(std::io::stderr)
         .finish()
         .with(dds_log::KeepLastRepairNoise)
+        .with(dvrk_tissue_sim::ros::rosout::RosoutLayer)
         .init();
     if let Err(e) = dispatch(Cli::parse()) {
         eprintln!("error: {e:#}");

@@ -1,7 +1,7 @@
 //! The ROS 2 side, transport only: message types ([`msgs`], [`schema`]), topic names
 //! ([`names`]), messages to simulation inputs ([`inputs`]) and finished frames to messages
 //! ([`outputs`]), the node's topic wiring ([`node`]), the bag recorder and replay
-//! ([`recorder`], [`replay`], [`recover`] for a bag a killed run left) and a run's setup
+//! ([`recorder`], [`replay`], [`recover`] for a bag a killed run left), `/rosout` ([`rosout`]) and a run's setup
 //! shared by the node and a headless replay ([`session`]), `/clock` ([`sim_clock`]) and the
 //! node's status ([`status`]). The simulation itself is [`crate::sim`].
 //!
@@ -38,6 +38,7 @@
 //! | `MTMR/measured_cp`, `MTMR/gripper/measured_js`, `console/clutch`, `console/operator_present` | (sub, with `[teleop]`) | Joy `buttons[0] = 1` pressed |
 //! | `MTMR/body/servo_cf` | geometry_msgs/WrenchStamped | with `force_feedback`: the tool's contact wrench × scale |
 //! | `/clock` | rosgraph_msgs/Clock | simulated time, once per frame |
+//! | `/rosout` | rcl_interfaces/Log | WARN and ERROR log lines, the arms' `error` (ERROR), `warning` (WARN) and `status` (INFO) events, logger `<namespace>.<name>` ([`rosout`]) |
 //! | `sim/status` | diagnostic_msgs/DiagnosticArray | latched, once a second: real-time factor, substeps and frames per second, backend, adapter |
 //!
 //! - **Simulated arms** satisfy dVRK's `dvrk_arm_from_ros` contract: a dVRK console can
@@ -127,6 +128,7 @@ pub mod outputs;
 pub mod recorder;
 pub mod recover;
 pub mod replay;
+pub mod rosout;
 pub mod schema;
 pub mod session;
 pub mod shutdown;

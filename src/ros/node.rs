@@ -11,6 +11,7 @@ use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use ros2_client::log::Log;
 use ros2_client::{
     qos::{Durability, History, Reliability, WhenFull},
     Context, ContextOptions, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher,
@@ -22,6 +23,7 @@ use crate::ros::inputs::{input_topics, InputKind, InputMessage, InputTopic};
 use crate::ros::msgs::*;
 use crate::ros::names::resolve;
 use crate::ros::outputs::{self, ArmOutput, EventMessage, EventStamps, OutputLayout};
+use crate::ros::rosout::Rosout;
 use crate::ros::session::{finish_recording, prepare, NodeSettings, SessionError};
 use crate::ros::sim_clock::SimClock;
 use crate::ros::status::{backend_and_adapter, Progress, StatusReport};
@@ -294,6 +296,7 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
         .new_node(node_name, NodeOptions::new().enable_rosout(true))
         .map_err(|e| err("node", e))?;
     let mut clock = SimClock::start(&mut node)?;
+    let rosout = Rosout::start(&node);
 
     let mut topics = Topics {
         node: &mut node,
@@ -426,8 +429,9 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
                 _ = tick.tick() => {}
             }
             io.poll_inputs(&sim);
-            io.publish_events(&sim);
             let frame = sim.frames.borrow().clone();
+            io.publish_events(&sim, &rosout, Time::from_secs(frame.time));
+            rosout.publish_logged(Time::from_secs(frame.time));
             io.publish_frame(&node, &sim, &frame);
             clock.publish(&frame);
             let progress = Progress {
@@ -588,19 +592,23 @@ impl Io {
         }
     }
 
-    fn publish_events(&mut self, sim: &SimHandle) {
+    /// The arms' events on their topics, and their texts on `/rosout` at dVRK's levels.
+    fn publish_events(&mut self, sim: &SimHandle, rosout: &Rosout, stamp: Time) {
         while let Ok((index, event)) = sim.events.try_recv() {
             let Some(p) = self.arms.get(index).and_then(|a| a.publishers.as_ref()) else {
                 continue;
             };
             let _ = match self.stamps.message(index, event) {
                 EventMessage::State(m) => p.operating_state.publish(m).map_err(|_| ()),
-                EventMessage::Text { suffix, message } => match suffix {
-                    "error" => p.error.publish(message),
-                    "warning" => p.warning.publish(message),
-                    _ => p.status.publish(message),
+                EventMessage::Text { suffix, message } => {
+                    let (publisher, level) = match suffix {
+                        "error" => (&p.error, Log::ERROR),
+                        "warning" => (&p.warning, Log::WARN),
+                        _ => (&p.status, Log::INFO),
+                    };
+                    rosout.publish(stamp, level, &message.data);
+                    publisher.publish(message).map_err(|_| ())
                 }
-                .map_err(|_| ()),
             };
         }
     }
