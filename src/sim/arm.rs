@@ -88,6 +88,17 @@ pub enum ArmInput {
     },
 }
 
+impl ArmInput {
+    /// Whether the command starts a move (`move_jp`, `move_cp`, `jaw/move_jp`): a client waits
+    /// for its busy edges.
+    pub fn is_move(&self) -> bool {
+        matches!(
+            self,
+            ArmInput::MoveJp { .. } | ArmInput::MoveCp { .. } | ArmInput::JawMoveJp { .. }
+        )
+    }
+}
+
 /// A command from a topic.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ArmCommand {
@@ -432,13 +443,17 @@ impl ArmSim {
         }
     }
 
-    fn push_state(&mut self) {
+    fn push_busy(&mut self, busy: bool) {
         self.events.push(ArmEvent::State {
             time: self.time,
             state: self.state,
             homed: self.homed,
-            busy: self.is_busy(),
+            busy,
         });
+    }
+
+    fn push_state(&mut self) {
+        self.push_busy(self.is_busy());
     }
 
     fn set_state(&mut self, state: OperatingState) {
@@ -501,7 +516,16 @@ impl ArmSim {
             (ArmInput::MirrorJs { .. } | ArmInput::MirrorJaw { .. }, _) => {
                 Err(reject(ArmError::NotMirrored))
             }
-            (input, ArmMode::Simulated) => self.apply_simulated(input, now).map_err(reject),
+            (input, ArmMode::Simulated) => {
+                let result = self.apply_simulated(input, now);
+                if result.is_err() && input.is_move() && !self.is_busy() {
+                    // As dVRK's simulators: a refused move still starts and ends, so a
+                    // client waiting for the move's busy edges returns at once.
+                    self.push_busy(true);
+                    self.push_busy(false);
+                }
+                result.map_err(reject)
+            }
         }
     }
 
@@ -925,5 +949,31 @@ mod tests {
         .unwrap();
         assert_eq!(m.q(), real);
         assert!(m.apply(&servo(&HOME), 0.0).is_err());
+    }
+
+    #[test]
+    fn a_refused_move_sends_a_busy_pair_and_a_refused_servo_none() {
+        let mut a = arm(ArmMode::Simulated);
+        let busy_edges = |a: &mut ArmSim| -> Vec<bool> {
+            a.take_events()
+                .iter()
+                .filter_map(|e| match e {
+                    ArmEvent::State { busy, .. } => Some(*busy),
+                    _ => None,
+                })
+                .collect()
+        };
+        busy_edges(&mut a);
+        let beyond = vec![2.5, 0.0, 0.12, 0.0, 0.0, 0.0];
+        let refused = ArmInput::MoveJp {
+            names: vec![],
+            positions: beyond.clone(),
+        };
+        assert!(a.apply(&command("move_jp", refused), 0.5).is_err());
+        assert_eq!(busy_edges(&mut a), [true, false]);
+        assert!(!a.is_busy());
+        assert_eq!(a.q(), HOME);
+        assert!(a.apply(&servo(&beyond), 0.6).is_err());
+        assert!(busy_edges(&mut a).is_empty());
     }
 }
