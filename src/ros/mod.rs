@@ -39,7 +39,7 @@
 //! | `MTMR/body/servo_cf` | geometry_msgs/WrenchStamped | with `force_feedback`: the tool's contact wrench × scale |
 //! | `/clock` | rosgraph_msgs/Clock | simulated time, once per frame |
 //! | `/rosout` | rcl_interfaces/Log | WARN and ERROR log lines, the arms' `error` (ERROR), `warning` (WARN) and `status` (INFO) events, logger `<namespace>.<name>` ([`rosout`]) |
-//! | `sim/status` | diagnostic_msgs/DiagnosticArray | latched, once a second: real-time factor, substeps and frames per second, backend, adapter |
+//! | `/diagnostics` | diagnostic_msgs/DiagnosticArray | latched, once a second: real-time factor, substeps and frames per second, backend, adapter |
 //!
 //! - **Simulated arms** satisfy dVRK's `dvrk_arm_from_ros` contract: a dVRK console can
 //!   teleoperate them with a real MTM. They start ENABLED and homed at `home_joints`;
@@ -82,7 +82,8 @@
 //! `builtin_interfaces/msg/Time`) would give `/clock` a second type in the graph
 //! ([`sim_clock`]); `tests/ros_contract.rs` fails on any topic with two types.
 //!
-//! `sim/status` says how the simulation keeps up, measured over the last 5 s of wall time:
+//! `/diagnostics` (where diagnostic_aggregator and rqt_robot_monitor look; status
+//! `<node name>: simulation`) says how the simulation keeps up, measured over the last 5 s of wall time:
 //! `real_time_factor`, `substeps_per_frame`, `frames_per_second`, `simulated_time`, `backend`
 //! (`cpu`, `gpu-fixed-point`, `gpu-f32-atomics`) and `adapter`. Level OK at real time, WARN below
 //! 0.9× with a message that says by how much; the log says the same every 10 s while frames are

@@ -359,7 +359,7 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
         });
     }
     let tf: Publisher<TFMessage> = topics.publisher("/tf", periodic_qos())?;
-    let status: Publisher<DiagnosticArray> = topics.publisher("sim/status", status_qos())?;
+    let status: Publisher<DiagnosticArray> = topics.publisher("/diagnostics", status_qos())?;
     drop(topics);
     let (backend, adapter) = backend_and_adapter(&setup.world);
     let mut status_report = StatusReport::new(&settings.name, &backend, &adapter);
@@ -442,7 +442,7 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
             };
             if let Some(m) = status_report.due(progress) {
                 if let Err(e) = status.publish(m) {
-                    tracing::debug!("sim/status: {e:?}");
+                    tracing::debug!("/diagnostics: {e:?}");
                 }
             }
             if sim.is_finished() {

@@ -1,6 +1,6 @@
 """How ROS 2 tools see the node (one node process, several checks): every topic in the graph
 has exactly one type, /clock included; /rosout carries the arms' events with the node's logger
-name and dVRK's levels."""
+name and dVRK's levels; the status is on /diagnostics."""
 
 import os
 import time
@@ -8,6 +8,7 @@ import time
 import math
 
 import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import Log
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
@@ -20,6 +21,7 @@ NAMES = ["yaw", "pitch", "insertion", "roll", "wrist_pitch", "wrist_yaw"]
 rec = Recorder("contract_probe")
 rec.subscribe(Clock, "/clock")
 rec.subscribe(Log, "/rosout", LATCHED)
+rec.subscribe(DiagnosticArray, "/diagnostics", LATCHED)
 rec.subscribe(JointState, f"{NS}/PSM1/measured_js")
 rec.wait_for(lambda: rec.count("/clock") > 0, 15.0, "/clock")
 
@@ -52,5 +54,13 @@ check(not ours(Log.WARN, "servo_jp: rejected: "), "the rejection on /rosout once
 move.publish(JointState(name=NAMES, position=[0.05, 0.0, 0.12, 0.0, 0.0, 0.0]))
 rec.wait_for(lambda: ours(Log.INFO, "moving to"), 5.0, "the move's status on /rosout at INFO")
 check(True, f"/rosout: the arm's error at ERROR and its status at INFO, logger {LOGGER}")
+
+# /diagnostics: the node's status, as diagnostic_aggregator and rqt_robot_monitor read it.
+rec.wait_for(lambda: rec.count("/diagnostics") > 0, 5.0, "/diagnostics")
+status = rec.latest("/diagnostics").status[0]
+values = {kv.key: kv.value for kv in status.values}
+check(status.name == f"{LOGGER.split('.')[-1]}: simulation" and "real_time_factor" in values,
+      f"/diagnostics: {status.name!r}, level {status.level}, {sorted(values)}")
+check("/sim/status" not in graph and f"{NS}/sim/status" not in graph, "no sim/status topic")
 
 rec.close()
