@@ -1,15 +1,17 @@
-//! The node as ROS 2 tools and dVRK's Python client see it, on one node process: rclpy
-//! (tests/ros/test_contract.py) reads the graph (one type per topic) and `/rosout` (the
-//! arms' events with the node's logger name and dVRK's levels); a ros2-client peer in this
-//! process reads the crtk_msgs topics, which have no Python wheel (a refused move's busy pair).
+//! The node as ROS 2 tools and dVRK's Python client see it. On one node process: rclpy
+//! (tests/ros/test_contract.py) reads the graph (one type per topic), `/rosout` (the arms'
+//! events with the node's logger name and dVRK's levels) and `/diagnostics`; a ros2-client
+//! peer in this process reads what has no Python wheel: crtk_msgs (a refused move's busy
+//! pair) and tf2_msgs (`world` → `PSM1_base` once on `/tf_static`, the links on `/tf`).
 //!
 //! Starts DDS participants: runs only inside a loopback-only network namespace (as
 //! tests/ros_node.rs; `.ci/run` makes one); elsewhere prints `SKIPPED: <reason>` and passes,
 //! unless `CI` is set.
 
+use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use dvrk_tissue_sim::ros::msgs::{JointState, OperatingState, RosMessage};
+use dvrk_tissue_sim::ros::msgs::{JointState, OperatingState, RosMessage, TFMessage};
 use ros2_client::{
     qos::{Durability, History},
     Context, ContextOptions, MessageTypeName, Name, NodeName, NodeOptions, QosProfile,
@@ -21,6 +23,43 @@ use support::node::{run_rclpy, NodeProcess};
 
 const SMALL: &str = "tests/scenes/small.toml";
 const DOMAIN: u16 = 61;
+
+/// One node at a time: two cores.
+static SERIAL: Mutex<()> = Mutex::new(());
+
+fn latched() -> QosProfile {
+    QosProfile::publisher_default()
+        .durability(Durability::TransientLocal)
+        .history(History::KeepLast { depth: 100 })
+}
+
+fn reliable() -> QosProfile {
+    QosProfile::publisher_default().history(History::KeepLast { depth: 10 })
+}
+
+/// The child frames of the `/tf` messages received until `done` holds for them.
+fn tf_children(
+    peer: &mut ros2_client::Node,
+    topic_name: &str,
+    qos: QosProfile,
+    node: &NodeProcess,
+) -> Vec<(String, String)> {
+    let t = topic::<TFMessage>(peer, topic_name, &qos);
+    let tf = peer
+        .create_subscription::<TFMessage>(&t, Some(qos))
+        .unwrap();
+    let messages = gather(
+        topic_name,
+        || node.log(),
+        || tf.take().ok().flatten().map(|(m, _)| m),
+        |m| m.len() >= 3,
+    );
+    messages[messages.len() - 1]
+        .transforms
+        .iter()
+        .map(|t| (t.header.frame_id.clone(), t.child_frame_id.clone()))
+        .collect()
+}
 
 fn topic<M: RosMessage>(
     node: &mut ros2_client::Node,
@@ -67,6 +106,7 @@ fn ros_tools_and_dvrk_clients_see_the_node_as_any_node() {
     if !network_prerequisites(true) {
         return;
     }
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let node = NodeProcess::start_with(&["--scene", SMALL, "--backend", "cpu"], DOMAIN);
     let out = run_rclpy("test_contract.py", DOMAIN);
     println!("{}", String::from_utf8_lossy(&out.stdout));
@@ -85,15 +125,11 @@ fn ros_tools_and_dvrk_clients_see_the_node_as_any_node() {
             NodeOptions::new(),
         )
         .unwrap();
-    let latched = QosProfile::publisher_default()
-        .durability(Durability::TransientLocal)
-        .history(History::KeepLast { depth: 100 });
-    let reliable = QosProfile::publisher_default().history(History::KeepLast { depth: 10 });
-    let t = topic::<OperatingState>(&mut peer, "/PSM1/operating_state", &latched);
+    let t = topic::<OperatingState>(&mut peer, "/PSM1/operating_state", &latched());
     let states = peer
-        .create_subscription::<OperatingState>(&t, Some(latched.clone()))
+        .create_subscription::<OperatingState>(&t, Some(latched()))
         .unwrap();
-    let t = topic::<JointState>(&mut peer, "/PSM1/move_jp", &reliable);
+    let t = topic::<JointState>(&mut peer, "/PSM1/move_jp", &reliable());
     let move_jp = peer.create_publisher::<JointState>(&t, None).unwrap();
     let log = || node.log();
 
@@ -133,8 +169,49 @@ fn ros_tools_and_dvrk_clients_see_the_node_as_any_node() {
         sent.elapsed().as_secs_f64()
     );
 
-    drop(move_jp);
-    drop(states);
+    // tf as tf2 expects it: the fixed world → PSM1_base once on /tf_static (transient
+    // local: this late subscriber still gets it), the moving links on /tf.
+    let tf_static_qos = QosProfile::publisher_default()
+        .durability(Durability::TransientLocal)
+        .history(History::KeepLast { depth: 1 });
+    let t = topic::<TFMessage>(&mut peer, "/tf_static", &tf_static_qos);
+    let tf_static = peer
+        .create_subscription::<TFMessage>(&t, Some(tf_static_qos))
+        .unwrap();
+    let fixed = gather(
+        "/tf_static",
+        log,
+        || tf_static.take().ok().flatten().map(|(m, _)| m),
+        |m| !m.is_empty(),
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(
+        tf_static.take().ok().flatten().is_none(),
+        "/tf_static sent twice"
+    );
+    let fixed: Vec<(String, String)> = fixed[0]
+        .transforms
+        .iter()
+        .map(|t| (t.header.frame_id.clone(), t.child_frame_id.clone()))
+        .collect();
+    assert_eq!(fixed, [("world".to_owned(), "PSM1_base".to_owned())]);
+    let moving = tf_children(&mut peer, "/tf", reliable(), &node);
+    assert!(
+        moving.iter().all(|(_, child)| child != "PSM1_base"),
+        "{moving:?}"
+    );
+    for link in ["PSM1", "PSM1_tool_tip", "PSM1_jaw_1"] {
+        assert!(
+            moving.iter().any(|(_, child)| child == link),
+            "{link}: {moving:?}"
+        );
+    }
+    println!(
+        "ok: /tf_static world -> PSM1_base once; /tf {} link frames",
+        moving.len()
+    );
+
+    drop((move_jp, states, tf_static));
     drop(peer);
     let (status, log) = node.stop();
     assert!(

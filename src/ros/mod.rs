@@ -34,7 +34,8 @@
 //! | `tissue/pieces` | std_msgs/UInt32 | separate tissue pieces, counted at `pieces_rate_hz` in simulated time while subscribed (and when recording) |
 //! | `tools/<tool>/wrench` | geometry_msgs/WrenchStamped | contact wrench on the tool, in its frame (`PSM1` for an arm's tool, the mount undone) |
 //! | `threads/<name>/centreline`, `threads/<name>/tension` | Marker, PointCloud2 | a suture thread's LINE_STRIP and its axial force per point |
-//! | `/tf` | tf2_msgs/TFMessage | `world` → `PSM1_base` → every arm link; scripted tools |
+//! | `/tf_static` | tf2_msgs/TFMessage | once, transient local: `world` → `PSM1_base` |
+//! | `/tf` | tf2_msgs/TFMessage | `PSM1_base` → every arm link (with `[outputs] tf_arm_links = false` only `PSM1` and `PSM1_tool_tip`, leaving the links to dVRK's robot_state_publisher); scripted tools |
 //! | `MTMR/measured_cp`, `MTMR/gripper/measured_js`, `console/clutch`, `console/operator_present` | (sub, with `[teleop]`) | Joy `buttons[0] = 1` pressed |
 //! | `MTMR/body/servo_cf` | geometry_msgs/WrenchStamped | with `force_feedback`: the tool's contact wrench × scale |
 //! | `/clock` | rosgraph_msgs/Clock | simulated time, once per frame |
@@ -71,7 +72,8 @@
 //!   `[outputs] points_downsample`.
 //!
 //! `launch-scripts/`: `run_node.sh [SCENE] [flags]` starts the node; `dvrk_tissue_sim.launch.py`
-//! is a ROS 2 launch file; `teleop_demo.py` plays a scripted MTM on `config/teleop.toml`;
+//! is a ROS 2 launch file; `dvrk_tissue_sim.rviz` an RViz 2 view (arm frames, tissue cloud and
+//! mesh, thread, wrench); `teleop_demo.py` plays a scripted MTM on `config/teleop.toml`;
 //! `record_tissue_bag.sh` records with `ros2 bag`; `soak.py` drives the node for a long run.
 //!
 //! # /clock and status

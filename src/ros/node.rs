@@ -79,6 +79,13 @@ fn status_qos() -> QosProfile {
         .history(History::KeepLast { depth: 1 })
 }
 
+/// `/tf_static` as tf2's static broadcaster offers it: reliable, transient local, keep last 1.
+fn tf_static_qos() -> QosProfile {
+    QosProfile::publisher_default()
+        .durability(Durability::TransientLocal)
+        .history(History::KeepLast { depth: 1 })
+}
+
 fn command_qos() -> QosProfile {
     QosProfile::publisher_default()
         .durability(Durability::Volatile)
@@ -359,6 +366,11 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
         });
     }
     let tf: Publisher<TFMessage> = topics.publisher("/tf", periodic_qos())?;
+    // The fixed frames, once: latched for every later subscriber.
+    let tf_static: Publisher<TFMessage> = topics.publisher("/tf_static", tf_static_qos())?;
+    if let Err(e) = tf_static.publish(outputs::tf_static_message(&layout.arms)) {
+        tracing::warn!("/tf_static: {e:?}");
+    }
     let status: Publisher<DiagnosticArray> = topics.publisher("/diagnostics", status_qos())?;
     drop(topics);
     let (backend, adapter) = backend_and_adapter(&setup.world);
@@ -404,6 +416,8 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
         wrenches,
         threads,
         tf,
+        _tf_static: tf_static,
+        tf_arm_links: layout.tf_arm_links,
         log: RateLimitedLog::default(),
         rates: Rates {
             arm: Rate::new(outputs.arm_rate_hz),
@@ -515,6 +529,9 @@ struct Io {
     wrenches: Vec<Publisher<WrenchStamped>>,
     threads: Vec<ThreadIo>,
     tf: Publisher<TFMessage>,
+    /// Kept alive: its one message stays available to late subscribers.
+    _tf_static: Publisher<TFMessage>,
+    tf_arm_links: bool,
     log: RateLimitedLog,
     rates: Rates,
 }
@@ -715,8 +732,7 @@ impl Io {
     }
 
     fn publish_tf(&mut self, frame: &Frame, stamp: Time) {
-        let _ = self
-            .tf
-            .publish(outputs::tf_message(&self.arm_outputs, frame, stamp));
+        let m = outputs::tf_message(&self.arm_outputs, frame, stamp, self.tf_arm_links);
+        let _ = self.tf.publish(m);
     }
 }

@@ -74,6 +74,8 @@ pub struct OutputLayout {
     pub force_feedback: Option<ForceFeedback>,
     /// How often each output is published.
     pub rates: OutputRates,
+    /// Whether `/tf` carries every arm link ([`tf_message`]).
+    pub tf_arm_links: bool,
 }
 
 impl OutputLayout {
@@ -117,6 +119,7 @@ impl OutputLayout {
                 thread: o.thread_rate_hz,
                 pieces: o.pieces_rate_hz,
             },
+            tf_arm_links: o.tf_arm_links,
         }
     }
 
@@ -391,18 +394,31 @@ pub fn thread_tension_message(thread: &ThreadState, stamp: Time) -> PointCloud2 
     }
 }
 
-/// `world` → each arm's base → its links; scripted tools in `world`.
-pub fn tf_message(arms: &[ArmOutput], frame: &Frame, stamp: Time) -> TFMessage {
+/// `world` → each arm's base: fixed, sent once on `/tf_static`.
+pub fn tf_static_message(arms: &[ArmOutput]) -> TFMessage {
+    TFMessage {
+        transforms: arms
+            .iter()
+            .map(|arm| TransformStamped {
+                header: Header::new(Time::default(), "world"),
+                child_frame_id: arm.base_frame.clone(),
+                transform: (&arm.base).into(),
+            })
+            .collect(),
+    }
+}
+
+/// Each arm's base → its links (with `all_links` false only the tool frame and the tool
+/// tip, which dVRK's robot_state_publisher does not publish); scripted tools in `world`.
+pub fn tf_message(arms: &[ArmOutput], frame: &Frame, stamp: Time, all_links: bool) -> TFMessage {
     let mut transforms = Vec::new();
     for (arm, status) in arms.iter().zip(&frame.arms) {
-        transforms.push(TransformStamped {
-            header: Header::new(stamp, "world"),
-            child_frame_id: arm.base_frame.clone(),
-            transform: (&arm.base).into(),
-        });
+        // dvrk_model's own tip link (`<arm>_tool_tip_link`) is robot_state_publisher's.
+        let tool_tip = format!("{}_tool_tip", arm.name);
         if let Ok(links) = arm.psm.link_frames(&status.q, status.jaw) {
             for link in links {
-                if link.link == arm.base_frame {
+                let ours = link.link == arm.name || link.link == tool_tip;
+                if link.link == arm.base_frame || !(all_links || ours) {
                     continue;
                 }
                 transforms.push(TransformStamped {
