@@ -2,7 +2,9 @@
 //! (tests/ros/test_contract.py) reads the graph (one type per topic), `/rosout` (the arms'
 //! events with the node's logger name and dVRK's levels) and `/diagnostics`; a ros2-client
 //! peer in this process reads what has no Python wheel: crtk_msgs (a refused move's busy
-//! pair) and tf2_msgs (`world` → `PSM1_base` once on `/tf_static`, the links on `/tf`).
+//! pair) and tf2_msgs (`world` → `PSM1_base` once on `/tf_static`, the links on `/tf`). On a
+//! second, started with `--ros-args` (tests/ros/test_ros_args.py): namespace, node name, a
+//! remap and parameters, and `/tf` with the links left to dVRK's robot_state_publisher.
 //!
 //! Starts DDS participants: runs only inside a loopback-only network namespace (as
 //! tests/ros_node.rs; `.ci/run` makes one); elsewhere prints `SKIPPED: <reason>` and passes,
@@ -212,6 +214,67 @@ fn ros_tools_and_dvrk_clients_see_the_node_as_any_node() {
     );
 
     drop((move_jp, states, tf_static));
+    drop(peer);
+    let (status, log) = node.stop();
+    assert!(
+        status.is_some_and(|s| s.success()),
+        "node exit {status:?}\n{log}"
+    );
+}
+
+#[test]
+fn standard_ros_arguments_and_links_left_to_dvrk() {
+    if !network_prerequisites(true) {
+        return;
+    }
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let domain = DOMAIN + 1;
+    let node = NodeProcess::start_with(
+        &[
+            "--backend",
+            "cpu",
+            "--ros-args",
+            "-r",
+            "__ns:=/sim",
+            "-r",
+            "__node:=sim",
+            "-r",
+            "tissue/points:=cloud",
+            "-p",
+            "use_sim_time:=true",
+            "-p",
+            "arm_rate_hz:=50",
+            "-p",
+            "scene:=tests/scenes/small_dvrk_links.toml",
+        ],
+        domain,
+    );
+    let out = run_rclpy("test_ros_args.py", domain);
+    println!("{}", String::from_utf8_lossy(&out.stdout));
+    assert!(
+        out.status.success(),
+        "test_ros_args.py failed:\n{}\n{}\n--- node ---\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+        node.log()
+    );
+
+    // With `tf_arm_links = false` /tf carries only what dVRK's robot_state_publisher (fed
+    // by measured_js) does not: the tool frame and our tool tip, under the base.
+    let context = Context::with_options(ContextOptions::new().domain_id(domain)).unwrap();
+    let mut peer = context
+        .new_node(NodeName::new("/", "tf_peer").unwrap(), NodeOptions::new())
+        .unwrap();
+    let mut moving = tf_children(&mut peer, "/tf", reliable(), &node);
+    moving.sort();
+    assert_eq!(
+        moving,
+        [
+            ("PSM1_base".to_owned(), "PSM1".to_owned()),
+            ("PSM1_base".to_owned(), "PSM1_tool_tip".to_owned()),
+        ]
+    );
+    println!("ok: /tf with the links left to robot_state_publisher: {moving:?}");
     drop(peer);
     let (status, log) = node.stop();
     assert!(

@@ -13,7 +13,10 @@
 //! than real time; slower when a frame costs more than its period) and exchanges latest values
 //! with the ROS side: commands go in through a bounded queue and are applied at the next frame
 //! boundary, finished frames come out as a latest value (a slow reader skips frames). Every
-//! stamp is simulated time. Relative names live under `--namespace`; `/tf` is global.
+//! stamp is simulated time. Relative names live under `--namespace`; `/tf` is global. The
+//! standard ROS arguments work as for any ROS 2 node (`--ros-args -r __ns:=/sim -r
+//! __node:=sim -r FROM:=TO -p NAME:=VALUE`, [`ros_args`]); the declared parameters (scene,
+//! rates, `use_sim_time`) are served read-only to `ros2 param` ([`parameters`]).
 //!
 //! | topic | type | notes |
 //! |---|---|---|
@@ -85,9 +88,9 @@
 //! ([`sim_clock`]); `tests/ros_contract.rs` fails on any topic with two types.
 //!
 //! `/diagnostics` (where diagnostic_aggregator and rqt_robot_monitor look; status
-//! `<node name>: simulation`) says how the simulation keeps up, measured over the last 5 s of wall time:
-//! `real_time_factor`, `substeps_per_frame`, `frames_per_second`, `simulated_time`, `backend`
-//! (`cpu`, `gpu-fixed-point`, `gpu-f32-atomics`) and `adapter`. Level OK at real time, WARN below
+//! `<node name>: simulation`) says how the simulation keeps up, measured over the last 5 s of
+//! wall time: `real_time_factor`, `substeps_per_frame`, `frames_per_second`, `simulated_time`,
+//! `backend` (`cpu`, `gpu-fixed-point`, `gpu-f32-atomics`) and `adapter`. Level OK at real time, WARN below
 //! 0.9× with a message that says by how much; the log says the same every 10 s while frames are
 //! late. `tests/clock_status.rs` checks that an rclpy node with `use_sim_time` finds its clock
 //! equal to the last `/clock`, and the status's factor within 25 % of the one it measures.
@@ -128,9 +131,11 @@ pub mod msgs;
 pub mod names;
 pub mod node;
 pub mod outputs;
+pub mod parameters;
 pub mod recorder;
 pub mod recover;
 pub mod replay;
+pub mod ros_args;
 pub mod rosout;
 pub mod schema;
 pub mod session;

@@ -21,8 +21,9 @@ use ros2_client::{
 use crate::config::Scene;
 use crate::ros::inputs::{input_topics, InputKind, InputMessage, InputTopic};
 use crate::ros::msgs::*;
-use crate::ros::names::resolve;
+use crate::ros::names::remap;
 use crate::ros::outputs::{self, ArmOutput, EventMessage, EventStamps, OutputLayout};
+use crate::ros::parameters::ParameterServices;
 use crate::ros::rosout::Rosout;
 use crate::ros::session::{finish_recording, prepare, NodeSettings, SessionError};
 use crate::ros::sim_clock::SimClock;
@@ -95,15 +96,12 @@ fn command_qos() -> QosProfile {
 struct Topics<'a> {
     node: &'a mut Node,
     namespace: String,
+    remaps: &'a [(String, String)],
 }
 
 impl Topics<'_> {
     fn name(&self, topic: &str) -> Result<Name, NodeError> {
-        let full = if topic.starts_with('/') {
-            topic.to_owned()
-        } else {
-            resolve(&self.namespace, topic)
-        };
+        let full = remap(&self.namespace, self.remaps, topic);
         Name::parse(&full).map_err(|e| err(&format!("topic name {full}"), e))
     }
 
@@ -305,10 +303,14 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
     let mut clock = SimClock::start(&mut node)?;
     let rosout = Rosout::start(&node);
 
+    let parameters = ParameterServices::start(&mut node, settings.parameters.clone())?;
     let mut topics = Topics {
         node: &mut node,
         namespace: settings.namespace.clone(),
+        remaps: &settings.remaps,
     };
+    // Where each output lives on the graph, for its subscriber count.
+    let graph_name = |topic: &str| remap(&settings.namespace, &settings.remaps, topic);
     let mut arms = Vec::new();
     for output in &layout.arms {
         let n = &output.name;
@@ -358,10 +360,7 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
         threads.push(ThreadIo {
             centreline: topics.publisher(&centreline, periodic_qos())?,
             tension: topics.publisher(&tension, periodic_qos())?,
-            topics: [
-                resolve(&settings.namespace, &centreline),
-                resolve(&settings.namespace, &tension),
-            ],
+            topics: [graph_name(&centreline), graph_name(&tension)],
             wanted: [false; 2],
         });
     }
@@ -395,14 +394,15 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
     let outputs = &scene.outputs;
     let mut io = Io {
         arms,
-        points_topic: resolve(&settings.namespace, "tissue/points"),
-        surface_topic: resolve(&settings.namespace, "tissue/surface"),
-        pieces_topic: resolve(&settings.namespace, outputs::PIECES_TOPIC),
+        points_topic: graph_name("tissue/points"),
+        surface_topic: graph_name("tissue/surface"),
+        pieces_topic: graph_name(outputs::PIECES_TOPIC),
+        tf_topic: graph_name("/tf"),
         pieces_published: 0,
         wrench_topics: scene
             .tools
             .iter()
-            .map(|t| resolve(&settings.namespace, &format!("tools/{}/wrench", t.name)))
+            .map(|t| graph_name(&format!("tools/{}/wrench", t.name)))
             .collect(),
         demand: Demand::default(),
         arm_outputs: layout.arms.clone(),
@@ -443,6 +443,7 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
                 _ = tick.tick() => {}
             }
             io.poll_inputs(&sim);
+            parameters.serve();
             let frame = sim.frames.borrow().clone();
             io.publish_events(&sim, &rosout, Time::from_secs(frame.time));
             rosout.publish_logged(Time::from_secs(frame.time));
@@ -512,6 +513,7 @@ struct Io {
     points_topic: String,
     surface_topic: String,
     pieces_topic: String,
+    tf_topic: String,
     /// Index of the last frame whose piece count was published.
     pieces_published: u64,
     wrench_topics: Vec<String>,
@@ -638,7 +640,7 @@ impl Io {
                 points: node.subscription_count(&self.points_topic) > 0,
                 surface: node.subscription_count(&self.surface_topic) > 0,
                 pieces: node.subscription_count(&self.pieces_topic) > 0,
-                tf: node.subscription_count("/tf") > 0,
+                tf: node.subscription_count(&self.tf_topic) > 0,
                 wrenches: self
                     .wrench_topics
                     .iter()
