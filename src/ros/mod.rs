@@ -24,6 +24,10 @@
 //! | `PSM1/jaw/measured_js`, `jaw/setpoint_js` | sensor_msgs/JointState | `jaw`: measured = the opening reached, with the controller's `effort` (N·m); setpoint = the command |
 //! | `PSM1/measured_cp`, `setpoint_cp` | geometry_msgs/PoseStamped | frame `PSM1_base` |
 //! | `PSM1/measured_cv` | geometry_msgs/TwistStamped | from the Jacobian |
+//! | `PSM1/local/measured_cp`, `local/setpoint_cp` | geometry_msgs/PoseStamped | as `measured_cp` (the base frame is the arm's own) |
+//! | `PSM1/body/measured_cf`, `spatial/measured_cf` | geometry_msgs/WrenchStamped | the held tool's contact wrench in the tool frame `PSM1`; the same about the tool in `PSM1_base`'s orientation |
+//! | `PSM1/body/jacobian`, `spatial/jacobian` | std_msgs/Float64MultiArray | 6 × 6 row-major (linear rows first): tool twist in the tool frame / in `PSM1_base` |
+//! | `PSM1/tool_type`, `trajectory_j/ratio` | std_msgs/String, Float64 | latched: the scene's tool name; the share of dVRK's `move_jp` speeds in use |
 //! | `PSM1/operating_state` | crtk_msgs/OperatingState | latched; a new stamp on every change; busy around each `move_*` |
 //! | `PSM1/error`, `warning`, `status` | std_msgs/String | latched; every rejected command is reported on `error` |
 //! | `PSM1/servo_jp`, `move_jp`, `jaw/servo_jp`, `jaw/move_jp` | sensor_msgs/JointState (sub) | names optional (then canonical order) |
@@ -32,6 +36,14 @@
 //! | `PSM1/hold`, `free` | std_msgs/Empty (sub) | `free` holds (a kinematic arm) |
 //! | `PSM1/state_command` | crtk_msgs/StringStamped (sub) | `enable, disable, home, unhome, pause, resume` |
 //! | `PSM1/body/servo_cf`, `use_gravity_compensation` | (sub) | accepted, no effect on a kinematic arm |
+//! | `PSM1/servo_jr`, `move_jr` | sensor_msgs/JointState (sub) | relative joint commands: a step from the joints now (jump bound as `servo_jp`), a move to the sum (as `move_jp`) |
+//! | `PSM1/servo_jf`, `spatial/servo_cf` | JointState, WrenchStamped (sub) | refused on `error`: a kinematic arm cannot apply efforts or forces |
+//! | `PSM1/trajectory_j/set_ratio` | std_msgs/Float64 (sub) | (0, 1]: moves at that share of dVRK's speeds |
+//! | `PSM1/body/set_cf_orientation_absolute`, `emulate_tool_present` | std_msgs/Bool (sub) | accepted, no effect (no force control; the tool is always present) |
+//!
+//! These are the topics dVRK's Python client (`dvrk_python`'s `psm` on `crtk_python_client`)
+//! opens. Its `forward_kinematics` / `inverse_kinematics` services (cisst_msgs) are not
+//! served.
 //! | `tissue/points` | sensor_msgs/PointCloud2 | x, y, z and the scalar `points_scalar` names (`volumetric_strain`, `equivalent_strain` or `damage`), frame `world` |
 //! | `tissue/surface` | visualization_msgs/Marker | TRIANGLE_LIST in `world`: the mesh (fixed corner order, a strain colour and a UV per corner) or the isosurface |
 //! | `tissue/pieces` | std_msgs/UInt32 | separate tissue pieces, counted at `pieces_rate_hz` in simulated time while subscribed (and when recording) |
@@ -90,9 +102,9 @@
 //! `/diagnostics` (where diagnostic_aggregator and rqt_robot_monitor look; status
 //! `<node name>: simulation`) says how the simulation keeps up, measured over the last 5 s of
 //! wall time: `real_time_factor`, `substeps_per_frame`, `frames_per_second`, `simulated_time`,
-//! `backend` (`cpu`, `gpu-fixed-point`, `gpu-f32-atomics`) and `adapter`. Level OK at real time, WARN below
-//! 0.9× with a message that says by how much; the log says the same every 10 s while frames are
-//! late. `tests/clock_status.rs` checks that an rclpy node with `use_sim_time` finds its clock
+//! `backend` (`cpu`, `gpu-fixed-point`, `gpu-f32-atomics`) and `adapter`. Level OK at real
+//! time, WARN below 0.9× with a message that says by how much; the log says the same every
+//! 10 s while frames are late. `tests/clock_status.rs` checks that an rclpy node with `use_sim_time` finds its clock
 //! equal to the last `/clock`, and the status's factor within 25 % of the one it measures.
 //!
 //! **No ERROR in normal use.** A subscriber of rclpy's default QoS (reliable, keep last 10) on

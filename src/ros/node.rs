@@ -137,12 +137,17 @@ impl Topics<'_> {
         let name = topic.topic.clone();
         let subscription = match topic.kind {
             ServoJp | MoveJp | JawServoJp | JawMoveJp | JawServoJf | MirrorJs | MirrorJaw
-            | MtmGripper => AnySubscription::Joints(self.subscribe(&name)?),
+            | MtmGripper | ServoJr | MoveJr | ServoJf => {
+                AnySubscription::Joints(self.subscribe(&name)?)
+            }
             ServoCp | MoveCp | MtmCp => AnySubscription::Pose(self.subscribe(&name)?),
             Hold | Free => AnySubscription::Empty(self.subscribe(&name)?),
             StateCommand => AnySubscription::Command(self.subscribe(&name)?),
-            ServoCf => AnySubscription::Wrench(self.subscribe(&name)?),
-            GravityCompensation => AnySubscription::Flag(self.subscribe(&name)?),
+            ServoCf | SpatialServoCf => AnySubscription::Wrench(self.subscribe(&name)?),
+            GravityCompensation | CfOrientationAbsolute | EmulateToolPresent => {
+                AnySubscription::Flag(self.subscribe(&name)?)
+            }
+            TrajectoryRatio => AnySubscription::Number(self.subscribe(&name)?),
             Clutch | OperatorPresent => AnySubscription::Joy(self.subscribe(&name)?),
         };
         Ok(InputSubscription {
@@ -160,6 +165,7 @@ enum AnySubscription {
     Command(Subscription<StringStamped>),
     Wrench(Subscription<WrenchStamped>),
     Flag(Subscription<Bool>),
+    Number(Subscription<Float64>),
     Joy(Subscription<Joy>),
 }
 
@@ -178,6 +184,7 @@ impl AnySubscription {
             AnySubscription::Command(s) => one(s, InputMessage::Command),
             AnySubscription::Wrench(s) => one(s, InputMessage::Wrench),
             AnySubscription::Flag(s) => one(s, InputMessage::Flag),
+            AnySubscription::Number(s) => one(s, InputMessage::Number),
             AnySubscription::Joy(s) => one(s, InputMessage::Joy),
         }
     }
@@ -201,10 +208,21 @@ struct ArmPublishers {
     error: Publisher<StringMsg>,
     warning: Publisher<StringMsg>,
     status: Publisher<StringMsg>,
+    local_measured_cp: Publisher<PoseStamped>,
+    local_setpoint_cp: Publisher<PoseStamped>,
+    body_measured_cf: Publisher<WrenchStamped>,
+    spatial_measured_cf: Publisher<WrenchStamped>,
+    body_jacobian: Publisher<Float64MultiArray>,
+    spatial_jacobian: Publisher<Float64MultiArray>,
+    /// Latched, sent once: kept alive for late subscribers.
+    _tool_type: Publisher<StringMsg>,
+    trajectory_ratio: Publisher<Float64>,
 }
 
 struct ArmIo {
     publishers: Option<ArmPublishers>,
+    /// The last `trajectory_j/ratio` published.
+    ratio: Option<f64>,
 }
 
 /// Sends the next output of one kind when its period (wall clock) has passed.
@@ -329,11 +347,34 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
                 error: topics.publisher(&format!("{n}/error"), event_qos())?,
                 warning: topics.publisher(&format!("{n}/warning"), event_qos())?,
                 status: topics.publisher(&format!("{n}/status"), event_qos())?,
+                local_measured_cp: topics
+                    .publisher(&format!("{n}/local/measured_cp"), periodic_qos())?,
+                local_setpoint_cp: topics
+                    .publisher(&format!("{n}/local/setpoint_cp"), periodic_qos())?,
+                body_measured_cf: topics
+                    .publisher(&format!("{n}/body/measured_cf"), periodic_qos())?,
+                spatial_measured_cf: topics
+                    .publisher(&format!("{n}/spatial/measured_cf"), periodic_qos())?,
+                body_jacobian: topics.publisher(&format!("{n}/body/jacobian"), periodic_qos())?,
+                spatial_jacobian: topics
+                    .publisher(&format!("{n}/spatial/jacobian"), periodic_qos())?,
+                _tool_type: {
+                    let p = topics.publisher(&format!("{n}/tool_type"), event_qos())?;
+                    let _ = p.publish(StringMsg {
+                        data: output.tool_type.clone(),
+                    });
+                    p
+                },
+                trajectory_ratio: topics
+                    .publisher(&format!("{n}/trajectory_j/ratio"), event_qos())?,
             })
         } else {
             None
         };
-        arms.push(ArmIo { publishers });
+        arms.push(ArmIo {
+            publishers,
+            ratio: None,
+        });
     }
     // A replay drives the arms from the bag: the input topics are not subscribed.
     let mut inputs = Vec::new();
@@ -713,11 +754,29 @@ impl Io {
     }
 
     fn publish_arms(&mut self, frame: &Frame, stamp: Time) {
-        for (index, (io, status)) in self.arms.iter().zip(&frame.arms).enumerate() {
+        for (index, (io, status)) in self.arms.iter_mut().zip(&frame.arms).enumerate() {
             let Some(p) = &io.publishers else {
                 continue;
             };
-            let m = outputs::arm_messages(&self.arm_outputs[index], status, stamp);
+            let arm = &self.arm_outputs[index];
+            if io.ratio != Some(status.trajectory_ratio) {
+                io.ratio = Some(status.trajectory_ratio);
+                let _ = p.trajectory_ratio.publish(Float64 {
+                    data: status.trajectory_ratio,
+                });
+            }
+            if let Some(tool) = frame.tools.get(arm.tool) {
+                let (body, spatial) = outputs::measured_cf_messages(arm, status, tool, stamp);
+                let _ = p.body_measured_cf.publish(body);
+                let _ = p.spatial_measured_cf.publish(spatial);
+            }
+            if let Some((body, spatial)) = outputs::jacobian_messages(arm, status) {
+                let _ = p.body_jacobian.publish(body);
+                let _ = p.spatial_jacobian.publish(spatial);
+            }
+            let m = outputs::arm_messages(arm, status, stamp);
+            let _ = p.local_measured_cp.publish(m.cp.clone());
+            let _ = p.local_setpoint_cp.publish(m.cp.clone());
             let _ = p.measured_js.publish(m.js.clone());
             let _ = p.setpoint_js.publish(m.js);
             let _ = p.jaw_measured_js.publish(m.jaw);
