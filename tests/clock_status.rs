@@ -1,4 +1,4 @@
-//! `/clock` and `sim/status` through rclpy (tests/ros/test_clock_status.py) on the default
+//! `/clock` and `/diagnostics` through rclpy (tests/ros/test_clock_status.py) on the default
 //! scene on the CPU backend, which runs slower than real time on a small machine: rclpy with
 //! `use_sim_time` follows the simulated clock, and the status's real-time factor agrees with
 //! the one measured from /clock. A cloud subscriber of depth 10 reads tissue/points meanwhile,

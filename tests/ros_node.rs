@@ -257,13 +257,8 @@ fn crtk_operating_state_state_commands_and_tf() {
         (first.state.as_str(), first.is_homed, first.is_busy),
         ("ENABLED", true, false)
     );
-    for frame in [
-        "PSM1_base",
-        "PSM1",
-        "PSM1_tool_tip",
-        "PSM1_jaw_1",
-        "PSM1_jaw_2",
-    ] {
+    // world → PSM1_base is fixed: it goes on /tf_static (tests/ros_contract.rs).
+    for frame in ["PSM1", "PSM1_tool_tip", "PSM1_jaw_1", "PSM1_jaw_2"] {
         assert!(
             probe.frames.iter().any(|f| f == frame),
             "{frame} not in /tf: {:?}",

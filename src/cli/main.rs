@@ -62,8 +62,21 @@ fn main() {
         .with_writer(std::io::stderr)
         .finish()
         .with(dds_log::KeepLastRepairNoise)
+        .with(dvrk_tissue_sim::ros::rosout::RosoutLayer)
         .init();
-    if let Err(e) = dispatch(Cli::parse()) {
+    // ROS 2's own arguments (`--ros-args ... [--]`) are not the program's: parsed apart.
+    let (own, ros_args) = dvrk_tissue_sim::ros::ros_args::split(std::env::args_os());
+    let mut cli = Cli::parse_from(own);
+    if !ros_args.is_empty() {
+        match &mut cli.command {
+            Command::Run(args) => args.ros_args = ros_args,
+            _ => {
+                eprintln!("error: --ros-args: only `run` starts a ROS node");
+                std::process::exit(2);
+            }
+        }
+    }
+    if let Err(e) = dispatch(cli) {
         eprintln!("error: {e:#}");
         std::process::exit(1);
     }

@@ -64,6 +64,9 @@ pub struct RunArgs {
     /// end unless --seconds is given. With --headless: no network, as fast as it computes.
     #[arg(long, value_name = "IN.mcap")]
     replay: Option<PathBuf>,
+    /// The arguments of `--ros-args` blocks (split off before the rest is parsed).
+    #[arg(skip)]
+    pub ros_args: Vec<String>,
 }
 
 pub fn run(args: RunArgs) -> Result<()> {
@@ -80,11 +83,30 @@ pub fn run(args: RunArgs) -> Result<()> {
                 .map(|path| (path, args.record_chunk, args.force)),
         );
     }
-    let path = args.scene;
-    let scene = args.solver.load(&path)?;
+    if args.headless && !args.ros_args.is_empty() {
+        bail!("--ros-args: for the ROS node only, not with --headless");
+    }
+    let ros_args = ros::ros_args::RosArgs::parse(&args.ros_args)?;
+    let path = match ros_args.param("scene") {
+        Some(ros::ros_args::ParamValue::Text(scene)) => PathBuf::from(scene),
+        _ => args.scene,
+    };
+    let mut scene = args.solver.load(&path)?;
+    ros_args.apply_rates(&mut scene);
+    let problems = dvrk_tissue_sim::config::validate(&scene);
+    if !problems.is_empty() {
+        let problems: Vec<String> = problems.iter().map(|p| format!("  {p}")).collect();
+        bail!(
+            "--ros-args -p: {} problem(s):\n{}",
+            problems.len(),
+            problems.join("\n")
+        );
+    }
     let settings = ros::NodeSettings {
-        name: args.node_name,
-        namespace: args.namespace,
+        name: ros_args.node_name.clone().unwrap_or(args.node_name),
+        namespace: ros_args.namespace.clone().unwrap_or(args.namespace),
+        parameters: ros_args.declared(&path.to_string_lossy(), &scene),
+        remaps: ros_args.remaps,
         seconds: args.seconds,
         snapshots,
         record: args.record,

@@ -515,6 +515,11 @@ pub struct Outputs {
     /// `/tf` for arm links.
     #[serde(default = "default_tf_rate")]
     pub tf_rate_hz: f64,
+    /// Whether `/tf` carries every arm link (`true`) or only what dVRK's own
+    /// robot_state_publisher launch cannot (each arm's tool frame and tool tip, and the
+    /// scripted tools), leaving the links to it (`false`).
+    #[serde(default = "default_true")]
+    pub tf_arm_links: bool,
     /// Arm state topics (`measured_js`, ...): every frame up to this rate.
     #[serde(default = "default_arm_rate")]
     pub arm_rate_hz: f64,
@@ -547,6 +552,9 @@ fn default_surface_rate() -> f64 {
 fn default_wrench_rate() -> f64 {
     60.0
 }
+fn default_true() -> bool {
+    true
+}
 fn default_tf_rate() -> f64 {
     50.0
 }
@@ -568,6 +576,7 @@ impl Default for Outputs {
             surface: SurfaceKind::default(),
             wrench_rate_hz: default_wrench_rate(),
             tf_rate_hz: default_tf_rate(),
+            tf_arm_links: true,
             arm_rate_hz: default_arm_rate(),
             thread_rate_hz: default_thread_rate(),
             pieces_rate_hz: default_pieces_rate(),

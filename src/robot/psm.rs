@@ -577,15 +577,22 @@ impl Psm {
         Ok(CartesianSolution { target, ik })
     }
 
-    /// A `move_jp` from `start` to `goal` (canonical order) under the arm's speed limits; `goal`
-    /// must be inside the joint limits.
-    pub fn plan_move_jp(&self, start: &[f64], goal: &[f64]) -> Result<Trajectory, PsmError> {
+    /// A `move_jp` from `start` to `goal` (canonical order) at `ratio` (0, 1] of the arm's speed
+    /// limits (`trajectory_j/set_ratio`); `goal` must be inside the joint limits.
+    pub fn plan_move_jp(
+        &self,
+        start: &[f64],
+        goal: &[f64],
+        ratio: f64,
+    ) -> Result<Trajectory, PsmError> {
         let goal = self.joints.validate::<&str>(&[], goal, None)?;
-        Ok(Trajectory::new(
-            start,
-            &goal,
-            &self.joints.max_velocities(),
-        )?)
+        let speeds: Vec<f64> = self
+            .joints
+            .max_velocities()
+            .iter()
+            .map(|v| v * ratio)
+            .collect();
+        Ok(Trajectory::new(start, &goal, &speeds)?)
     }
 
     /// A `jaw/move_jp` from `start` to `goal` under the jaw's speed limit.
@@ -807,7 +814,7 @@ mod tests {
         let psm = psm();
         let start = [0.0, 0.0, 0.1, 0.0, 0.0, 0.0];
         assert!(matches!(
-            psm.plan_move_jp(&start, &[0.0, 0.0, 0.3, 0.0, 0.0, 0.0]),
+            psm.plan_move_jp(&start, &[0.0, 0.0, 0.3, 0.0, 0.0, 0.0], 1.0),
             Err(PsmError::Joint(JointCommandError::OutOfLimits { .. }))
         ));
         assert!(matches!(
@@ -821,7 +828,7 @@ mod tests {
         let psm = psm();
         let start = [-1.0, 0.5, 0.02, -3.0, 1.0, -1.0];
         let goal = [1.0, -0.5, 0.22, 3.0, -1.0, 1.0];
-        let traj = psm.plan_move_jp(&start, &goal).unwrap();
+        let traj = psm.plan_move_jp(&start, &goal, 1.0).unwrap();
         let limits = psm.joints().max_velocities();
         // Yaw (2 rad at 90°/s) is the slowest: T = 15/8 · 2 / (π/2).
         assert!((traj.duration() - 15.0 / 8.0 * 2.0 / (PI / 2.0)).abs() < 1e-12);

@@ -35,6 +35,21 @@ pub enum InputKind {
     ServoCf,
     /// `<arm>/use_gravity_compensation` (`std_msgs/Bool`).
     GravityCompensation,
+    /// `<arm>/servo_jr` (`sensor_msgs/JointState`): a joint step from the setpoint.
+    ServoJr,
+    /// `<arm>/move_jr` (`sensor_msgs/JointState`): a joint move relative to the setpoint.
+    MoveJr,
+    /// `<arm>/servo_jf` (`sensor_msgs/JointState`, joint efforts).
+    ServoJf,
+    /// `<arm>/spatial/servo_cf` (`geometry_msgs/WrenchStamped`).
+    SpatialServoCf,
+    /// `<arm>/trajectory_j/set_ratio` (`std_msgs/Float64`): the share of dVRK's `move_jp`
+    /// speeds moves use.
+    TrajectoryRatio,
+    /// `<arm>/body/set_cf_orientation_absolute` (`std_msgs/Bool`).
+    CfOrientationAbsolute,
+    /// `<arm>/emulate_tool_present` (`std_msgs/Bool`).
+    EmulateToolPresent,
     /// A mirrored real arm's `measured_js` (`sensor_msgs/JointState`).
     MirrorJs,
     /// A mirrored real arm's `jaw/measured_js` (`sensor_msgs/JointState`).
@@ -64,6 +79,8 @@ pub enum InputMessage {
     Wrench(WrenchStamped),
     /// `std_msgs/Bool`.
     Flag(Bool),
+    /// `std_msgs/Float64`.
+    Number(Float64),
     /// `sensor_msgs/Joy`.
     Joy(Joy),
 }
@@ -74,12 +91,13 @@ impl InputKind {
         use InputKind::*;
         match self {
             ServoJp | MoveJp | JawServoJp | JawMoveJp | JawServoJf | MirrorJs | MirrorJaw
-            | MtmGripper => JointState::type_name(),
+            | MtmGripper | ServoJr | MoveJr | ServoJf => JointState::type_name(),
             ServoCp | MoveCp | MtmCp => PoseStamped::type_name(),
             Hold | Free => Empty::type_name(),
             StateCommand => StringStamped::type_name(),
-            ServoCf => WrenchStamped::type_name(),
-            GravityCompensation => Bool::type_name(),
+            ServoCf | SpatialServoCf => WrenchStamped::type_name(),
+            GravityCompensation | CfOrientationAbsolute | EmulateToolPresent => Bool::type_name(),
+            TrajectoryRatio => Float64::type_name(),
             Clutch | OperatorPresent => Joy::type_name(),
         }
     }
@@ -89,12 +107,15 @@ impl InputKind {
         use InputKind::*;
         Ok(match self {
             ServoJp | MoveJp | JawServoJp | JawMoveJp | JawServoJf | MirrorJs | MirrorJaw
-            | MtmGripper => InputMessage::Joints(from_cdr(cdr)?),
+            | MtmGripper | ServoJr | MoveJr | ServoJf => InputMessage::Joints(from_cdr(cdr)?),
             ServoCp | MoveCp | MtmCp => InputMessage::Pose(from_cdr(cdr)?),
             Hold | Free => InputMessage::Empty(Empty {}),
             StateCommand => InputMessage::Command(from_cdr(cdr)?),
-            ServoCf => InputMessage::Wrench(from_cdr(cdr)?),
-            GravityCompensation => InputMessage::Flag(from_cdr(cdr)?),
+            ServoCf | SpatialServoCf => InputMessage::Wrench(from_cdr(cdr)?),
+            GravityCompensation | CfOrientationAbsolute | EmulateToolPresent => {
+                InputMessage::Flag(from_cdr(cdr)?)
+            }
+            TrajectoryRatio => InputMessage::Number(from_cdr(cdr)?),
             Clutch | OperatorPresent => InputMessage::Joy(from_cdr(cdr)?),
         })
     }
@@ -146,7 +167,9 @@ impl InputMessage {
                 arrays = vec![("axes", m.axes.len()), ("buttons", m.buttons.len())];
                 strings.push(("frame_id", m.header.frame_id.len()));
             }
-            InputMessage::Empty(_) | InputMessage::Flag(_) => return None,
+            InputMessage::Empty(_) | InputMessage::Flag(_) | InputMessage::Number(_) => {
+                return None
+            }
         }
         if let Some((field, n)) = arrays.iter().find(|(_, n)| *n > MAX_INPUT_VALUES) {
             return Some(format!(
@@ -170,6 +193,7 @@ impl InputMessage {
             InputMessage::Command(m) => to_cdr(m),
             InputMessage::Wrench(m) => to_cdr(m),
             InputMessage::Flag(m) => to_cdr(m),
+            InputMessage::Number(m) => to_cdr(m),
             InputMessage::Joy(m) => to_cdr(m),
         }
     }
@@ -237,6 +261,13 @@ pub fn input_topics(scene: &Scene, namespace: &str) -> Vec<InputTopic> {
                     ("state_command", StateCommand),
                     ("body/servo_cf", ServoCf),
                     ("use_gravity_compensation", GravityCompensation),
+                    ("servo_jr", ServoJr),
+                    ("move_jr", MoveJr),
+                    ("servo_jf", ServoJf),
+                    ("spatial/servo_cf", SpatialServoCf),
+                    ("trajectory_j/set_ratio", TrajectoryRatio),
+                    ("body/set_cf_orientation_absolute", CfOrientationAbsolute),
+                    ("emulate_tool_present", EmulateToolPresent),
                 ] {
                     push(name(&format!("{n}/{suffix}")), kind);
                 }
@@ -352,7 +383,32 @@ impl InputTopic {
                     ]),
                 )
             }
-            (GravityCompensation, InputMessage::Flag(_)) => Ok(None),
+            // A kinematic arm has no force control to orient, and its tool is always there.
+            (
+                GravityCompensation | CfOrientationAbsolute | EmulateToolPresent,
+                InputMessage::Flag(_),
+            ) => Ok(None),
+            (ServoJr, InputMessage::Joints(m)) => arm(
+                "servo_jr",
+                ArmInput::ServoJr {
+                    names: m.name,
+                    steps: m.position,
+                },
+            ),
+            (MoveJr, InputMessage::Joints(m)) => arm(
+                "move_jr",
+                ArmInput::MoveJr {
+                    names: m.name,
+                    steps: m.position,
+                },
+            ),
+            (ServoJf, InputMessage::Joints(_)) => arm("servo_jf", ArmInput::ForceCommand),
+            (SpatialServoCf, InputMessage::Wrench(_)) => {
+                arm("spatial/servo_cf", ArmInput::ForceCommand)
+            }
+            (TrajectoryRatio, InputMessage::Number(m)) => {
+                arm("trajectory_j/set_ratio", ArmInput::TrajectoryRatio(m.data))
+            }
             (MirrorJs, InputMessage::Joints(m)) => arm(
                 "measured_js (mirrored)",
                 ArmInput::MirrorJs {

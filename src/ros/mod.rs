@@ -1,7 +1,7 @@
 //! The ROS 2 side, transport only: message types ([`msgs`], [`schema`]), topic names
 //! ([`names`]), messages to simulation inputs ([`inputs`]) and finished frames to messages
 //! ([`outputs`]), the node's topic wiring ([`node`]), the bag recorder and replay
-//! ([`recorder`], [`replay`], [`recover`] for a bag a killed run left) and a run's setup
+//! ([`recorder`], [`replay`], [`recover`] for a bag a killed run left), `/rosout` ([`rosout`]) and a run's setup
 //! shared by the node and a headless replay ([`session`]), `/clock` ([`sim_clock`]) and the
 //! node's status ([`status`]). The simulation itself is [`crate::sim`].
 //!
@@ -13,7 +13,10 @@
 //! than real time; slower when a frame costs more than its period) and exchanges latest values
 //! with the ROS side: commands go in through a bounded queue and are applied at the next frame
 //! boundary, finished frames come out as a latest value (a slow reader skips frames). Every
-//! stamp is simulated time. Relative names live under `--namespace`; `/tf` is global.
+//! stamp is simulated time. Relative names live under `--namespace`; `/tf` is global. The
+//! standard ROS arguments work as for any ROS 2 node (`--ros-args -r __ns:=/sim -r
+//! __node:=sim -r FROM:=TO -p NAME:=VALUE`, [`ros_args`]); the declared parameters (scene,
+//! rates, `use_sim_time`) are served read-only to `ros2 param` ([`parameters`]).
 //!
 //! | topic | type | notes |
 //! |---|---|---|
@@ -21,6 +24,10 @@
 //! | `PSM1/jaw/measured_js`, `jaw/setpoint_js` | sensor_msgs/JointState | `jaw`: measured = the opening reached, with the controller's `effort` (N·m); setpoint = the command |
 //! | `PSM1/measured_cp`, `setpoint_cp` | geometry_msgs/PoseStamped | frame `PSM1_base` |
 //! | `PSM1/measured_cv` | geometry_msgs/TwistStamped | from the Jacobian |
+//! | `PSM1/local/measured_cp`, `local/setpoint_cp` | geometry_msgs/PoseStamped | as `measured_cp` (the base frame is the arm's own) |
+//! | `PSM1/body/measured_cf`, `spatial/measured_cf` | geometry_msgs/WrenchStamped | the held tool's contact wrench in the tool frame `PSM1`; the same about the tool in `PSM1_base`'s orientation |
+//! | `PSM1/body/jacobian`, `spatial/jacobian` | std_msgs/Float64MultiArray | 6 × 6 row-major (linear rows first): tool twist in the tool frame / in `PSM1_base` |
+//! | `PSM1/tool_type`, `trajectory_j/ratio` | std_msgs/String, Float64 | latched: the scene's tool name; the share of dVRK's `move_jp` speeds in use |
 //! | `PSM1/operating_state` | crtk_msgs/OperatingState | latched; a new stamp on every change; busy around each `move_*` |
 //! | `PSM1/error`, `warning`, `status` | std_msgs/String | latched; every rejected command is reported on `error` |
 //! | `PSM1/servo_jp`, `move_jp`, `jaw/servo_jp`, `jaw/move_jp` | sensor_msgs/JointState (sub) | names optional (then canonical order) |
@@ -29,16 +36,26 @@
 //! | `PSM1/hold`, `free` | std_msgs/Empty (sub) | `free` holds (a kinematic arm) |
 //! | `PSM1/state_command` | crtk_msgs/StringStamped (sub) | `enable, disable, home, unhome, pause, resume` |
 //! | `PSM1/body/servo_cf`, `use_gravity_compensation` | (sub) | accepted, no effect on a kinematic arm |
+//! | `PSM1/servo_jr`, `move_jr` | sensor_msgs/JointState (sub) | relative joint commands: a step from the joints now (jump bound as `servo_jp`), a move to the sum (as `move_jp`) |
+//! | `PSM1/servo_jf`, `spatial/servo_cf` | JointState, WrenchStamped (sub) | refused on `error`: a kinematic arm cannot apply efforts or forces |
+//! | `PSM1/trajectory_j/set_ratio` | std_msgs/Float64 (sub) | (0, 1]: moves at that share of dVRK's speeds |
+//! | `PSM1/body/set_cf_orientation_absolute`, `emulate_tool_present` | std_msgs/Bool (sub) | accepted, no effect (no force control; the tool is always present) |
+//!
+//! These are the topics dVRK's Python client (`dvrk_python`'s `psm` on `crtk_python_client`)
+//! opens. Its `forward_kinematics` / `inverse_kinematics` services (cisst_msgs) are not
+//! served.
 //! | `tissue/points` | sensor_msgs/PointCloud2 | x, y, z and the scalar `points_scalar` names (`volumetric_strain`, `equivalent_strain` or `damage`), frame `world` |
 //! | `tissue/surface` | visualization_msgs/Marker | TRIANGLE_LIST in `world`: the mesh (fixed corner order, a strain colour and a UV per corner) or the isosurface |
 //! | `tissue/pieces` | std_msgs/UInt32 | separate tissue pieces, counted at `pieces_rate_hz` in simulated time while subscribed (and when recording) |
 //! | `tools/<tool>/wrench` | geometry_msgs/WrenchStamped | contact wrench on the tool, in its frame (`PSM1` for an arm's tool, the mount undone) |
 //! | `threads/<name>/centreline`, `threads/<name>/tension` | Marker, PointCloud2 | a suture thread's LINE_STRIP and its axial force per point |
-//! | `/tf` | tf2_msgs/TFMessage | `world` → `PSM1_base` → every arm link; scripted tools |
+//! | `/tf_static` | tf2_msgs/TFMessage | once, transient local: `world` → `PSM1_base` |
+//! | `/tf` | tf2_msgs/TFMessage | `PSM1_base` → every arm link (with `[outputs] tf_arm_links = false` only `PSM1` and `PSM1_tool_tip`, leaving the links to dVRK's robot_state_publisher); scripted tools |
 //! | `MTMR/measured_cp`, `MTMR/gripper/measured_js`, `console/clutch`, `console/operator_present` | (sub, with `[teleop]`) | Joy `buttons[0] = 1` pressed |
 //! | `MTMR/body/servo_cf` | geometry_msgs/WrenchStamped | with `force_feedback`: the tool's contact wrench × scale |
 //! | `/clock` | rosgraph_msgs/Clock | simulated time, once per frame |
-//! | `sim/status` | diagnostic_msgs/DiagnosticArray | latched, once a second: real-time factor, substeps and frames per second, backend, adapter |
+//! | `/rosout` | rcl_interfaces/Log | WARN and ERROR log lines, the arms' `error` (ERROR), `warning` (WARN) and `status` (INFO) events, logger `<namespace>.<name>` ([`rosout`]) |
+//! | `/diagnostics` | diagnostic_msgs/DiagnosticArray | latched, once a second: real-time factor, substeps and frames per second, backend, adapter |
 //!
 //! - **Simulated arms** satisfy dVRK's `dvrk_arm_from_ros` contract: a dVRK console can
 //!   teleoperate them with a real MTM. They start ENABLED and homed at `home_joints`;
@@ -70,23 +87,24 @@
 //!   `[outputs] points_downsample`.
 //!
 //! `launch-scripts/`: `run_node.sh [SCENE] [flags]` starts the node; `dvrk_tissue_sim.launch.py`
-//! is a ROS 2 launch file; `teleop_demo.py` plays a scripted MTM on `config/teleop.toml`;
+//! is a ROS 2 launch file; `dvrk_tissue_sim.rviz` an RViz 2 view (arm frames, tissue cloud and
+//! mesh, thread, wrench); `teleop_demo.py` plays a scripted MTM on `config/teleop.toml`;
 //! `record_tissue_bag.sh` records with `ros2 bag`; `soak.py` drives the node for a long run.
 //!
 //! # /clock and status
 //!
 //! `/clock` carries the simulated time once per frame, so a node started with
 //! `use_sim_time:=true` follows the simulation, also when it runs slower than real time.
-//! ros2-client's spinner subscribes `/clock` itself, under the type `builtin_interfaces/msg/Time`,
-//! on the participant of the node it spins, and one DDS participant cannot carry a topic under
-//! two types. So `/clock` is published from a second participant with a node of its own,
-//! `<node name>_clock`, that never spins ([`sim_clock`]); `ros2 node list` shows both.
+//! The node never runs ros2-client's spinner, whose own `/clock` subscription (type
+//! `builtin_interfaces/msg/Time`) would give `/clock` a second type in the graph
+//! ([`sim_clock`]); `tests/ros_contract.rs` fails on any topic with two types.
 //!
-//! `sim/status` says how the simulation keeps up, measured over the last 5 s of wall time:
-//! `real_time_factor`, `substeps_per_frame`, `frames_per_second`, `simulated_time`, `backend`
-//! (`cpu`, `gpu-fixed-point`, `gpu-f32-atomics`) and `adapter`. Level OK at real time, WARN below
-//! 0.9× with a message that says by how much; the log says the same every 10 s while frames are
-//! late. `tests/clock_status.rs` checks that an rclpy node with `use_sim_time` finds its clock
+//! `/diagnostics` (where diagnostic_aggregator and rqt_robot_monitor look; status
+//! `<node name>: simulation`) says how the simulation keeps up, measured over the last 5 s of
+//! wall time: `real_time_factor`, `substeps_per_frame`, `frames_per_second`, `simulated_time`,
+//! `backend` (`cpu`, `gpu-fixed-point`, `gpu-f32-atomics`) and `adapter`. Level OK at real
+//! time, WARN below 0.9× with a message that says by how much; the log says the same every
+//! 10 s while frames are late. `tests/clock_status.rs` checks that an rclpy node with `use_sim_time` finds its clock
 //! equal to the last `/clock`, and the status's factor within 25 % of the one it measures.
 //!
 //! **No ERROR in normal use.** A subscriber of rclpy's default QoS (reliable, keep last 10) on
@@ -125,9 +143,12 @@ pub mod msgs;
 pub mod names;
 pub mod node;
 pub mod outputs;
+pub mod parameters;
 pub mod recorder;
 pub mod recover;
 pub mod replay;
+pub mod ros_args;
+pub mod rosout;
 pub mod schema;
 pub mod session;
 pub mod shutdown;

@@ -164,6 +164,44 @@ pub struct UInt32 {
 }
 ros_message!(UInt32, "std_msgs", "UInt32");
 
+/// `std_msgs/Float64`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Float64 {
+    /// `Float64.data`: the value.
+    pub data: f64,
+}
+ros_message!(Float64, "std_msgs", "Float64");
+
+/// `std_msgs/MultiArrayDimension`: one dimension of a multi-array.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct MultiArrayDimension {
+    /// `label`: what the dimension indexes.
+    pub label: String,
+    /// `size`: its length.
+    pub size: u32,
+    /// `stride`: elements spanned by one step of the enclosing dimension.
+    pub stride: u32,
+}
+
+/// `std_msgs/MultiArrayLayout`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct MultiArrayLayout {
+    /// `dim`: outermost first.
+    pub dim: Vec<MultiArrayDimension>,
+    /// `data_offset`: padding elements at the front of `data`.
+    pub data_offset: u32,
+}
+
+/// `std_msgs/Float64MultiArray` (the arms' Jacobians, row-major).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Float64MultiArray {
+    /// `layout`.
+    pub layout: MultiArrayLayout,
+    /// `data`.
+    pub data: Vec<f64>,
+}
+ros_message!(Float64MultiArray, "std_msgs", "Float64MultiArray");
+
 /// std_msgs/Empty. Other ROS 2 implementations put one padding byte on the wire; reading none
 /// accepts both.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]

@@ -11,6 +11,7 @@ use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use ros2_client::log::Log;
 use ros2_client::{
     qos::{Durability, History, Reliability, WhenFull},
     Context, ContextOptions, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher,
@@ -20,8 +21,10 @@ use ros2_client::{
 use crate::config::Scene;
 use crate::ros::inputs::{input_topics, InputKind, InputMessage, InputTopic};
 use crate::ros::msgs::*;
-use crate::ros::names::resolve;
+use crate::ros::names::remap;
 use crate::ros::outputs::{self, ArmOutput, EventMessage, EventStamps, OutputLayout};
+use crate::ros::parameters::ParameterServices;
+use crate::ros::rosout::Rosout;
 use crate::ros::session::{finish_recording, prepare, NodeSettings, SessionError};
 use crate::ros::sim_clock::SimClock;
 use crate::ros::status::{backend_and_adapter, Progress, StatusReport};
@@ -77,6 +80,13 @@ fn status_qos() -> QosProfile {
         .history(History::KeepLast { depth: 1 })
 }
 
+/// `/tf_static` as tf2's static broadcaster offers it: reliable, transient local, keep last 1.
+fn tf_static_qos() -> QosProfile {
+    QosProfile::publisher_default()
+        .durability(Durability::TransientLocal)
+        .history(History::KeepLast { depth: 1 })
+}
+
 fn command_qos() -> QosProfile {
     QosProfile::publisher_default()
         .durability(Durability::Volatile)
@@ -86,15 +96,12 @@ fn command_qos() -> QosProfile {
 struct Topics<'a> {
     node: &'a mut Node,
     namespace: String,
+    remaps: &'a [(String, String)],
 }
 
 impl Topics<'_> {
     fn name(&self, topic: &str) -> Result<Name, NodeError> {
-        let full = if topic.starts_with('/') {
-            topic.to_owned()
-        } else {
-            resolve(&self.namespace, topic)
-        };
+        let full = remap(&self.namespace, self.remaps, topic);
         Name::parse(&full).map_err(|e| err(&format!("topic name {full}"), e))
     }
 
@@ -130,12 +137,17 @@ impl Topics<'_> {
         let name = topic.topic.clone();
         let subscription = match topic.kind {
             ServoJp | MoveJp | JawServoJp | JawMoveJp | JawServoJf | MirrorJs | MirrorJaw
-            | MtmGripper => AnySubscription::Joints(self.subscribe(&name)?),
+            | MtmGripper | ServoJr | MoveJr | ServoJf => {
+                AnySubscription::Joints(self.subscribe(&name)?)
+            }
             ServoCp | MoveCp | MtmCp => AnySubscription::Pose(self.subscribe(&name)?),
             Hold | Free => AnySubscription::Empty(self.subscribe(&name)?),
             StateCommand => AnySubscription::Command(self.subscribe(&name)?),
-            ServoCf => AnySubscription::Wrench(self.subscribe(&name)?),
-            GravityCompensation => AnySubscription::Flag(self.subscribe(&name)?),
+            ServoCf | SpatialServoCf => AnySubscription::Wrench(self.subscribe(&name)?),
+            GravityCompensation | CfOrientationAbsolute | EmulateToolPresent => {
+                AnySubscription::Flag(self.subscribe(&name)?)
+            }
+            TrajectoryRatio => AnySubscription::Number(self.subscribe(&name)?),
             Clutch | OperatorPresent => AnySubscription::Joy(self.subscribe(&name)?),
         };
         Ok(InputSubscription {
@@ -153,6 +165,7 @@ enum AnySubscription {
     Command(Subscription<StringStamped>),
     Wrench(Subscription<WrenchStamped>),
     Flag(Subscription<Bool>),
+    Number(Subscription<Float64>),
     Joy(Subscription<Joy>),
 }
 
@@ -171,6 +184,7 @@ impl AnySubscription {
             AnySubscription::Command(s) => one(s, InputMessage::Command),
             AnySubscription::Wrench(s) => one(s, InputMessage::Wrench),
             AnySubscription::Flag(s) => one(s, InputMessage::Flag),
+            AnySubscription::Number(s) => one(s, InputMessage::Number),
             AnySubscription::Joy(s) => one(s, InputMessage::Joy),
         }
     }
@@ -194,10 +208,21 @@ struct ArmPublishers {
     error: Publisher<StringMsg>,
     warning: Publisher<StringMsg>,
     status: Publisher<StringMsg>,
+    local_measured_cp: Publisher<PoseStamped>,
+    local_setpoint_cp: Publisher<PoseStamped>,
+    body_measured_cf: Publisher<WrenchStamped>,
+    spatial_measured_cf: Publisher<WrenchStamped>,
+    body_jacobian: Publisher<Float64MultiArray>,
+    spatial_jacobian: Publisher<Float64MultiArray>,
+    /// Latched, sent once: kept alive for late subscribers.
+    _tool_type: Publisher<StringMsg>,
+    trajectory_ratio: Publisher<Float64>,
 }
 
 struct ArmIo {
     publishers: Option<ArmPublishers>,
+    /// The last `trajectory_j/ratio` published.
+    ratio: Option<f64>,
 }
 
 /// Sends the next output of one kind when its period (wall clock) has passed.
@@ -293,13 +318,17 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
     let mut node = context
         .new_node(node_name, NodeOptions::new().enable_rosout(true))
         .map_err(|e| err("node", e))?;
-    let spinner = node.spinner().map_err(|e| err("spinner", e))?;
-    let mut clock = SimClock::start(domain_id, &settings.name, &settings.namespace)?;
+    let mut clock = SimClock::start(&mut node)?;
+    let rosout = Rosout::start(&node);
 
+    let parameters = ParameterServices::start(&mut node, settings.parameters.clone())?;
     let mut topics = Topics {
         node: &mut node,
         namespace: settings.namespace.clone(),
+        remaps: &settings.remaps,
     };
+    // Where each output lives on the graph, for its subscriber count.
+    let graph_name = |topic: &str| remap(&settings.namespace, &settings.remaps, topic);
     let mut arms = Vec::new();
     for output in &layout.arms {
         let n = &output.name;
@@ -318,11 +347,34 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
                 error: topics.publisher(&format!("{n}/error"), event_qos())?,
                 warning: topics.publisher(&format!("{n}/warning"), event_qos())?,
                 status: topics.publisher(&format!("{n}/status"), event_qos())?,
+                local_measured_cp: topics
+                    .publisher(&format!("{n}/local/measured_cp"), periodic_qos())?,
+                local_setpoint_cp: topics
+                    .publisher(&format!("{n}/local/setpoint_cp"), periodic_qos())?,
+                body_measured_cf: topics
+                    .publisher(&format!("{n}/body/measured_cf"), periodic_qos())?,
+                spatial_measured_cf: topics
+                    .publisher(&format!("{n}/spatial/measured_cf"), periodic_qos())?,
+                body_jacobian: topics.publisher(&format!("{n}/body/jacobian"), periodic_qos())?,
+                spatial_jacobian: topics
+                    .publisher(&format!("{n}/spatial/jacobian"), periodic_qos())?,
+                _tool_type: {
+                    let p = topics.publisher(&format!("{n}/tool_type"), event_qos())?;
+                    let _ = p.publish(StringMsg {
+                        data: output.tool_type.clone(),
+                    });
+                    p
+                },
+                trajectory_ratio: topics
+                    .publisher(&format!("{n}/trajectory_j/ratio"), event_qos())?,
             })
         } else {
             None
         };
-        arms.push(ArmIo { publishers });
+        arms.push(ArmIo {
+            publishers,
+            ratio: None,
+        });
     }
     // A replay drives the arms from the bag: the input topics are not subscribed.
     let mut inputs = Vec::new();
@@ -349,15 +401,17 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
         threads.push(ThreadIo {
             centreline: topics.publisher(&centreline, periodic_qos())?,
             tension: topics.publisher(&tension, periodic_qos())?,
-            topics: [
-                resolve(&settings.namespace, &centreline),
-                resolve(&settings.namespace, &tension),
-            ],
+            topics: [graph_name(&centreline), graph_name(&tension)],
             wanted: [false; 2],
         });
     }
     let tf: Publisher<TFMessage> = topics.publisher("/tf", periodic_qos())?;
-    let status: Publisher<DiagnosticArray> = topics.publisher("sim/status", status_qos())?;
+    // The fixed frames, once: latched for every later subscriber.
+    let tf_static: Publisher<TFMessage> = topics.publisher("/tf_static", tf_static_qos())?;
+    if let Err(e) = tf_static.publish(outputs::tf_static_message(&layout.arms)) {
+        tracing::warn!("/tf_static: {e:?}");
+    }
+    let status: Publisher<DiagnosticArray> = topics.publisher("/diagnostics", status_qos())?;
     drop(topics);
     let (backend, adapter) = backend_and_adapter(&setup.world);
     let mut status_report = StatusReport::new(&settings.name, &backend, &adapter);
@@ -381,14 +435,15 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
     let outputs = &scene.outputs;
     let mut io = Io {
         arms,
-        points_topic: resolve(&settings.namespace, "tissue/points"),
-        surface_topic: resolve(&settings.namespace, "tissue/surface"),
-        pieces_topic: resolve(&settings.namespace, outputs::PIECES_TOPIC),
+        points_topic: graph_name("tissue/points"),
+        surface_topic: graph_name("tissue/surface"),
+        pieces_topic: graph_name(outputs::PIECES_TOPIC),
+        tf_topic: graph_name("/tf"),
         pieces_published: 0,
         wrench_topics: scene
             .tools
             .iter()
-            .map(|t| resolve(&settings.namespace, &format!("tools/{}/wrench", t.name)))
+            .map(|t| graph_name(&format!("tools/{}/wrench", t.name)))
             .collect(),
         demand: Demand::default(),
         arm_outputs: layout.arms.clone(),
@@ -402,6 +457,8 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
         wrenches,
         threads,
         tf,
+        _tf_static: tf_static,
+        tf_arm_links: layout.tf_arm_links,
         log: RateLimitedLog::default(),
         rates: Rates {
             arm: Rate::new(outputs.arm_rate_hz),
@@ -427,8 +484,10 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
                 _ = tick.tick() => {}
             }
             io.poll_inputs(&sim);
-            io.publish_events(&sim);
+            parameters.serve();
             let frame = sim.frames.borrow().clone();
+            io.publish_events(&sim, &rosout, Time::from_secs(frame.time));
+            rosout.publish_logged(Time::from_secs(frame.time));
             io.publish_frame(&node, &sim, &frame);
             clock.publish(&frame);
             let progress = Progress {
@@ -439,7 +498,7 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
             };
             if let Some(m) = status_report.due(progress) {
                 if let Err(e) = status.publish(m) {
-                    tracing::debug!("sim/status: {e:?}");
+                    tracing::debug!("/diagnostics: {e:?}");
                 }
             }
             if sim.is_finished() {
@@ -447,25 +506,8 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
             }
         }
     };
-    let spin = spinner.spin();
-    tokio::pin!(spin);
-    let spin_ended = tokio::select! {
-        r = &mut spin => Some(r),
-        _ = main => None,
-    };
-    let spin_result = match spin_ended {
-        Some(r) => r,
-        None => {
-            // Dropping the node signals its spinner to stop; waiting for the spinner after
-            // that (rather than dropping it first) lets the signal find it listening, so a
-            // normal shutdown logs no error.
-            drop(node);
-            spin.await
-        }
-    };
-    if let Err(e) = spin_result {
-        tracing::error!("ROS spinner stopped: {e:?}");
-    }
+    main.await;
+    drop(node);
     sim.shutdown();
     if let Some(summary) = finish_recording(recorder)? {
         if summary.stopped.is_some() {
@@ -512,6 +554,7 @@ struct Io {
     points_topic: String,
     surface_topic: String,
     pieces_topic: String,
+    tf_topic: String,
     /// Index of the last frame whose piece count was published.
     pieces_published: u64,
     wrench_topics: Vec<String>,
@@ -529,6 +572,9 @@ struct Io {
     wrenches: Vec<Publisher<WrenchStamped>>,
     threads: Vec<ThreadIo>,
     tf: Publisher<TFMessage>,
+    /// Kept alive: its one message stays available to late subscribers.
+    _tf_static: Publisher<TFMessage>,
+    tf_arm_links: bool,
     log: RateLimitedLog,
     rates: Rates,
 }
@@ -606,19 +652,23 @@ impl Io {
         }
     }
 
-    fn publish_events(&mut self, sim: &SimHandle) {
+    /// The arms' events on their topics, and their texts on `/rosout` at dVRK's levels.
+    fn publish_events(&mut self, sim: &SimHandle, rosout: &Rosout, stamp: Time) {
         while let Ok((index, event)) = sim.events.try_recv() {
             let Some(p) = self.arms.get(index).and_then(|a| a.publishers.as_ref()) else {
                 continue;
             };
             let _ = match self.stamps.message(index, event) {
                 EventMessage::State(m) => p.operating_state.publish(m).map_err(|_| ()),
-                EventMessage::Text { suffix, message } => match suffix {
-                    "error" => p.error.publish(message),
-                    "warning" => p.warning.publish(message),
-                    _ => p.status.publish(message),
+                EventMessage::Text { suffix, message } => {
+                    let (publisher, level) = match suffix {
+                        "error" => (&p.error, Log::ERROR),
+                        "warning" => (&p.warning, Log::WARN),
+                        _ => (&p.status, Log::INFO),
+                    };
+                    rosout.publish(stamp, level, &message.data);
+                    publisher.publish(message).map_err(|_| ())
                 }
-                .map_err(|_| ()),
             };
         }
     }
@@ -631,7 +681,7 @@ impl Io {
                 points: node.subscription_count(&self.points_topic) > 0,
                 surface: node.subscription_count(&self.surface_topic) > 0,
                 pieces: node.subscription_count(&self.pieces_topic) > 0,
-                tf: node.subscription_count("/tf") > 0,
+                tf: node.subscription_count(&self.tf_topic) > 0,
                 wrenches: self
                     .wrench_topics
                     .iter()
@@ -704,11 +754,29 @@ impl Io {
     }
 
     fn publish_arms(&mut self, frame: &Frame, stamp: Time) {
-        for (index, (io, status)) in self.arms.iter().zip(&frame.arms).enumerate() {
+        for (index, (io, status)) in self.arms.iter_mut().zip(&frame.arms).enumerate() {
             let Some(p) = &io.publishers else {
                 continue;
             };
-            let m = outputs::arm_messages(&self.arm_outputs[index], status, stamp);
+            let arm = &self.arm_outputs[index];
+            if io.ratio != Some(status.trajectory_ratio) {
+                io.ratio = Some(status.trajectory_ratio);
+                let _ = p.trajectory_ratio.publish(Float64 {
+                    data: status.trajectory_ratio,
+                });
+            }
+            if let Some(tool) = frame.tools.get(arm.tool) {
+                let (body, spatial) = outputs::measured_cf_messages(arm, status, tool, stamp);
+                let _ = p.body_measured_cf.publish(body);
+                let _ = p.spatial_measured_cf.publish(spatial);
+            }
+            if let Some((body, spatial)) = outputs::jacobian_messages(arm, status) {
+                let _ = p.body_jacobian.publish(body);
+                let _ = p.spatial_jacobian.publish(spatial);
+            }
+            let m = outputs::arm_messages(arm, status, stamp);
+            let _ = p.local_measured_cp.publish(m.cp.clone());
+            let _ = p.local_setpoint_cp.publish(m.cp.clone());
             let _ = p.measured_js.publish(m.js.clone());
             let _ = p.setpoint_js.publish(m.js);
             let _ = p.jaw_measured_js.publish(m.jaw);
@@ -725,8 +793,7 @@ impl Io {
     }
 
     fn publish_tf(&mut self, frame: &Frame, stamp: Time) {
-        let _ = self
-            .tf
-            .publish(outputs::tf_message(&self.arm_outputs, frame, stamp));
+        let m = outputs::tf_message(&self.arm_outputs, frame, stamp, self.tf_arm_links);
+        let _ = self.tf.publish(m);
     }
 }

@@ -27,6 +27,10 @@ pub struct ArmOutput {
     pub base: Isometry3<f64>,
     /// Simulated arms publish their state; mirrored ones publish nothing on the arm's topics.
     pub simulated: bool,
+    /// Index of the scene tool the arm holds (its contact wrench is `measured_cf`).
+    pub tool: usize,
+    /// The held tool's scene name (`tool_type`).
+    pub tool_type: String,
 }
 
 /// MTM force feedback: the tool's contact wrench × scale on `<mtm>/body/servo_cf`.
@@ -74,6 +78,8 @@ pub struct OutputLayout {
     pub force_feedback: Option<ForceFeedback>,
     /// How often each output is published.
     pub rates: OutputRates,
+    /// Whether `/tf` carries every arm link ([`tf_message`]).
+    pub tf_arm_links: bool,
 }
 
 impl OutputLayout {
@@ -83,12 +89,15 @@ impl OutputLayout {
             .arms
             .iter()
             .zip(&setup.arms)
-            .map(|(arm, sim)| ArmOutput {
+            .enumerate()
+            .map(|(index, (arm, sim))| ArmOutput {
                 name: arm.name.clone(),
                 base_frame: sim.psm().base_frame().to_owned(),
                 psm: sim.psm().clone(),
                 base: *sim.base(),
                 simulated: arm.mode == ArmMode::Simulated,
+                tool: setup.arm_tools.get(index).copied().unwrap_or(0),
+                tool_type: arm.tool.clone(),
             })
             .collect();
         let force_feedback = scene.teleop.as_ref().and_then(|t| {
@@ -117,6 +126,7 @@ impl OutputLayout {
                 thread: o.thread_rate_hz,
                 pieces: o.pieces_rate_hz,
             },
+            tf_arm_links: o.tf_arm_links,
         }
     }
 
@@ -230,6 +240,67 @@ pub(crate) fn arm_messages(arm: &ArmOutput, status: &ArmStatus, stamp: Time) -> 
             },
         },
     }
+}
+
+/// The contact wrench on an arm's tool as dVRK's `body/measured_cf` (in the tool frame) and
+/// `spatial/measured_cf` (the same wrench, about the tool, in the base frame's orientation).
+pub fn measured_cf_messages(
+    arm: &ArmOutput,
+    status: &ArmStatus,
+    tool: &ToolState,
+    stamp: Time,
+) -> (WrenchStamped, WrenchStamped) {
+    let body = wrench_message(tool, 1.0, stamp);
+    let r = status.cp.rotation;
+    let spatial = WrenchStamped {
+        header: Header::new(stamp, &arm.base_frame),
+        wrench: Wrench {
+            force: (r * tool.wrench.force).into(),
+            torque: (r * tool.wrench.torque).into(),
+        },
+    };
+    (body, spatial)
+}
+
+/// The tool frame's Jacobians as dVRK's `body/jacobian` (twist in the tool frame) and
+/// `spatial/jacobian` (twist in the base frame), 6 rows × one column per joint, row-major.
+pub fn jacobian_messages(
+    arm: &ArmOutput,
+    status: &ArmStatus,
+) -> Option<(Float64MultiArray, Float64MultiArray)> {
+    let spatial = arm.psm.jacobian(&status.q).ok()?;
+    let rt = status.cp.rotation.inverse().to_rotation_matrix();
+    let mut body = spatial.clone();
+    for c in 0..spatial.ncols() {
+        let v = rt * spatial.fixed_view::<3, 1>(0, c);
+        let w = rt * spatial.fixed_view::<3, 1>(3, c);
+        body.fixed_view_mut::<3, 1>(0, c).copy_from(&v);
+        body.fixed_view_mut::<3, 1>(3, c).copy_from(&w);
+    }
+    let array = |m: &nalgebra::Matrix6xX<f64>| {
+        let cols = m.ncols() as u32;
+        Float64MultiArray {
+            layout: MultiArrayLayout {
+                dim: vec![
+                    MultiArrayDimension {
+                        label: "rows".into(),
+                        size: 6,
+                        stride: 6 * cols,
+                    },
+                    MultiArrayDimension {
+                        label: "columns".into(),
+                        size: cols,
+                        stride: cols,
+                    },
+                ],
+                data_offset: 0,
+            },
+            data: (0..6)
+                .flat_map(|r| (0..m.ncols()).map(move |c| m[(r, c)]))
+                .collect(),
+        }
+    };
+    Some((array(&body), array(&spatial)))
 }
 
 /// A tool's contact wrench, in its frame, times `scale`.
@@ -391,18 +462,31 @@ pub fn thread_tension_message(thread: &ThreadState, stamp: Time) -> PointCloud2 
     }
 }
 
-/// `world` → each arm's base → its links; scripted tools in `world`.
-pub fn tf_message(arms: &[ArmOutput], frame: &Frame, stamp: Time) -> TFMessage {
+/// `world` → each arm's base: fixed, sent once on `/tf_static`.
+pub fn tf_static_message(arms: &[ArmOutput]) -> TFMessage {
+    TFMessage {
+        transforms: arms
+            .iter()
+            .map(|arm| TransformStamped {
+                header: Header::new(Time::default(), "world"),
+                child_frame_id: arm.base_frame.clone(),
+                transform: (&arm.base).into(),
+            })
+            .collect(),
+    }
+}
+
+/// Each arm's base → its links (with `all_links` false only the tool frame and the tool
+/// tip, which dVRK's robot_state_publisher does not publish); scripted tools in `world`.
+pub fn tf_message(arms: &[ArmOutput], frame: &Frame, stamp: Time, all_links: bool) -> TFMessage {
     let mut transforms = Vec::new();
     for (arm, status) in arms.iter().zip(&frame.arms) {
-        transforms.push(TransformStamped {
-            header: Header::new(stamp, "world"),
-            child_frame_id: arm.base_frame.clone(),
-            transform: (&arm.base).into(),
-        });
+        // dvrk_model's own tip link (`<arm>_tool_tip_link`) is robot_state_publisher's.
+        let tool_tip = format!("{}_tool_tip", arm.name);
         if let Ok(links) = arm.psm.link_frames(&status.q, status.jaw) {
             for link in links {
-                if link.link == arm.base_frame {
+                let ours = link.link == arm.name || link.link == tool_tip;
+                if link.link == arm.base_frame || !(all_links || ours) {
                     continue;
                 }
                 transforms.push(TransformStamped {

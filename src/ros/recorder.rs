@@ -344,6 +344,7 @@ impl Recorder {
             channels: HashMap::new(),
             layout,
             stamps: EventStamps::default(),
+            tf_static_written: false,
             messages: 0,
             first: None,
             last: 0,
@@ -444,6 +445,8 @@ struct Bag {
     channels: HashMap<String, (u16, u32)>,
     layout: OutputLayout,
     stamps: EventStamps,
+    /// `/tf_static` goes in once, with the first `/tf`.
+    tf_static_written: bool,
     messages: u64,
     first: Option<u64>,
     last: u64,
@@ -622,7 +625,13 @@ impl Bag {
             }
         }
         if due.tf {
-            let m = outputs::tf_message(&self.layout.arms, &frame, stamp);
+            if !self.tf_static_written {
+                self.tf_static_written = true;
+                let m = outputs::tf_static_message(&self.layout.arms);
+                self.write("/tf_static", Qos::Latched, end, &m)?;
+            }
+            let all_links = self.layout.tf_arm_links;
+            let m = outputs::tf_message(&self.layout.arms, &frame, stamp, all_links);
             self.write("/tf", Qos::Periodic, end, &m)?;
         }
         if due.points {

@@ -113,6 +113,11 @@ const DEFINITIONS: &[Definition] = &[
         uses: &["geometry_msgs/msg/TransformStamped"],
     },
     Definition {
+        name: "std_msgs/msg/Float64",
+        text: "float64 data\n",
+        uses: &[],
+    },
+    Definition {
         name: "sensor_msgs/msg/JointState",
         text: "std_msgs/Header header\nstring[] name\nfloat64[] position\nfloat64[] velocity\n\
                float64[] effort\n",
@@ -240,6 +245,7 @@ mod tests {
             StringStamped::type_name(),
             Empty::type_name(),
             Bool::type_name(),
+            Float64::type_name(),
             UInt32::type_name(),
             Joy::type_name(),
         ] {

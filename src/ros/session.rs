@@ -37,6 +37,12 @@ pub struct NodeSettings {
     pub record_chunk: f64,
     /// Drive the arms from this bag's inputs (the input topics are not subscribed).
     pub replay: Option<PathBuf>,
+    /// Topic remaps (`--ros-args -r FROM:=TO`), in order; relative names resolve in
+    /// `namespace`.
+    pub remaps: Vec<(String, String)>,
+    /// The declared parameters and their values, served read-only
+    /// ([`crate::ros::parameters`]).
+    pub parameters: Vec<(String, crate::ros::ros_args::ParamValue)>,
 }
 
 /// Why a run could not be set up or finished.

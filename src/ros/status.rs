@@ -1,4 +1,4 @@
-//! The node's status (`sim/status`, diagnostic_msgs/msg/DiagnosticArray, latched, once a
+//! The node's status (`/diagnostics`, diagnostic_msgs/msg/DiagnosticArray, latched, once a
 //! second): how fast the simulation runs against the wall clock (real-time factor), how many
 //! substeps a frame takes, the backend and its adapter. Each figure is measured over the
 //! last few seconds (`WINDOW`), not since the start: a slow scene advances only a frame or

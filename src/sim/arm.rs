@@ -64,6 +64,26 @@ pub enum ArmInput {
         /// Tool orientation in the base frame, quaternion x, y, z, w.
         quaternion: [f64; 4],
     },
+    /// `servo_jr`: step the joints by these amounts from where they are now (each joint
+    /// within its jump bound).
+    ServoJr {
+        /// Joint names, or empty for the canonical order.
+        names: Vec<String>,
+        /// Joint steps, rad or m, in `names` order.
+        steps: Vec<f64>,
+    },
+    /// `move_jr`: move the joints by these amounts, as `move_jp` would to the sum.
+    MoveJr {
+        /// Joint names, or empty for the canonical order.
+        names: Vec<String>,
+        /// Joint steps, rad or m, in `names` order.
+        steps: Vec<f64>,
+    },
+    /// `servo_jf` or `spatial/servo_cf`: an effort or force command, which a kinematic arm
+    /// cannot apply (refused, as dVRK refuses one in a state that cannot).
+    ForceCommand,
+    /// `trajectory_j/set_ratio`: moves use this share (0, 1] of dVRK's `move_jp` speeds.
+    TrajectoryRatio(f64),
     /// `hold`: stop any motion where the arm is.
     Hold,
     /// `free`: not simulated on a kinematic arm; holds instead.
@@ -86,6 +106,20 @@ pub enum ArmInput {
         /// The measured jaw opening, rad (one value).
         positions: Vec<f64>,
     },
+}
+
+impl ArmInput {
+    /// Whether the command starts a move (`move_jp`, `move_cp`, `jaw/move_jp`): a client waits
+    /// for its busy edges.
+    pub fn is_move(&self) -> bool {
+        matches!(
+            self,
+            ArmInput::MoveJp { .. }
+                | ArmInput::MoveJr { .. }
+                | ArmInput::MoveCp { .. }
+                | ArmInput::JawMoveJp { .. }
+        )
+    }
 }
 
 /// A command from a topic.
@@ -171,6 +205,12 @@ pub enum ArmError {
     #[error("expected one finite jaw effort, got {0:?}")]
     /// A `jaw/servo_jf` that is not one finite effort (holds the values received).
     JawEffort(Vec<f64>),
+    #[error("a kinematic arm cannot apply efforts or forces")]
+    /// `servo_jf` or `spatial/servo_cf` on a kinematic arm.
+    NoForceControl,
+    #[error("trajectory ratio {0}: expected a number in (0, 1]")]
+    /// A `trajectory_j/set_ratio` outside (0, 1] or not finite.
+    TrajectoryRatio(f64),
     #[error("arm is PAUSED: send resume")]
     /// A motion command while PAUSED.
     Paused,
@@ -232,6 +272,8 @@ pub struct ArmStatus {
     pub linear_velocity: Vector3<f64>,
     /// Angular velocity of the tool in the base frame, rad/s.
     pub angular_velocity: Vector3<f64>,
+    /// The share of dVRK's `move_jp` speeds moves use (`trajectory_j/ratio`).
+    pub trajectory_ratio: f64,
 }
 
 enum Motion {
@@ -269,6 +311,8 @@ pub struct ArmSim {
     time: f64,
     events: Vec<ArmEvent>,
     warned_cf: bool,
+    /// The share of dVRK's `move_jp` speeds moves use.
+    trajectory_ratio: f64,
 }
 
 impl ArmSim {
@@ -310,6 +354,7 @@ impl ArmSim {
             time: 0.0,
             events: Vec::new(),
             warned_cf: false,
+            trajectory_ratio: 1.0,
         };
         if mode == ArmMode::Simulated {
             arm.push_state();
@@ -429,16 +474,27 @@ impl ArmSim {
             cp,
             linear_velocity: Vector3::new(twist[0], twist[1], twist[2]),
             angular_velocity: Vector3::new(twist[3], twist[4], twist[5]),
+            trajectory_ratio: self.trajectory_ratio,
         }
     }
 
-    fn push_state(&mut self) {
+    /// Where a relative joint command (`servo_jr`, `move_jr`) leads from the joints now.
+    fn relative_goal(&self, names: &[String], steps: &[f64]) -> Result<Vec<f64>, ArmError> {
+        let steps = self.psm.joints().validate_shape(names, steps)?;
+        Ok(self.q.iter().zip(&steps).map(|(q, d)| q + d).collect())
+    }
+
+    fn push_busy(&mut self, busy: bool) {
         self.events.push(ArmEvent::State {
             time: self.time,
             state: self.state,
             homed: self.homed,
-            busy: self.is_busy(),
+            busy,
         });
+    }
+
+    fn push_state(&mut self) {
+        self.push_busy(self.is_busy());
     }
 
     fn set_state(&mut self, state: OperatingState) {
@@ -501,7 +557,16 @@ impl ArmSim {
             (ArmInput::MirrorJs { .. } | ArmInput::MirrorJaw { .. }, _) => {
                 Err(reject(ArmError::NotMirrored))
             }
-            (input, ArmMode::Simulated) => self.apply_simulated(input, now).map_err(reject),
+            (input, ArmMode::Simulated) => {
+                let result = self.apply_simulated(input, now);
+                if result.is_err() && input.is_move() && !self.is_busy() {
+                    // As dVRK's simulators: a refused move still starts and ends, so a
+                    // client waiting for the move's busy edges returns at once.
+                    self.push_busy(true);
+                    self.push_busy(false);
+                }
+                result.map_err(reject)
+            }
         }
     }
 
@@ -511,6 +576,34 @@ impl ArmSim {
             ArmInput::Hold => {
                 self.stop_motion();
                 Ok(())
+            }
+            ArmInput::ForceCommand => Err(ArmError::NoForceControl),
+            ArmInput::TrajectoryRatio(ratio) => {
+                if !(ratio.is_finite() && *ratio > 0.0 && *ratio <= 1.0) {
+                    return Err(ArmError::TrajectoryRatio(*ratio));
+                }
+                self.trajectory_ratio = *ratio;
+                Ok(())
+            }
+            ArmInput::ServoJr { names, steps } => {
+                self.ready()?;
+                let goal = self.relative_goal(names, steps)?;
+                let q = self
+                    .psm
+                    .joints()
+                    .validate::<&str>(&[], &goal, Some(&self.q))?;
+                if let Motion::Move { .. } = self.motion {
+                    self.motion = Motion::Hold;
+                    self.push_state();
+                }
+                self.set_q(q);
+                Ok(())
+            }
+            ArmInput::MoveJr { names, steps } => {
+                self.ready()?;
+                let goal = self.relative_goal(names, steps)?;
+                let goal = self.psm.joints().validate::<&str>(&[], &goal, None)?;
+                self.start_move(goal, now)
             }
             ArmInput::Free => {
                 self.stop_motion();
@@ -650,7 +743,9 @@ impl ArmSim {
     }
 
     fn start_move(&mut self, goal: Vec<f64>, now: f64) -> Result<(), ArmError> {
-        let trajectory = self.psm.plan_move_jp(&self.q, &goal)?;
+        let trajectory = self
+            .psm
+            .plan_move_jp(&self.q, &goal, self.trajectory_ratio)?;
         let was_busy = self.is_busy();
         self.motion = Motion::Move {
             trajectory,
@@ -925,5 +1020,77 @@ mod tests {
         .unwrap();
         assert_eq!(m.q(), real);
         assert!(m.apply(&servo(&HOME), 0.0).is_err());
+    }
+
+    #[test]
+    fn a_refused_move_sends_a_busy_pair_and_a_refused_servo_none() {
+        let mut a = arm(ArmMode::Simulated);
+        let busy_edges = |a: &mut ArmSim| -> Vec<bool> {
+            a.take_events()
+                .iter()
+                .filter_map(|e| match e {
+                    ArmEvent::State { busy, .. } => Some(*busy),
+                    _ => None,
+                })
+                .collect()
+        };
+        busy_edges(&mut a);
+        let beyond = vec![2.5, 0.0, 0.12, 0.0, 0.0, 0.0];
+        let refused = ArmInput::MoveJp {
+            names: vec![],
+            positions: beyond.clone(),
+        };
+        assert!(a.apply(&command("move_jp", refused), 0.5).is_err());
+        assert_eq!(busy_edges(&mut a), [true, false]);
+        assert!(!a.is_busy());
+        assert_eq!(a.q(), HOME);
+        assert!(a.apply(&servo(&beyond), 0.6).is_err());
+        assert!(busy_edges(&mut a).is_empty());
+    }
+
+    #[test]
+    fn relative_moves_step_from_the_joints_and_the_ratio_slows_moves() {
+        let mut a = arm(ArmMode::Simulated);
+        let step = |a: &mut ArmSim, topic, input, t| a.apply(&command(topic, input), t);
+        step(
+            &mut a,
+            "servo_jr",
+            ArmInput::ServoJr {
+                names: vec![],
+                steps: vec![0.0, 0.0, 0.002, 0.0, 0.0, 0.0],
+            },
+            0.0,
+        )
+        .unwrap();
+        assert!((a.q()[2] - 0.122).abs() < 1e-12);
+        // move_jr of 0.3 rad on yaw at half of dVRK's speed: twice the full-speed duration.
+        step(&mut a, "set_ratio", ArmInput::TrajectoryRatio(0.5), 0.0).unwrap();
+        assert_eq!(a.status().trajectory_ratio, 0.5);
+        step(
+            &mut a,
+            "move_jr",
+            ArmInput::MoveJr {
+                names: vec![],
+                steps: vec![0.3, 0.0, 0.0, 0.0, 0.0, 0.0],
+            },
+            0.0,
+        )
+        .unwrap();
+        let full_speed = 15.0 / 8.0 * 0.3 / std::f64::consts::FRAC_PI_2;
+        a.advance(2.0 * full_speed - 0.02);
+        assert!(a.is_busy());
+        a.advance(2.0 * full_speed + 0.01);
+        assert!(!a.is_busy());
+        assert!((a.q()[0] - 0.3).abs() < 1e-9 && (a.q()[2] - 0.122).abs() < 1e-12);
+        for bad in [0.0, 1.5, f64::NAN] {
+            assert!(step(&mut a, "set_ratio", ArmInput::TrajectoryRatio(bad), 1.0).is_err());
+        }
+        for force in ["servo_jf", "spatial/servo_cf"] {
+            let e = step(&mut a, force, ArmInput::ForceCommand, 1.0).unwrap_err();
+            assert!(
+                e.to_string().contains("cannot apply efforts or forces"),
+                "{e}"
+            );
+        }
     }
 }

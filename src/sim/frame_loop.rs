@@ -23,7 +23,7 @@ use crate::robot::RcmPolicy;
 use crate::sim::arm::ArmEvent;
 use crate::sim::frame::{Due, Frame, ToolState};
 use crate::sim::input::{isometry, nanos, Received, RecordedInput, SimInput};
-use crate::sim::log::RateLimitedLog;
+use crate::sim::log::{RateLimitedLog, ARM_EVENT_TARGET};
 use crate::sim::setup::SimSetup;
 use crate::sim::sink::FrameRecord;
 use crate::world::{FrameReport, StepError, World};
@@ -205,7 +205,11 @@ impl FrameLoop {
         }
         if let Err(e) = &report {
             if let Some(line) = self.log.admit("guard", &e.to_string()) {
-                tracing::error!("{line}");
+                if self.setup.arms.is_empty() {
+                    tracing::error!("{line}");
+                } else {
+                    tracing::error!(target: ARM_EVENT_TARGET, "{line}");
+                }
                 for a in 0..self.setup.arms.len() {
                     self.event(a, ArmEvent::Error(line.clone()));
                 }
@@ -328,9 +332,11 @@ impl FrameLoop {
         let key = format!("{who}/{topic}");
         let message = format!("{who}/{topic}: rejected: {reason}");
         if let Some(line) = self.log.admit(&key, &message) {
-            tracing::warn!("{line}");
             if let Some((index, _)) = arm {
+                tracing::warn!(target: ARM_EVENT_TARGET, "{line}");
                 self.event(index, ArmEvent::Error(line));
+            } else {
+                tracing::warn!("{line}");
             }
         }
     }

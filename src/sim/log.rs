@@ -4,6 +4,10 @@
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
+/// The log target of lines that an arm also reports as an `error` event: the ROS node
+/// publishes those on `/rosout` once, from the event.
+pub const ARM_EVENT_TARGET: &str = "dvrk_tissue_sim::arm_event";
+
 /// One log line per key and second at most, with a count of the ones held back.
 #[derive(Default)]
 pub struct RateLimitedLog {

@@ -1,6 +1,6 @@
 """/clock and the node's status, as a user with `use_sim_time` sees them.
 
-An rclpy node with use_sim_time subscribes /clock (rosgraph_msgs/msg/Clock) and sim/status
+An rclpy node with use_sim_time subscribes /clock (rosgraph_msgs/msg/Clock) and /diagnostics
 (diagnostic_msgs/msg/DiagnosticArray, latched). Checks: /clock carries simulated time (from
 zero, not the wall clock's epoch), rising frame by frame; rclpy's own clock follows it; the
 real-time factor measured here from /clock against the wall clock agrees with the one the
@@ -36,7 +36,7 @@ node.create_subscription(Clock, "/clock", on_clock, 10)
 latched = QoSProfile(
     depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE
 )
-node.create_subscription(DiagnosticArray, "/sim/status", lambda m: statuses.append(m), latched)
+node.create_subscription(DiagnosticArray, "/diagnostics", lambda m: statuses.append(m), latched)
 # A cloud subscriber with rclpy's default QoS (reliable, keep last 10), as a user writes it:
 # it makes RustDDS repair fragments of clouds its keep-last history has replaced (the node's
 # log must not report that as an error).

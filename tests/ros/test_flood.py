@@ -2,7 +2,7 @@
 for 10 s, every command a different insertion, the last one a distinct value.
 
 Checks: the newest command is the one applied (measured_js after the flood); the simulation
-kept its frame rate during the flood (sim/status frames_per_second and /clock counted over the
+kept its frame rate during the flood (/diagnostics frames_per_second and /clock counted over the
 flood, against before it). Prints `FLOOD_START` / `FLOOD_END` (the Rust side samples the node's
 memory between them) and `RESULT sent=.. rate_hz=.. fps_before=.. fps_during=..`.
 """
@@ -27,14 +27,14 @@ rec.subscribe(Clock, "/clock")
 latched = QoSProfile(
     depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE
 )
-rec.subscribe(DiagnosticArray, "/sim/status", latched)
+rec.subscribe(DiagnosticArray, "/diagnostics", latched)
 servo = rec.publisher(JointState, "/PSM1/servo_jp")
 rec.wait_for(lambda: rec.latest("/PSM1/measured_js") is not None, 15.0, "measured_js")
 rec.wait_subscribers(servo)
 
 
 def frames_per_second():
-    values = {kv.key: kv.value for kv in rec.latest("/sim/status").status[0].values}
+    values = {kv.key: kv.value for kv in rec.latest("/diagnostics").status[0].values}
     return float(values["frames_per_second"])
 
 

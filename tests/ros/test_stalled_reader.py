@@ -1,6 +1,6 @@
 """A cloud subscriber that stops reading: one rclpy node subscribes tissue/points (rclpy's
 default QoS: reliable, keep last 10) and is never spun again, so nothing is taken from its
-reader; a second node watches sim/status. Check: the simulation's frame rate with the stalled
+reader; a second node watches /diagnostics. Check: the simulation's frame rate with the stalled
 reader matched is what it was before it existed. Each window's figure is the best status
 seen in it: a persistent slowdown (a writer blocked on the stalled reader, or busy repairing
 to it) lowers every status, while another process's load on the machine comes and goes.
@@ -23,7 +23,7 @@ statuses = []
 latched = QoSProfile(
     depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE
 )
-watcher.create_subscription(DiagnosticArray, "/sim/status", statuses.append, latched)
+watcher.create_subscription(DiagnosticArray, "/diagnostics", statuses.append, latched)
 
 
 def spin(seconds):
@@ -43,7 +43,7 @@ def best_rate_over(seconds):
     spin(seconds)
     window = statuses[first:]
     if not window:
-        fail("no sim/status")
+        fail("no /diagnostics")
     return max(frames_per_second(s) for s in window)
 
 
@@ -57,7 +57,7 @@ deadline = time.monotonic() + 10.0
 while stalled.count_publishers("/tissue/points") == 0 and time.monotonic() < deadline:
     spin(0.1)
 check(stalled.count_publishers("/tissue/points") > 0, "the stalled reader matched the cloud")
-# sim/status counts the frames of the last 5 s: from here on every status sees only frames
+# /diagnostics counts the frames of the last 5 s: from here on every status sees only frames
 # made with the stalled reader matched.
 spin(5.0)
 fps_stalled = best_rate_over(4.0)
