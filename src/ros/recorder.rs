@@ -210,6 +210,16 @@ pub struct RecordTap {
     schedule: SimSchedule,
     dropped: Arc<Dropped>,
     last_warning: Option<Instant>,
+    /// Block on a full queue instead of dropping the frame.
+    lossless: bool,
+}
+
+impl RecordTap {
+    /// Makes the simulation wait for the writer instead of dropping a frame when it is
+    /// behind: for runs with no clock to keep up with, whose bag must hold every frame.
+    pub fn wait_when_behind(&mut self) {
+        self.lossless = true;
+    }
 }
 
 impl FrameSink for RecordTap {
@@ -222,7 +232,15 @@ impl FrameSink for RecordTap {
     /// writer is behind.
     fn send(&mut self, record: FrameRecord) {
         let inputs = record.inputs.len() as u64;
-        match self.tx.try_send(record) {
+        let sent = if self.lossless {
+            // A disconnected writer has stopped on an error that `finish` reports.
+            self.tx
+                .send(record)
+                .map_err(|e| TrySendError::Disconnected(e.0))
+        } else {
+            self.tx.try_send(record)
+        };
+        match sent {
             Ok(()) => {}
             Err(TrySendError::Full(_)) | Err(TrySendError::Disconnected(_)) => {
                 let frames = self.dropped.frames.fetch_add(1, Ordering::Relaxed) + 1;
@@ -370,6 +388,7 @@ impl Recorder {
                 schedule,
                 dropped,
                 last_warning: None,
+                lossless: false,
             },
         ))
     }
