@@ -84,8 +84,6 @@ pub struct WorkerReport {
     pub ran: usize,
     /// Episodes that failed.
     pub failed: usize,
-    /// Wall time of the whole worker, s.
-    pub wall_s: f64,
     /// The shard's records, in index order.
     pub records: Vec<Record>,
 }
@@ -263,7 +261,6 @@ pub fn generate(spec: &DatasetSpec, verbose: bool) -> Result<WorkerReport> {
     Ok(WorkerReport {
         ran,
         failed,
-        wall_s,
         records,
     })
 }

@@ -47,9 +47,14 @@
 //!
 //! **Jobs**: `--jobs J` runs J episodes at once on one machine, each on its own rayon pool
 //! of ⌊cores / J⌋ threads (at least one), so J episodes together use the cores one episode
-//! would, and an episode's result does not depend on J (the CPU solver's sums do not depend
-//! on the thread count). On the GPU backend each job opens its own device queue; one job per
-//! GPU is the efficient setting.
+//! would. An episode's result does not depend on J: the CPU solver's block-coloured P2G and
+//! its sums do not depend on the thread count (tests/dataset.rs compares bags of episodes
+//! run on one thread and on two). On the GPU backend each episode creates its device as any
+//! run does; the device is then the bottleneck, so run one job per GPU (`--jobs 1`, one GPU
+//! per Slurm task or pod).
+//!
+//! The sampled scene files name a blade mesh as the original scene does, relative to that
+//! scene's folder: rerunning such an episode from its scene file needs the mesh beside it.
 
 pub mod store;
 pub mod vary;

@@ -588,3 +588,104 @@ impl Variation {
         ))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SCENE: &str = include_str!("../../tests/scenes/small_scripted.toml");
+
+    fn variation(text: &str) -> Result<Variation, String> {
+        let path = Path::new("tests/scenes/small_scripted.toml");
+        let scene = config::from_str(SCENE, path).unwrap();
+        Variation::from_str(text, Path::new("vary.toml"), &scene, path)
+    }
+
+    fn param(sample: &Sample, key: &str) -> f64 {
+        let (_, v) = sample.params.iter().find(|(k, _)| k == key).unwrap();
+        number(v)
+    }
+
+    #[test]
+    fn add_shared_and_integer_keys() {
+        let v = variation(
+            "[[vary]]\nkey = \"tool.0.keyframe.*.position.2\"\ndist = \"uniform\"\nadd = true\n\
+             shared = true\nmin = -0.001\nmax = 0.001\n\
+             [[vary]]\nkey = \"tissue.0.particles_per_axis\"\ndist = \"uniform\"\nmin = 1.0\nmax = 3.0\n",
+        )
+        .unwrap();
+        let mut rng = crate::dataset::episode_rng(1, 2);
+        let s = v.sample(&mut rng).unwrap();
+        // One draw moves both keyframes (0.036 and 0.020 in the file) by the same offset.
+        let (z0, z1) = (
+            param(&s, "tool.0.keyframe.0.position.2"),
+            param(&s, "tool.0.keyframe.1.position.2"),
+        );
+        assert!(((z0 - 0.036) - (z1 - 0.020)).abs() < 1e-12, "{z0} {z1}");
+        assert!((z0 - 0.036).abs() <= 0.001);
+        assert_eq!(s.scene.tools[0].keyframes[1].position[2], z1);
+        let n = &s
+            .params
+            .iter()
+            .find(|(k, _)| k == "tissue.0.particles_per_axis")
+            .unwrap()
+            .1;
+        assert!(matches!(n, Value::Integer(1..=3)), "{n}");
+        // The same stream draws the same scene.
+        let again = v.sample(&mut crate::dataset::episode_rng(1, 2)).unwrap();
+        assert_eq!(again.toml, s.toml);
+    }
+
+    #[test]
+    fn draws_stay_inside_their_bounds() {
+        let v = variation(
+            "[[vary]]\nkey = \"tissue.0.material.youngs_modulus\"\ndist = \"log_uniform\"\n\
+             min = 500.0\nmax = 5000.0\n\
+             [[vary]]\nkey = \"tissue.0.material.damping\"\ndist = \"normal\"\nmean = 5.0\n\
+             std = 4.0\nmin = 4.0\nmax = 6.0\n",
+        )
+        .unwrap();
+        for i in 0..50 {
+            let s = v.sample(&mut crate::dataset::episode_rng(0, i)).unwrap();
+            let e = s.scene.tissues[0].material.youngs_modulus;
+            let d = s.scene.tissues[0].material.damping;
+            assert!(
+                (500.0..5000.0).contains(&e) && (4.0..=6.0).contains(&d),
+                "{e} {d}"
+            );
+        }
+    }
+
+    #[test]
+    fn normal_bounds_that_keep_almost_nothing_are_refused() {
+        let e = variation(
+            "[[vary]]\nkey = \"tissue.0.material.damping\"\ndist = \"normal\"\nmean = 0.0\n\
+             std = 0.1\nmin = 4.0\nmax = 6.0\n",
+        )
+        .unwrap_err();
+        assert!(
+            e.contains("keep") && e.contains("tissue.0.material.damping"),
+            "{e}"
+        );
+        assert!((normal_cdf(0.0) - 0.5).abs() < 1e-7);
+        assert!((normal_cdf(1.96) - 0.975).abs() < 1e-4);
+    }
+
+    #[test]
+    fn a_combination_no_draw_can_satisfy_is_refused_after_the_redraws() {
+        // Each bound alone keeps the keyframes in order; together t0 > t1 is possible, and
+        // with t1 moved to 0.05-0.1 and t0 to 0.1-0.2 every draw is out of order.
+        let v = variation(
+            "redraws = 5\n[[vary]]\nkey = \"tool.0.keyframe.1.t\"\ndist = \"uniform\"\n\
+             min = 0.05\nmax = 0.1\n\
+             [[vary]]\nkey = \"tool.0.keyframe.0.t\"\ndist = \"uniform\"\nmin = 0.1\nmax = 0.2\n",
+        );
+        let e = match v {
+            Ok(v) => v
+                .sample(&mut crate::dataset::episode_rng(0, 0))
+                .unwrap_err(),
+            Err(e) => e,
+        };
+        assert!(e.contains("keyframe"), "{e}");
+    }
+}

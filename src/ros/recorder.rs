@@ -811,6 +811,7 @@ mod tests {
             schedule: SimSchedule::new(&rates),
             dropped: dropped.clone(),
             last_warning: None,
+            lossless: false,
         };
         for _ in 0..10 {
             tap.send(record(2));
@@ -822,5 +823,43 @@ mod tests {
         tap.send(record(1));
         assert_eq!(rx.try_iter().count(), 1);
         assert_eq!(dropped.frames.load(Ordering::Relaxed), 7);
+    }
+
+    #[test]
+    fn a_lossless_tap_waits_for_the_writer_and_drops_nothing() {
+        let (tx, rx) = sync_channel(3);
+        let dropped = Arc::new(Dropped::default());
+        let rates = OutputRates {
+            arm: 60.0,
+            points: 30.0,
+            surface: 10.0,
+            wrench: 60.0,
+            tf: 50.0,
+            thread: 30.0,
+            pieces: 5.0,
+        };
+        let mut tap = RecordTap {
+            tx,
+            schedule: SimSchedule::new(&rates),
+            dropped: dropped.clone(),
+            last_warning: None,
+            lossless: false,
+        };
+        tap.wait_when_behind();
+        // A slow writer: the queue of 3 fills, and the sender waits instead of dropping.
+        let writer = std::thread::spawn(move || {
+            let mut n = 0;
+            while rx.recv().is_ok() {
+                std::thread::sleep(std::time::Duration::from_millis(2));
+                n += 1;
+            }
+            n
+        });
+        for _ in 0..10 {
+            tap.send(record(1));
+        }
+        drop(tap);
+        assert_eq!(writer.join().unwrap(), 10);
+        assert_eq!(dropped.frames.load(Ordering::Relaxed), 0);
     }
 }
