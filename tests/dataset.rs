@@ -101,10 +101,11 @@ fn messages_in_complete_bag(bytes: &[u8]) -> u64 {
         .expect("a readable bag")
         .expect("a complete bag has a summary");
     let stats = summary.stats.expect("statistics in the summary");
-    let read = mcap::MessageStream::new(bytes)
-        .unwrap()
-        .map(|m| m.expect("every message readable"))
-        .count() as u64;
+    let mut read = 0;
+    for message in mcap::MessageStream::new(bytes).unwrap() {
+        message.expect("every message readable");
+        read += 1;
+    }
     assert_eq!(read, stats.message_count);
     read
 }

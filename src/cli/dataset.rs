@@ -211,28 +211,27 @@ pub fn generate(spec: &DatasetSpec, verbose: bool) -> Result<WorkerReport> {
                 .build()
                 .context("a thread pool for an episode")?;
             let (next, results, pending, prepared) = (&next, &results, &pending, &prepared);
-            workers.push(scope.spawn(move || loop {
-                let Some(&index) = pending.get(next.fetch_add(1, Ordering::Relaxed)) else {
-                    break;
-                };
-                let result = pool.install(|| run_episode(prepared, index, threads));
-                let mut results = results.lock().unwrap_or_else(|e| e.into_inner());
-                match result {
-                    Ok(record) => {
-                        if verbose {
-                            print_episode(&record);
+            workers.push(scope.spawn(move || {
+                while let Some(&index) = pending.get(next.fetch_add(1, Ordering::Relaxed)) {
+                    let result = pool.install(|| run_episode(prepared, index, threads));
+                    let mut results = results.lock().unwrap_or_else(|e| e.into_inner());
+                    match result {
+                        Ok(record) => {
+                            if verbose {
+                                print_episode(&record);
+                            }
+                            if let Err(e) =
+                                store::append_manifest(&prepared.out, shard, &record.episode)
+                            {
+                                eprintln!("episode {index}: manifest: {e}");
+                                results.1 += 1;
+                            }
+                            results.0.push(record);
                         }
-                        if let Err(e) =
-                            store::append_manifest(&prepared.out, shard, &record.episode)
-                        {
-                            eprintln!("episode {index}: manifest: {e}");
+                        Err(e) => {
+                            eprintln!("episode {index}: failed: {e:#}");
                             results.1 += 1;
                         }
-                        results.0.push(record);
-                    }
-                    Err(e) => {
-                        eprintln!("episode {index}: failed: {e:#}");
-                        results.1 += 1;
                     }
                 }
             }));
@@ -282,6 +281,7 @@ fn run_episode(prepared: &Prepared, index: u64, threads: usize) -> Result<Record
         .unwrap_or(crate::run::UNSCRIPTED_SECONDS);
     let bag = store::episode_file(index, "mcap");
     let partial = out.join(store::partial_name(&bag));
+    let simulate = Instant::now();
     let outcome = headless_episode(
         &sample.scene,
         seconds,
@@ -300,6 +300,7 @@ fn run_episode(prepared: &Prepared, index: u64, threads: usize) -> Result<Record
     .inspect_err(|_| {
         let _ = std::fs::remove_file(&partial);
     })?;
+    let simulate_s = simulate.elapsed().as_secs_f64();
     let recorded = outcome.record.expect("recording was asked for");
     if let Some(why) = recorded.stopped {
         let _ = std::fs::remove_file(&partial);
@@ -332,6 +333,7 @@ fn run_episode(prepared: &Prepared, index: u64, threads: usize) -> Result<Record
     let record = Record {
         episode,
         wall_s: start.elapsed().as_secs_f64(),
+        simulate_s,
         threads,
     };
     // The record last: its presence marks the episode finished.

@@ -381,7 +381,7 @@ pub fn headless_episode(
             .map(|(t, f)| (t.name.clone(), *f))
             .collect(),
         lift_m: f64::from(peak_top - start_top),
-        com_rise_m: f64::from(com_z - start_com_z),
+        com_rise_m: com_z - start_com_z,
         pieces,
         guard_stop,
         record: None,

@@ -73,6 +73,9 @@ pub struct Record {
     pub episode: Episode,
     /// Wall time of the episode (sampling, simulating, recording, writing), s.
     pub wall_s: f64,
+    /// Wall time of the headless run inside it (building the world, stepping, finishing
+    /// the bag), s: `wall_s` less this is the dataset machinery's cost.
+    pub simulate_s: f64,
     /// Rayon threads the episode's solver ran on.
     pub threads: usize,
 }
