@@ -37,6 +37,8 @@
 //!   the accuracy they measure.
 //! - [`ros`]: the ROS 2 node in full: topics, QoS, arms, /clock and status, faults tried;
 //!   [`ros::recorder`] records and replays bags.
+//! - [`dataset`]: many varied headless episodes, recorded and labelled: variation files
+//!   ([`dataset::vary`]), the folder's records and manifests, shards, resuming.
 //!
 //! The command line, benchmarks and stress sweeps are the binary's (`src/cli/`): `bench`
 //! writes `bench.md`, `bench.csv` and `bench.png` where `--out` says, `stress --out` the
@@ -44,6 +46,7 @@
 #![warn(missing_docs)]
 
 pub mod config;
+pub mod dataset;
 pub mod files;
 pub mod math;
 pub mod mpm;

@@ -1,10 +1,11 @@
 //! Command-line entry point: one module per subcommand (`run`, `snapshot`, `stress`,
-//! `check`, `bench`); the benchmarks and the stress matrix live here, beside the commands
+//! `check`, `bench`, `dataset`, `bag`); the benchmarks and the stress matrix live here, beside the commands
 //! that print them, not in the library.
 
 mod bag;
 mod bench;
 mod check;
+mod dataset;
 mod dds_log;
 mod run;
 mod scene_args;
@@ -44,6 +45,10 @@ enum Command {
     /// scenes × solver settings × backends × resolutions, printed as a table and written as
     /// CSV, Markdown and a PNG plot; exits non-zero if an error exceeds its bound.
     Bench(bench::BenchArgs),
+    /// Randomised headless episodes of a scene, each recorded to its own bag and labelled
+    /// with its outcomes; resumable, sharded across a cluster (`dataset summary DIR`: the
+    /// outcomes as a table).
+    Dataset(dataset::DatasetArgs),
     /// Bag tools: `bag recover IN OUT` rebuilds a readable bag from one a killed run left.
     Bag(bag::BagArgs),
 }
@@ -89,6 +94,7 @@ fn dispatch(cli: Cli) -> Result<()> {
         Command::Stress(args) => stress::run(args),
         Command::Check(args) => check::run(args),
         Command::Bench(args) => bench::run(args),
+        Command::Dataset(args) => dataset::run(args),
         Command::Bag(args) => bag::run(args),
     }
 }

@@ -152,7 +152,7 @@ fn snapshot_schedule(every: Option<f64>, dir: PathBuf) -> Result<Option<Snapshot
 }
 
 /// Simulated seconds a headless run of a scene without keyframes lasts.
-const UNSCRIPTED_SECONDS: f64 = 2.0;
+pub const UNSCRIPTED_SECONDS: f64 = 2.0;
 
 /// How long a headless run lasts: `--seconds` when given, else the scene's script to its end,
 /// else [`UNSCRIPTED_SECONDS`]; with the reason, for the log.
@@ -175,37 +175,134 @@ fn run_headless(
     let scene = solver.load(path)?;
     let (seconds, why) = headless_seconds(&scene, seconds);
     tracing::info!("running {seconds} s simulated ({why})");
-    let world = World::try_new(&scene).context("choosing the solver backend")?;
+    let outcome = headless_episode(
+        &scene,
+        seconds,
+        HeadlessOptions {
+            print_every: Some(print_every),
+            snapshots,
+            record: record.map(|(bag, chunk_every, replace)| BagOptions {
+                bag,
+                chunk_every,
+                replace,
+                lossless: false,
+            }),
+            guard_is_outcome: false,
+        },
+    )?;
+    if let Some(recorded) = outcome.record {
+        println!("summary: recorded {recorded}");
+    }
+    Ok(())
+}
+
+/// How a headless run prints and records.
+pub struct HeadlessOptions<'a> {
+    /// Print the scene, every n-th frame's line and the summary; `None`: print nothing.
+    pub print_every: Option<u32>,
+    /// Pictures to take.
+    pub snapshots: Option<SnapshotSchedule>,
+    /// The bag to record, if any.
+    pub record: Option<BagOptions<'a>>,
+    /// A guard stop ends the run as an outcome (`HeadlessOutcome::guard_stop`, the bag
+    /// finished) instead of failing it.
+    pub guard_is_outcome: bool,
+}
+
+/// The `--record` bag of a headless run.
+pub struct BagOptions<'a> {
+    /// The bag's path.
+    pub bag: &'a Path,
+    /// `--record-chunk`, simulated seconds.
+    pub chunk_every: f64,
+    /// Replace an existing file there.
+    pub replace: bool,
+    /// Wait for the writer instead of dropping a frame when it is behind (a headless run has
+    /// no clock to keep up with; a dataset's bag must hold every frame to be reproducible).
+    pub lossless: bool,
+}
+
+/// What a headless run measured: the figures of its summary lines, and a dataset episode's
+/// outcomes.
+pub struct HeadlessOutcome {
+    /// Frames stepped.
+    pub frames: u32,
+    /// Simulated time at the end, s.
+    pub simulated_s: f64,
+    /// Wall time of the stepping loop, s.
+    pub wall_s: f64,
+    /// Substeps in all.
+    pub substeps: u64,
+    /// Tissue particles.
+    pub particles: usize,
+    /// Each tool's name and its peak contact force, N.
+    pub peak_force_n: Vec<(String, f64)>,
+    /// The largest rise of the tissue's highest particle above its start, m (how far a
+    /// grasp lifted the tissue).
+    pub lift_m: f64,
+    /// Rise of the tissue's centre of mass from start to end, m.
+    pub com_rise_m: f64,
+    /// Tissue pieces at the end (connected components).
+    pub pieces: usize,
+    /// The guard event that stopped the run, when `guard_is_outcome` let it.
+    pub guard_stop: Option<String>,
+    /// What the bag holds, when recording.
+    pub record: Option<ros::recorder::RecordSummary>,
+}
+
+/// Highest particle z, m (`f32::MIN` with no particles).
+fn top_z(world: &World) -> f32 {
+    world
+        .particles()
+        .x
+        .iter()
+        .map(|x| x.z)
+        .fold(f32::MIN, f32::max)
+}
+
+/// Runs `scene` headless for `seconds` of simulated time (the tools on their keyframes, no
+/// network): the loop of `run --headless`, and of every `dataset` episode.
+pub fn headless_episode(
+    scene: &Scene,
+    seconds: f64,
+    options: HeadlessOptions<'_>,
+) -> Result<HeadlessOutcome> {
+    let world = World::try_new(scene).context("choosing the solver backend")?;
     let frames = (seconds * scene.frame_rate_hz).round().max(1.0) as u32;
-    println!(
-        "scene \"{}\": {} particles, {} thread(s), grid {}×{}×{} nodes (dx {} m), {} tool(s), {} frames of {:.4} s, backend {}",
-        scene.name,
-        world.particles().len(),
-        world.threads().len(),
-        world.layout().nodes[0],
-        world.layout().nodes[1],
-        world.layout().nodes[2],
-        scene.domain.dx,
-        world.tools().len(),
-        frames,
-        world.frame_dt(),
-        world.backend().name()
-    );
-    let snapshot_dir = snapshots
+    let verbose = options.print_every.is_some();
+    let print_every = options.print_every.unwrap_or(u32::MAX).max(1);
+    if verbose {
+        println!(
+            "scene \"{}\": {} particles, {} thread(s), grid {}×{}×{} nodes (dx {} m), {} tool(s), {} frames of {:.4} s, backend {}",
+            scene.name,
+            world.particles().len(),
+            world.threads().len(),
+            world.layout().nodes[0],
+            world.layout().nodes[1],
+            world.layout().nodes[2],
+            scene.domain.dx,
+            world.tools().len(),
+            frames,
+            world.frame_dt(),
+            world.backend().name()
+        );
+    }
+    let snapshot_dir = options
+        .snapshots
         .as_ref()
         .map(|s| s.dir.clone())
         .unwrap_or_default();
+    let start_top = top_z(&world);
+    let start_com_z = if world.particles().is_empty() {
+        0.0
+    } else {
+        world.particles().centre_of_mass().z
+    };
     let mut setup = SimSetup::scripted(world);
-    setup.snapshots = snapshots;
-    let recorder = match record {
+    setup.snapshots = options.snapshots;
+    let recorder = match options.record {
         None => None,
-        Some((bag, chunk_every, replace)) => Some(attach_recorder(
-            &mut setup,
-            &scene,
-            bag,
-            chunk_every,
-            replace,
-        )?),
+        Some(bag) => Some(attach_recorder(&mut setup, scene, &bag, verbose)?),
     };
     let mut sim = FrameLoop::new(setup, None);
     let start = Instant::now();
@@ -214,10 +311,18 @@ fn run_headless(
     let mut peak_speed = 0.0f32;
     let mut peak_stretch = 0.0f32;
     let mut split_refused = 0usize;
+    let mut peak_top = start_top;
     let mut peak_elongation = vec![0.0f64; sim.world().threads().len()];
+    let mut guard_stop = None;
     let mut frame = 0u32;
     headless::run(&mut sim, |sim, stepped| -> Result<ControlFlow<()>> {
-        let report = stepped.report.context("headless run")?;
+        let report = match stepped.report {
+            Err(stop) if options.guard_is_outcome => {
+                guard_stop = Some(stop.to_string());
+                return Ok(ControlFlow::Break(()));
+            }
+            report => report.context("headless run")?,
+        };
         let wall = stepped.wall.as_secs_f64();
         if let Some(snapshot) = stepped.snapshot {
             let path =
@@ -229,6 +334,7 @@ fn run_headless(
         peak_speed = peak_speed.max(report.max_speed);
         peak_stretch = peak_stretch.max(report.max_stretch);
         split_refused += report.split.refused;
+        peak_top = peak_top.max(top_z(world));
         for (p, w) in peak_force.iter_mut().zip(&report.wrenches) {
             *p = p.max(w.force.norm());
         }
@@ -240,7 +346,7 @@ fn run_headless(
                 "frame {frame}: hit max_substeps_per_frame; simulated time lags the frame clock"
             );
         }
-        if frame.is_multiple_of(print_every) || frame + 1 == frames {
+        if verbose && (frame.is_multiple_of(print_every) || frame + 1 == frames) {
             let forces: Vec<String> = world
                 .tools()
                 .iter()
@@ -297,7 +403,54 @@ fn run_headless(
     })?;
     let world = sim.world();
     let wall = start.elapsed().as_secs_f64();
-    let n = world.particles().len() as f64;
+    let (com_z, pieces) = if world.particles().is_empty() {
+        (0.0, 0)
+    } else {
+        (world.particles().centre_of_mass().z, world.pieces())
+    };
+    let outcome = HeadlessOutcome {
+        frames: frame,
+        simulated_s: world.time(),
+        wall_s: wall,
+        substeps: total_substeps,
+        particles: world.particles().len(),
+        peak_force_n: world
+            .tools()
+            .iter()
+            .zip(&peak_force)
+            .map(|(t, f)| (t.name.clone(), *f))
+            .collect(),
+        lift_m: f64::from(peak_top - start_top),
+        com_rise_m: com_z - start_com_z,
+        pieces,
+        guard_stop,
+        record: None,
+    };
+    if verbose {
+        print_summary(
+            world,
+            &outcome,
+            peak_speed,
+            (peak_stretch, split_refused),
+            &peak_elongation,
+        );
+    }
+    // The recorder's writer ends once the loop, which holds its sending end, is gone.
+    drop(sim);
+    let record = recorder.map(|r| r.finish()).transpose()?;
+    Ok(HeadlessOutcome { record, ..outcome })
+}
+
+/// The summary lines of `run --headless`.
+fn print_summary(
+    world: &World,
+    outcome: &HeadlessOutcome,
+    peak_speed: f32,
+    (peak_stretch, split_refused): (f32, usize),
+    peak_elongation: &[f64],
+) {
+    let (frames, wall, total_substeps) = (outcome.frames, outcome.wall_s, outcome.substeps);
+    let n = outcome.particles as f64;
     println!(
         "summary: {frames} frames, {:.3} s simulated in {wall:.2} s wall (real-time factor {:.3})",
         world.time(),
@@ -308,18 +461,13 @@ fn run_headless(
         total_substeps as f64 / frames as f64,
         n * total_substeps as f64 / wall / 1e6
     );
-    for (t, f) in world.tools().iter().zip(&peak_force) {
-        println!("summary: tool {} peak contact force {f:.4} N", t.name);
+    for (name, f) in &outcome.peak_force_n {
+        println!("summary: tool {name} peak contact force {f:.4} N");
     }
     if !world.particles().is_empty() {
         println!("summary: peak particle speed {peak_speed:.4} m/s");
         let com = world.particles().centre_of_mass();
-        let top = world
-            .particles()
-            .x
-            .iter()
-            .map(|x| x.z)
-            .fold(f32::MIN, f32::max);
+        let top = top_z(world);
         println!(
             "summary: tissue centre of mass ({:.4}, {:.4}, {:.4}) m, highest particle z {top:.4} m",
             com.x, com.y, com.z
@@ -334,7 +482,7 @@ fn run_headless(
             );
         }
     }
-    for (t, peak) in world.threads().iter().zip(&peak_elongation) {
+    for (t, peak) in world.threads().iter().zip(peak_elongation) {
         let points = &t.rod.points;
         let (first, last) = (points[0], points[points.len() - 1]);
         println!(
@@ -358,22 +506,15 @@ fn run_headless(
             dvrk_tissue_sim::rod::knot::knot_name(det)
         );
     }
-    // The recorder's writer ends once the loop, which holds its sending end, is gone.
-    drop(sim);
-    if let Some(recorder) = recorder {
-        println!("summary: recorded {}", recorder.finish()?);
-    }
-    Ok(())
 }
 
 /// Records a scripted run's outputs (tools' wrenches, /tf, tissue cloud and surface, at the
-/// scene's rates in simulated time) to `bag`, as the node would publish them.
+/// scene's rates in simulated time) to the bag, as the node would publish them.
 fn attach_recorder(
     setup: &mut SimSetup,
-    scene: &dvrk_tissue_sim::config::Scene,
-    bag: &Path,
-    chunk_every: f64,
-    replace: bool,
+    scene: &Scene,
+    options: &BagOptions<'_>,
+    verbose: bool,
 ) -> Result<ros::recorder::Recorder> {
     let outputs = &scene.outputs;
     setup.surface = Some(
@@ -386,8 +527,14 @@ fn attach_recorder(
         .context("tissue surface for the recording")?,
     );
     let layout = ros::outputs::OutputLayout::new(scene, setup, "/");
-    let (recorder, tap) = ros::recorder::Recorder::create(bag, layout, chunk_every, replace)?;
+    let (recorder, mut tap) =
+        ros::recorder::Recorder::create(options.bag, layout, options.chunk_every, options.replace)?;
+    if options.lossless {
+        tap.wait_when_behind();
+    }
     setup.recorder = Some(Box::new(tap));
-    println!("recording to {}", bag.display());
+    if verbose {
+        println!("recording to {}", options.bag.display());
+    }
     Ok(recorder)
 }

@@ -210,6 +210,16 @@ pub struct RecordTap {
     schedule: SimSchedule,
     dropped: Arc<Dropped>,
     last_warning: Option<Instant>,
+    /// Block on a full queue instead of dropping the frame.
+    lossless: bool,
+}
+
+impl RecordTap {
+    /// Makes the simulation wait for the writer instead of dropping a frame when it is
+    /// behind: for runs with no clock to keep up with, whose bag must hold every frame.
+    pub fn wait_when_behind(&mut self) {
+        self.lossless = true;
+    }
 }
 
 impl FrameSink for RecordTap {
@@ -222,7 +232,15 @@ impl FrameSink for RecordTap {
     /// writer is behind.
     fn send(&mut self, record: FrameRecord) {
         let inputs = record.inputs.len() as u64;
-        match self.tx.try_send(record) {
+        let sent = if self.lossless {
+            // A disconnected writer has stopped on an error that `finish` reports.
+            self.tx
+                .send(record)
+                .map_err(|e| TrySendError::Disconnected(e.0))
+        } else {
+            self.tx.try_send(record)
+        };
+        match sent {
             Ok(()) => {}
             Err(TrySendError::Full(_)) | Err(TrySendError::Disconnected(_)) => {
                 let frames = self.dropped.frames.fetch_add(1, Ordering::Relaxed) + 1;
@@ -371,6 +389,7 @@ impl Recorder {
                 schedule,
                 dropped,
                 last_warning: None,
+                lossless: false,
             },
         ))
     }
@@ -801,6 +820,7 @@ mod tests {
             schedule: SimSchedule::new(&rates),
             dropped: dropped.clone(),
             last_warning: None,
+            lossless: false,
         };
         for _ in 0..10 {
             tap.send(record(2));
@@ -812,5 +832,43 @@ mod tests {
         tap.send(record(1));
         assert_eq!(rx.try_iter().count(), 1);
         assert_eq!(dropped.frames.load(Ordering::Relaxed), 7);
+    }
+
+    #[test]
+    fn a_lossless_tap_waits_for_the_writer_and_drops_nothing() {
+        let (tx, rx) = sync_channel(3);
+        let dropped = Arc::new(Dropped::default());
+        let rates = OutputRates {
+            arm: 60.0,
+            points: 30.0,
+            surface: 10.0,
+            wrench: 60.0,
+            tf: 50.0,
+            thread: 30.0,
+            pieces: 5.0,
+        };
+        let mut tap = RecordTap {
+            tx,
+            schedule: SimSchedule::new(&rates),
+            dropped: dropped.clone(),
+            last_warning: None,
+            lossless: false,
+        };
+        tap.wait_when_behind();
+        // A slow writer: the queue of 3 fills, and the sender waits instead of dropping.
+        let writer = std::thread::spawn(move || {
+            let mut n = 0;
+            while rx.recv().is_ok() {
+                std::thread::sleep(std::time::Duration::from_millis(2));
+                n += 1;
+            }
+            n
+        });
+        for _ in 0..10 {
+            tap.send(record(1));
+        }
+        drop(tap);
+        assert_eq!(writer.join().unwrap(), 10);
+        assert_eq!(dropped.frames.load(Ordering::Relaxed), 0);
     }
 }

@@ -1,9 +1,10 @@
 //! `bench`: the runtime-against-error sweep over the analytic scenes (the default), and
-//! throughput, scaling, frame, skip, surface and accuracy tables. Each is a command that
+//! throughput, scaling, frame, skip, surface, dataset and accuracy tables. Each is a command that
 //! prints a table and writes it as Markdown and CSV under `--out` ([`report`]); none is
 //! library API.
 
 pub mod accuracy;
+pub mod dataset;
 pub mod frame;
 pub mod plot;
 pub mod report;
@@ -76,6 +77,25 @@ pub enum BenchCommand {
         /// e.g. `toughness` or `cutting`.
         #[arg(long)]
         only: Option<String>,
+    },
+    /// `dataset`'s cost: episodes per hour at each --jobs, and the overhead of its machinery
+    /// against plain `run --headless --record` runs of the same sampled scenes (target ≤ 5 %).
+    Dataset {
+        #[arg(long, default_value = "config/default.toml")]
+        scene: PathBuf,
+        #[arg(long, default_value = "config/vary/grasp.toml")]
+        vary: PathBuf,
+        /// Episodes per timed run.
+        #[arg(long, default_value_t = 4)]
+        episodes: u64,
+        /// Simulated seconds per episode.
+        #[arg(long, default_value_t = 2.0)]
+        seconds: f64,
+        /// The --jobs settings to time besides 1.
+        #[arg(long, value_delimiter = ',', default_value = "2")]
+        jobs: Vec<usize>,
+        #[command(flatten)]
+        solver: SolverOverrides,
     },
     /// Particle-substeps per second against particle count (10k–1M) and on the seed-000
     /// scene, for the CPU backend and each GPU P2G variant the adapter can run.
@@ -219,6 +239,31 @@ pub fn run(args: BenchArgs) -> Result<()> {
                 sweep::stiff_summary(&rows)
             );
             print_and_write("stiff", &table, None)
+        }
+        BenchCommand::Dataset {
+            scene,
+            vary,
+            episodes,
+            seconds,
+            jobs,
+            solver,
+        } => {
+            let gpu = solver
+                .backend
+                .is_some_and(|b| b != BackendChoice::Cpu)
+                .then(adapter_name);
+            let spec = crate::dataset::DatasetSpec {
+                scene: Some(scene),
+                vary: Some(vary),
+                episodes: Some(episodes),
+                out: None,
+                seed: 0,
+                seconds: Some(seconds),
+                shard: None,
+                jobs: 1,
+                solver,
+            };
+            print_and_write("dataset", &dataset::run(&spec, &jobs)?, gpu.as_deref())
         }
         BenchCommand::Accuracy => print_and_write("accuracy", &accuracy::table(), None),
     }
