@@ -30,7 +30,9 @@
 pub mod camera;
 pub mod geometry;
 pub mod gpu;
+pub mod rig;
 
 pub use camera::{CameraSettings, Eye, Pinhole, TissueColour};
 pub use geometry::{SceneGeometry, Triangles, Vertex};
 pub use gpu::{Frame, RenderError, Renderer};
+pub use rig::{CameraImages, CameraRig};
