@@ -33,6 +33,8 @@
 //! - [`robot`]: PSM kinematics, dVRK's URDFs ([`robot::urdf`]), joints, IK, teleoperation.
 //! - [`sim`]: the frame loop, arm state machines and scene assembly, transport-agnostic.
 //! - [`output`]: strain measures, the point cloud, the surface mesh and isosurface, pictures.
+//! - [`render`]: the endoscope camera: stereo pinhole optics, the scene as labelled
+//!   triangles, and the wgpu rasteriser of RGB, depth and label images.
 //! - [`validation`]: scenes with analytic answers (Hertz, vibrating bar, stretch, beams) and
 //!   the accuracy they measure.
 //! - [`ros`]: the ROS 2 node in full: topics, QoS, arms, /clock and status, faults tried;
@@ -51,6 +53,7 @@ pub mod files;
 pub mod math;
 pub mod mpm;
 pub mod output;
+pub mod render;
 pub mod robot;
 pub mod rod;
 pub mod ros;

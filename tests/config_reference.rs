@@ -14,6 +14,7 @@ use dvrk_tissue_sim::config::{
     Arm, Domain, Keyframe, Material, Outputs, Scene, Solver, Table, TeleopSettings, Thread, Tissue,
     Tool,
 };
+use dvrk_tissue_sim::render::CameraSettings;
 use dvrk_tissue_sim::sleep::SleepSettings;
 use dvrk_tissue_sim::tools::JawGains;
 use serde::de::{Deserialize, Error as _, Visitor};
@@ -318,6 +319,7 @@ fn struct_keys() -> BTreeMap<String, BTreeSet<String>> {
         ("teleop", fields::<TeleopSettings>()),
         ("outputs", fields::<Outputs>()),
         ("sleep", fields::<SleepSettings>()),
+        ("camera", fields::<CameraSettings>()),
     ]
     .into_iter()
     .map(|(path, keys)| {

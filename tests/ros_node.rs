@@ -67,6 +67,11 @@ fn rclpy_measured_cp_matches_fk_with_a_dvrk_model_layout_urdf() {
 }
 
 #[test]
+fn rclpy_reads_the_stereo_camera_images_and_camera_info() {
+    rclpy_test("test_camera.py", "tests/scenes/camera.toml", 37);
+}
+
+#[test]
 fn rclpy_push_displaces_tissue_and_wrench_opposes_motion() {
     rclpy_test("test_push.py", SMALL, 13);
 }

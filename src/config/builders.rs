@@ -94,6 +94,7 @@ pub fn scene(
         teleop: None,
         outputs: Default::default(),
         sleep: Default::default(),
+        camera: None,
     }
 }
 

@@ -54,6 +54,9 @@ pub struct Scene {
     /// When resting tissue may skip frames.
     #[serde(default)]
     pub sleep: crate::sleep::SleepSettings,
+    /// `[camera]`: the stereo endoscope camera (`None`: no camera).
+    #[serde(default)]
+    pub camera: Option<crate::render::CameraSettings>,
 }
 
 fn default_name() -> String {

@@ -546,6 +546,24 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
         .extend(super::thread::validate(scene, &inside, &region));
     validate_arms(&mut c, scene);
     validate_outputs(&mut c, scene);
+    if let Some(camera) = &scene.camera {
+        c.problems.extend(
+            camera
+                .problems(scene.frame_rate_hz)
+                .into_iter()
+                .map(|e| Problem {
+                    key: format!("camera.{}", e.key),
+                    value: e.value,
+                    allowed: e.reason,
+                }),
+        );
+        c.require(
+            camera.position.is_some(),
+            "camera.position",
+            camera.position,
+            "a camera needs `position` and `look_at`",
+        );
+    }
     c.problems
 }
 

@@ -214,6 +214,12 @@ impl TissueMesh {
             .collect()
     }
 
+    /// The first particle vertex `v` is bound to (all of a vertex's particles are of its
+    /// block, so this names the block).
+    pub fn first_particle(&self, v: usize) -> u32 {
+        self.particle[self.offsets[v] as usize]
+    }
+
     /// Total number of particle references of the binding (the per-frame work).
     pub fn binding_len(&self) -> usize {
         self.particle.len()

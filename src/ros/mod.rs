@@ -1,6 +1,6 @@
 //! The ROS 2 side, transport only: message types ([`msgs`], [`schema`]), topic names
 //! ([`names`]), messages to simulation inputs ([`inputs`]) and finished frames to messages
-//! ([`outputs`]), the node's topic wiring ([`node`]), the bag recorder and replay
+//! ([`outputs`]), the endoscope's images ([`camera`]), the node's topic wiring ([`node`]), the bag recorder and replay
 //! ([`recorder`], [`replay`], [`recover`] for a bag a killed run left), `/rosout` ([`rosout`]) and a run's setup
 //! shared by the node and a headless replay ([`session`]), `/clock` ([`sim_clock`]) and the
 //! node's status ([`status`]). The simulation itself is [`crate::sim`].
@@ -56,6 +56,7 @@
 //! | `/clock` | rosgraph_msgs/Clock | simulated time, once per frame |
 //! | `/rosout` | rcl_interfaces/Log | WARN and ERROR log lines, the arms' `error` (ERROR), `warning` (WARN) and `status` (INFO) events, logger `<namespace>.<name>` ([`rosout`]) |
 //! | `/diagnostics` | diagnostic_msgs/DiagnosticArray | latched, once a second: real-time factor, substeps and frames per second, backend, adapter |
+//! | `ECM/image_raw`, `ECM/image_raw/compressed`, `ECM/{left,right}/camera_info`, `ECM/{left,right}/depth`, `ECM/{left,right}/labels` | Image, CompressedImage, CameraInfo | with `[camera]`: the stereo endoscope ([`camera`]), rendered at `camera.rate_hz` in simulated time while subscribed |
 //!
 //! - **Simulated arms** satisfy dVRK's `dvrk_arm_from_ros` contract: a dVRK console can
 //!   teleoperate them with a real MTM. They start ENABLED and homed at `home_joints`;
@@ -138,6 +139,7 @@
 //! files and 1,600 fuzzed URDFs are refused with a message each, never a panic; a 30-minute
 //! soak (`launch-scripts/soak.py --minutes 30`) ran at 0.98× real time with 0 ERROR lines.
 
+pub mod camera;
 pub mod inputs;
 pub mod msgs;
 pub mod names;

@@ -507,6 +507,72 @@ pub struct CompressedImage {
     pub data: Vec<u8>,
 }
 
+ros_message!(CompressedImage, "sensor_msgs", "CompressedImage");
+
+/// `sensor_msgs/Image`: an uncompressed image, rows from the top.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Image {
+    /// `Image.header`: stamp and the camera's optical frame.
+    pub header: Header,
+    /// `Image.height`: rows.
+    pub height: u32,
+    /// `Image.width`: columns.
+    pub width: u32,
+    /// `Image.encoding`: the pixel format (`rgb8`, `32FC1`, `mono8`, ...).
+    pub encoding: String,
+    /// `Image.is_bigendian`: byte order of multi-byte pixels (0: little-endian).
+    pub is_bigendian: u8,
+    /// `Image.step`: bytes per row.
+    pub step: u32,
+    #[serde(with = "serde_bytes")]
+    /// `Image.data`: `step * height` bytes.
+    pub data: Vec<u8>,
+}
+ros_message!(Image, "sensor_msgs", "Image");
+
+/// `sensor_msgs/RegionOfInterest` (CameraInfo's; all zero: the full image).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct RegionOfInterest {
+    /// `RegionOfInterest.x_offset`: leftmost column.
+    pub x_offset: u32,
+    /// `RegionOfInterest.y_offset`: topmost row.
+    pub y_offset: u32,
+    /// `RegionOfInterest.height`: rows.
+    pub height: u32,
+    /// `RegionOfInterest.width`: columns.
+    pub width: u32,
+    /// `RegionOfInterest.do_rectify`: whether to rectify the region.
+    pub do_rectify: bool,
+}
+
+/// `sensor_msgs/CameraInfo`: a camera's calibration.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct CameraInfo {
+    /// `CameraInfo.header`: stamp and the camera's optical frame.
+    pub header: Header,
+    /// `CameraInfo.height`: image rows.
+    pub height: u32,
+    /// `CameraInfo.width`: image columns.
+    pub width: u32,
+    /// `CameraInfo.distortion_model`: `plumb_bob`.
+    pub distortion_model: String,
+    /// `CameraInfo.d`: distortion coefficients (all zero: an ideal pinhole).
+    pub d: Vec<f64>,
+    /// `CameraInfo.k`: intrinsic matrix, row-major.
+    pub k: [f64; 9],
+    /// `CameraInfo.r`: rectification rotation, row-major (identity).
+    pub r: [f64; 9],
+    /// `CameraInfo.p`: projection matrix, row-major (Tx = −f·baseline for the right eye).
+    pub p: [f64; 12],
+    /// `CameraInfo.binning_x`: 0 (no binning).
+    pub binning_x: u32,
+    /// `CameraInfo.binning_y`: 0 (no binning).
+    pub binning_y: u32,
+    /// `CameraInfo.roi`: the full image.
+    pub roi: RegionOfInterest,
+}
+ros_message!(CameraInfo, "sensor_msgs", "CameraInfo");
+
 // ---- visualization_msgs ----
 
 /// `visualization_msgs/UVCoordinate`: a texture coordinate.

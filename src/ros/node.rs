@@ -19,6 +19,7 @@ use ros2_client::{
 };
 
 use crate::config::Scene;
+use crate::render::CameraImages;
 use crate::ros::inputs::{input_topics, InputKind, InputMessage, InputTopic};
 use crate::ros::msgs::*;
 use crate::ros::names::remap;
@@ -412,6 +413,10 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
         tracing::warn!("/tf_static: {e:?}");
     }
     let status: Publisher<DiagnosticArray> = topics.publisher("/diagnostics", status_qos())?;
+    let camera = match setup.camera.is_some() {
+        true => Some(CameraIo::new(&mut topics)?),
+        false => None,
+    };
     drop(topics);
     let (backend, adapter) = backend_and_adapter(&setup.world);
     let mut status_report = StatusReport::new(&settings.name, &backend, &adapter);
@@ -459,6 +464,7 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
         tf,
         _tf_static: tf_static,
         tf_arm_links: layout.tf_arm_links,
+        camera,
         log: RateLimitedLog::default(),
         rates: Rates {
             arm: Rate::new(outputs.arm_rate_hz),
@@ -575,8 +581,95 @@ struct Io {
     /// Kept alive: its one message stays available to late subscribers.
     _tf_static: Publisher<TFMessage>,
     tf_arm_links: bool,
+    camera: Option<CameraIo>,
     log: RateLimitedLog,
     rates: Rates,
+}
+
+/// The camera's publishers (see [`crate::ros::camera`]), their absolute topic names, which
+/// have subscribers, and the time of the last picture published.
+struct CameraIo {
+    image: Publisher<Image>,
+    compressed: Publisher<CompressedImage>,
+    info: [Publisher<CameraInfo>; 2],
+    depth: [Publisher<Image>; 2],
+    labels: [Publisher<Image>; 2],
+    /// Image, compressed, info ×2, depth ×2, labels ×2.
+    topics: [String; 8],
+    wanted: [bool; 8],
+    published: f64,
+}
+
+impl CameraIo {
+    fn new(topics: &mut Topics) -> Result<CameraIo, NodeError> {
+        use crate::ros::camera::{self as cam, EYES};
+        let names = [
+            cam::IMAGE_TOPIC.to_string(),
+            cam::COMPRESSED_TOPIC.to_string(),
+            cam::info_topic(EYES[0]),
+            cam::info_topic(EYES[1]),
+            cam::depth_topic(EYES[0]),
+            cam::depth_topic(EYES[1]),
+            cam::labels_topic(EYES[0]),
+            cam::labels_topic(EYES[1]),
+        ];
+        Ok(CameraIo {
+            image: topics.publisher(&names[0], periodic_qos())?,
+            compressed: topics.publisher(&names[1], periodic_qos())?,
+            info: [
+                topics.publisher(&names[2], periodic_qos())?,
+                topics.publisher(&names[3], periodic_qos())?,
+            ],
+            depth: [
+                topics.publisher(&names[4], periodic_qos())?,
+                topics.publisher(&names[5], periodic_qos())?,
+            ],
+            labels: [
+                topics.publisher(&names[6], periodic_qos())?,
+                topics.publisher(&names[7], periodic_qos())?,
+            ],
+            topics: names.map(|n| remap(&topics.namespace, topics.remaps, &n)),
+            wanted: [false; 8],
+            published: f64::NEG_INFINITY,
+        })
+    }
+
+    /// Publishes a picture not published yet, each topic only while subscribed.
+    fn publish(&mut self, images: &CameraImages, log: &mut RateLimitedLog) {
+        use crate::ros::camera as cam;
+        if images.time <= self.published {
+            return;
+        }
+        self.published = images.time;
+        let w = self.wanted;
+        if w[0] {
+            let _ = self.image.publish(cam::image_message(images));
+        }
+        if w[1] {
+            match cam::compressed_message(images) {
+                Ok(m) => {
+                    let _ = self.compressed.publish(m);
+                }
+                Err(e) => {
+                    let line = format!("{}: not encoded: {e}", self.topics[1]);
+                    if let Some(line) = log.admit(&self.topics[1], &line) {
+                        tracing::warn!("{line}");
+                    }
+                }
+            }
+        }
+        for eye in 0..images.eyes.len().min(2) {
+            if w[2 + eye] {
+                let _ = self.info[eye].publish(cam::info_message(images, eye));
+            }
+            if w[4 + eye] {
+                let _ = self.depth[eye].publish(cam::depth_message(images, eye));
+            }
+            if w[6 + eye] {
+                let _ = self.labels[eye].publish(cam::labels_message(images, eye));
+            }
+        }
+    }
 }
 
 impl Io {
@@ -700,6 +793,17 @@ impl Io {
                 .store(self.demand.surface, Ordering::Relaxed);
             sim.pieces_wanted
                 .store(self.demand.pieces, Ordering::Relaxed);
+            if let Some(camera) = &mut self.camera {
+                camera.wanted = camera
+                    .topics
+                    .clone()
+                    .map(|topic| node.subscription_count(&topic) > 0);
+                sim.camera_wanted
+                    .store(camera.wanted.iter().any(|&w| w), Ordering::Relaxed);
+            }
+        }
+        if let (Some(camera), Some(images)) = (&mut self.camera, &frame.camera) {
+            camera.publish(images, &mut self.log);
         }
         if self.rates.arm.due(now) {
             self.publish_arms(frame, stamp);

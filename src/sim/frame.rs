@@ -44,6 +44,8 @@ pub struct Frame {
     pub teleop: Option<TeleopState>,
     /// Separate tissue pieces, in the frames where they were counted (`tissue/pieces`).
     pub pieces: Option<u32>,
+    /// The camera's images, in the frames where a subscriber wanted one and it was due.
+    pub camera: Option<Arc<crate::render::CameraImages>>,
 }
 
 /// Which outputs a frame carries.

@@ -37,6 +37,8 @@ pub struct Wanted {
     pub surface: bool,
     /// The piece count, at `outputs.pieces_rate_hz` in simulated time.
     pub pieces: bool,
+    /// The camera's images, at `camera.rate_hz` in simulated time.
+    pub camera: bool,
 }
 
 /// What one frame did.
@@ -60,6 +62,7 @@ pub struct Finished {
     points: bool,
     surface: bool,
     pieces: bool,
+    camera: bool,
     record: Option<(f64, FrameShare, Due)>,
 }
 
@@ -182,6 +185,7 @@ impl FrameLoop {
         let points = wanted.points || due.points;
         let surface = wanted.surface || due.surface;
         let pieces = due.pieces || (wanted.pieces && self.pieces_due(t_next));
+        let camera = wanted.camera && self.setup.camera.as_mut().is_some_and(|c| c.due(t_next));
         let needs_deformation = self
             .setup
             .surface
@@ -234,6 +238,7 @@ impl FrameLoop {
             points,
             surface,
             pieces,
+            camera,
             record,
         };
         let stepped = Stepped {
@@ -280,6 +285,7 @@ impl FrameLoop {
             points,
             surface,
             pieces,
+            camera,
             record,
         } = finished;
         if pieces {
@@ -293,6 +299,15 @@ impl FrameLoop {
         }
         if let (true, Some(s)) = (surface, &mut setup.surface) {
             frame.surface = Some(Arc::new(s.triangles(setup.world.particles())));
+        }
+        if let (true, Some(rig)) = (camera, &mut setup.camera) {
+            match rig.render(&setup.world) {
+                Ok(images) => frame.camera = Some(Arc::new(images)),
+                Err(e) => {
+                    tracing::error!("camera off: {e}");
+                    setup.camera = None;
+                }
+            }
         }
         let frame = Arc::new(frame);
         if let (Some(sink), Some((start, (inputs, events), due))) = (&mut setup.recorder, record) {
@@ -469,5 +484,6 @@ fn frame_of(setup: &SimSetup, report: Option<&FrameReport>) -> Frame {
             .collect(),
         teleop: setup.teleop.as_ref().map(|t| t.teleop.state()),
         pieces: None,
+        camera: None,
     }
 }

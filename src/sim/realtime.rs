@@ -37,6 +37,8 @@ pub struct SimHandle {
     pub surface_wanted: Arc<AtomicBool>,
     /// Set while someone subscribes to the piece count.
     pub pieces_wanted: Arc<AtomicBool>,
+    /// Set while someone subscribes to a camera topic.
+    pub camera_wanted: Arc<AtomicBool>,
     /// Substeps taken so far (for the node's status).
     pub substeps: Arc<AtomicU64>,
     stop: Arc<AtomicBool>,
@@ -79,6 +81,7 @@ struct WantedFlags {
     points: Arc<AtomicBool>,
     surface: Arc<AtomicBool>,
     pieces: Arc<AtomicBool>,
+    camera: Arc<AtomicBool>,
 }
 
 impl WantedFlags {
@@ -87,6 +90,7 @@ impl WantedFlags {
             points: self.points.load(Ordering::Relaxed),
             surface: self.surface.load(Ordering::Relaxed),
             pieces: self.pieces.load(Ordering::Relaxed),
+            camera: self.camera.load(Ordering::Relaxed),
         }
     }
 }
@@ -99,6 +103,7 @@ pub fn spawn(setup: SimSetup) -> SimHandle {
         points: Arc::new(AtomicBool::new(false)),
         surface: Arc::new(AtomicBool::new(false)),
         pieces: Arc::new(AtomicBool::new(false)),
+        camera: Arc::new(AtomicBool::new(false)),
     };
     let stop = Arc::new(AtomicBool::new(false));
     let substeps = Arc::new(AtomicU64::new(0));
@@ -121,6 +126,7 @@ pub fn spawn(setup: SimSetup) -> SimHandle {
         points_wanted: wanted.points,
         surface_wanted: wanted.surface,
         pieces_wanted: wanted.pieces,
+        camera_wanted: wanted.camera,
         substeps,
         stop,
         thread: Some(thread),

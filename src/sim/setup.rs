@@ -88,6 +88,8 @@ pub struct SimSetup {
     pub paced: bool,
     /// The thread ends by itself once simulated time reaches this (s).
     pub stop_at: Option<f64>,
+    /// The scene's camera, when it has one and it can run.
+    pub camera: Option<crate::render::CameraRig>,
 }
 
 impl SimSetup {
@@ -107,6 +109,7 @@ impl SimSetup {
             replay: None,
             paced: false,
             stop_at: None,
+            camera: None,
         }
     }
 }
@@ -288,6 +291,7 @@ pub fn build_setup(scene: &Scene) -> Result<SimSetup, SetupError> {
         scene.domain.dx as f32,
         outputs.points_scalar,
     )?;
+    let camera = crate::render::CameraRig::for_world(&world);
     Ok(SimSetup {
         world,
         arms,
@@ -300,5 +304,6 @@ pub fn build_setup(scene: &Scene) -> Result<SimSetup, SetupError> {
         replay: None,
         paced: true,
         stop_at: None,
+        camera,
     })
 }

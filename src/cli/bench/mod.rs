@@ -1,9 +1,10 @@
 //! `bench`: the runtime-against-error sweep over the analytic scenes (the default), and
-//! throughput, scaling, frame, skip, surface, dataset and accuracy tables. Each is a command that
+//! throughput, scaling, frame, skip, surface, dataset, camera and accuracy tables. Each is a command that
 //! prints a table and writes it as Markdown and CSV under `--out` ([`report`]); none is
 //! library API.
 
 pub mod accuracy;
+pub mod camera;
 pub mod dataset;
 pub mod frame;
 pub mod plot;
@@ -128,6 +129,16 @@ pub enum BenchCommand {
         every: f64,
         #[command(flatten)]
         solver: SolverOverrides,
+    },
+    /// The stereo camera on a scene with a `[camera]`: render time per stereo frame (RGB,
+    /// depth, labels, readback; JPEG) at 320×240, 640×360 and 1280×720 per eye, and the
+    /// simulation's frame rate with the camera subscribed against unsubscribed.
+    Camera {
+        #[arg(long, default_value = "config/default.toml")]
+        scene: PathBuf,
+        /// Frames to time each way (after one warm-up frame).
+        #[arg(long, default_value_t = 20)]
+        frames: u32,
     },
 }
 
@@ -266,6 +277,13 @@ pub fn run(args: BenchArgs) -> Result<()> {
             print_and_write("dataset", &dataset::run(&spec, &jobs)?, gpu.as_deref())
         }
         BenchCommand::Accuracy => print_and_write("accuracy", &accuracy::table(), None),
+        BenchCommand::Camera { scene, frames } => {
+            let loaded = dvrk_tissue_sim::config::load(&scene)?;
+            let result = camera::run(&loaded, frames.max(1))
+                .with_context(|| format!("camera bench on {}", scene.display()))?;
+            let adapter = adapter_name();
+            print_and_write("camera", &result.table(), Some(adapter.as_str()))
+        }
     }
 }
 

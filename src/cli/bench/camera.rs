@@ -1,0 +1,149 @@
+//! The camera's cost on a scene with a `[camera]`: the time of one stereo frame (the
+//! scene's triangles, the render with RGB, depth and labels and its readback, the JPEG) at
+//! a few resolutions, and the simulation's frame rate with the camera subscribed against
+//! unsubscribed.
+
+use anyhow::{bail, Result};
+use dvrk_tissue_sim::config::Scene;
+use dvrk_tissue_sim::render::camera::stereo_eyes;
+use dvrk_tissue_sim::render::{CameraImages, Renderer, SceneGeometry};
+use dvrk_tissue_sim::ros::camera::compressed_message;
+use dvrk_tissue_sim::sim::frame_loop::{FrameLoop, Wanted};
+use dvrk_tissue_sim::sim::setup::build_setup;
+use dvrk_tissue_sim::world::World;
+use std::fmt::Write;
+use std::time::Instant;
+
+/// Per-eye resolutions timed.
+pub const RESOLUTIONS: [[u32; 2]; 3] = [[320, 240], [640, 360], [1280, 720]];
+
+pub struct Row {
+    resolution: [u32; 2],
+    triangles: usize,
+    geometry_ms: f64,
+    render_ms: f64,
+    jpeg_ms: f64,
+}
+
+pub struct CameraBench {
+    scene: String,
+    adapter: String,
+    rows: Vec<Row>,
+    /// Frames per second of the simulation unsubscribed and subscribed (paced off), and the
+    /// camera frames the subscribed run rendered.
+    fps: [f64; 2],
+    rendered: usize,
+    frames: u32,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+pub fn run(scene: &Scene, frames: u32) -> Result<CameraBench> {
+    let Some(camera) = scene.camera.clone() else {
+        bail!("the scene has no [camera]");
+    };
+    let Some(pose) = camera.fixed_pose() else {
+        bail!("the scene's camera has no position");
+    };
+    let world = World::try_new(scene)?;
+    let mut renderer = Renderer::new()?;
+    let mut geometry = SceneGeometry::new(&world, None)?;
+    let mut rows = Vec::new();
+    for resolution in RESOLUTIONS {
+        let mut settings = camera.clone();
+        settings.resolution = resolution;
+        let eyes = stereo_eyes(&pose, settings.pinhole(), settings.baseline as f32);
+        let (mut g, mut r, mut j) = (Vec::new(), Vec::new(), Vec::new());
+        let mut triangles = 0;
+        // One warm-up frame (pipeline and target creation) before the timed ones.
+        for k in 0..=frames {
+            let t0 = Instant::now();
+            let tris = geometry.triangles(&world);
+            let t1 = Instant::now();
+            let frame = renderer.render(&tris.vertices, &eyes)?;
+            let t2 = Instant::now();
+            let images = CameraImages {
+                time: 0.0,
+                frame,
+                eyes: eyes.clone(),
+                baseline: settings.baseline,
+            };
+            compressed_message(&images).map_err(anyhow::Error::msg)?;
+            let t3 = Instant::now();
+            if k > 0 {
+                g.push((t1 - t0).as_secs_f64() * 1e3);
+                r.push((t2 - t1).as_secs_f64() * 1e3);
+                j.push((t3 - t2).as_secs_f64() * 1e3);
+            }
+            triangles = tris.vertices.len() / 3;
+        }
+        rows.push(Row {
+            resolution,
+            triangles,
+            geometry_ms: median(g),
+            render_ms: median(r),
+            jpeg_ms: median(j),
+        });
+    }
+    let mut fps = [0.0; 2];
+    let mut rendered = 0;
+    for (k, subscribed) in [false, true].into_iter().enumerate() {
+        let mut setup = build_setup(scene)?;
+        setup.paced = false;
+        let mut frame_loop = FrameLoop::new(setup, None);
+        let wanted = Wanted {
+            camera: subscribed,
+            ..Default::default()
+        };
+        let start = Instant::now();
+        for _ in 0..frames {
+            let (finished, _) = frame_loop.step([], wanted, None, |_| {});
+            let frame = frame_loop.finish(finished);
+            rendered += frame.camera.is_some() as usize;
+        }
+        fps[k] = frames as f64 / start.elapsed().as_secs_f64();
+    }
+    Ok(CameraBench {
+        scene: scene.name.clone(),
+        adapter: renderer.adapter.clone(),
+        rows,
+        fps,
+        rendered,
+        frames,
+    })
+}
+
+impl CameraBench {
+    pub fn table(&self) -> String {
+        let mut s = format!(
+            "Stereo camera on `{}`, {}: median of {} frames (RGB, depth and labels, both eyes \
+             side by side)\n\n",
+            self.scene, self.adapter, self.frames
+        );
+        s +=
+            "| per eye | triangles | scene triangles (ms) | render + readback (ms) | JPEG (ms) |\n";
+        s += "|---|---|---|---|---|\n";
+        for r in &self.rows {
+            let _ = writeln!(
+                s,
+                "| {} × {} | {} | {:.2} | {:.1} | {:.1} |",
+                r.resolution[0],
+                r.resolution[1],
+                r.triangles,
+                r.geometry_ms,
+                r.render_ms,
+                r.jpeg_ms
+            );
+        }
+        let _ = write!(
+            s,
+            "\nSimulation, {} frames as fast as they compute: {:.1} frames/s unsubscribed, \
+             {:.1} subscribed ({} camera frames at the scene's camera settings)\n",
+            self.frames, self.fps[0], self.fps[1], self.rendered
+        );
+        s
+    }
+}

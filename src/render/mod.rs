@@ -1,0 +1,38 @@
+//! The endoscope camera: what it sees, drawn on the GPU.
+//!
+//! - **Optics** ([`camera`]): an ideal pinhole per eye, f = (width/2)/tan(hfov/2), the
+//!   principal point at the image centre; a rectified stereo pair `baseline` apart (by
+//!   default dVRK's simulators': 1280 × 720 per eye, 60°, 6 mm, 30 Hz), with CameraInfo's
+//!   K and P (the right eye's Tx = −f·baseline). Frames are REP 103's optical frames.
+//! - **Geometry** ([`geometry`]): one triangle list a frame, each corner labelled: the
+//!   tissue's fixed-topology surface mesh (bound to the particles as the published mesh is,
+//!   in a tissue colour or coloured by strain), each tool tessellated from its shape (the
+//!   gripper's two jaws at their opening, the needle's arc as a tube, a slicer's blade,
+//!   a mesh slicer's triangles), each thread as a tube of its radius, the table in 5 mm
+//!   tiles. Labels: 0 nothing, 1 the table, 10 + i tissue block i, 50 + i thread i,
+//!   100 + i tool i in scene order (a needle or a blade is a tool).
+//! - **Rasteriser** ([`gpu`]): wgpu on the best adapter (a hardware GPU, otherwise Mesa's
+//!   llvmpipe); both eyes drawn into one side-by-side image (left eye on the left) with
+//!   three targets: RGB lit from the eye (an endoscope's light sits beside its lens),
+//!   depth as the camera-frame z in metres (32-bit float, NaN where nothing was drawn, as
+//!   REP 118 asks) and the label. Without any adapter [`gpu::Renderer::new`] says so and the
+//!   camera stays off.
+//!
+//! The tissue mesh follows the particles as the backend last read them back, so on the GPU
+//! backend a camera frame reads the particle positions back (the solver's buffers are not
+//! drawn in place). A scene whose tissue is cut or torn is still drawn with the mesh of its
+//! rest surface, stretched over the cut.
+//!
+//! `tests/camera.rs` checks the picture against geometry: a plane's depth against the
+//! analytic one, a point's pixel against K, stereo disparity against f·b/z, labels against
+//! the shapes.
+
+pub mod camera;
+pub mod geometry;
+pub mod gpu;
+pub mod rig;
+
+pub use camera::{CameraSettings, Eye, Pinhole, TissueColour};
+pub use geometry::{SceneGeometry, Triangles, Vertex};
+pub use gpu::{Frame, RenderError, Renderer};
+pub use rig::{CameraImages, CameraRig};

@@ -1,0 +1,206 @@
+//! The camera's pictures against geometry (small images: on llvmpipe a frame is CPU work):
+//! a plane's depth against the analytic depth, a point's pixel against CameraInfo's K, stereo
+//! disparity against f·b/z, and labels against the shapes drawn.
+
+use dvrk_tissue_sim::config::builders::grasp_scene;
+use dvrk_tissue_sim::math::Vec3;
+use dvrk_tissue_sim::render::camera::{look_at, stereo_eyes};
+use dvrk_tissue_sim::render::geometry::{LABEL_TABLE, LABEL_TISSUE, LABEL_TOOL};
+use dvrk_tissue_sim::render::{Frame, Pinhole, Renderer, SceneGeometry, Triangles};
+use dvrk_tissue_sim::tools::Shape;
+use dvrk_tissue_sim::world::World;
+use nalgebra::{Isometry3, Point3, Translation3};
+
+fn renderer() -> Renderer {
+    Renderer::new().expect("the camera tests need a GPU adapter (llvmpipe will do)")
+}
+
+fn pinhole(width: u32, height: u32) -> Pinhole {
+    Pinhole::from_hfov(width, height, 60f64.to_radians(), 0.005, 10.0)
+}
+
+/// Mean pixel (OpenCV coordinates) of the pixels of one eye labelled `label`, and their count.
+fn centroid(frame: &Frame, eye: usize, label: u8) -> ([f64; 2], usize) {
+    let labels = frame.eye(&frame.labels, eye, 1);
+    let w = frame.eye_width as usize;
+    let (mut sx, mut sy, mut n) = (0.0, 0.0, 0usize);
+    for (i, &l) in labels.iter().enumerate() {
+        if l == label {
+            sx += (i % w) as f64;
+            sy += (i / w) as f64;
+            n += 1;
+        }
+    }
+    ([sx / n.max(1) as f64, sy / n.max(1) as f64], n)
+}
+
+#[test]
+fn a_plane_seen_obliquely_has_the_analytic_depth_within_half_a_percent() {
+    let mut r = renderer();
+    let mut tris = Triangles::default();
+    tris.table(0.0, [-1.0, -1.0], [1.0, 1.0]);
+    let eye_at = Vec3::new(0.03, -0.04, 0.08);
+    let pose = look_at(eye_at, Vec3::new(0.0, 0.01, 0.0));
+    let p = pinhole(64, 48);
+    let eyes = stereo_eyes(&pose, p, 0.0);
+    let frame = r.render(&tris.vertices, &eyes).unwrap();
+    assert_eq!((frame.width, frame.height), (64, 48));
+    let mut checked = 0;
+    let mut worst = 0f64;
+    for v in 0..48 {
+        for u in 0..64 {
+            let i = v * 64 + u;
+            assert_eq!(frame.labels[i], LABEL_TABLE, "pixel ({u}, {v})");
+            // The pixel's ray in the camera frame (z = 1), into the world, onto z = 0.
+            let ray = Vec3::new(
+                (u as f32 - p.cx) / p.focal,
+                (v as f32 - p.cy) / p.focal,
+                1.0,
+            );
+            let world_ray = pose.rotation * ray;
+            let analytic = (-eye_at.z / world_ray.z) as f64;
+            let rel = (frame.depth[i] as f64 - analytic).abs() / analytic;
+            worst = worst.max(rel);
+            checked += 1;
+        }
+    }
+    println!(
+        "plane: {checked} pixels, largest depth error {:.4} %",
+        100.0 * worst
+    );
+    assert!(worst < 0.005, "largest relative depth error {worst}");
+}
+
+#[test]
+fn a_point_lands_where_k_projects_it_and_stereo_disparity_is_f_b_over_z() {
+    let mut r = renderer();
+    let p = pinhole(160, 120);
+    let rig = look_at(Vec3::new(0.0, 0.0, 0.1), Vec3::zeros());
+    let baseline = 0.006;
+    let eyes = stereo_eyes(&rig, p, baseline);
+    // Small spheres at several depths and off-axis positions.
+    for (k, centre) in [
+        Vec3::new(0.0, 0.0, 0.04),
+        Vec3::new(0.012, -0.008, 0.0),
+        Vec3::new(-0.02, 0.01, 0.03),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let mut tris = Triangles::default();
+        tris.tool(
+            &Shape::Sphere { radius: 0.002 },
+            &Isometry3::from_parts(Translation3::from(centre), Default::default()),
+            0.0,
+            LABEL_TOOL,
+        );
+        let frame = r.render(&tris.vertices, &eyes).unwrap();
+        assert_eq!(
+            (frame.width, frame.eye_width, frame.height),
+            (320, 160, 120)
+        );
+        let mut seen = [[0.0; 2]; 2];
+        for (e, eye) in eyes.iter().enumerate() {
+            let in_eye = eye.pose.inverse_transform_point(&Point3::from(centre));
+            let expected = p.project(in_eye.coords).unwrap();
+            let (drawn, n) = centroid(&frame, e, LABEL_TOOL);
+            assert!(n > 3, "sphere {k} eye {e}: {n} pixels");
+            let err = ((drawn[0] - expected[0] as f64).powi(2)
+                + (drawn[1] - expected[1] as f64).powi(2))
+            .sqrt();
+            println!("sphere {k} eye {e}: drawn {drawn:.2?}, K gives {expected:.2?}, {err:.3} px");
+            assert!(
+                err < 1.0,
+                "sphere {k} eye {e}: {err} px from K's projection"
+            );
+            seen[e] = drawn;
+        }
+        let z = rig.inverse_transform_point(&Point3::from(centre)).z as f64;
+        let disparity = seen[0][0] - seen[1][0];
+        let expected = p.focal as f64 * baseline as f64 / z;
+        println!("sphere {k}: disparity {disparity:.3} px, f·b/z = {expected:.3} px");
+        assert!((disparity - expected).abs() < 1.0);
+        assert!(
+            (seen[0][1] - seen[1][1]).abs() < 0.5,
+            "rectified: same rows"
+        );
+    }
+}
+
+#[test]
+fn labels_match_the_shapes_drawn_in_a_shipped_scene() {
+    // The grasp scene: a tissue block on the table, a gripper above it with its jaws open.
+    let scene = grasp_scene(0.5, 0.8, 1.2, 0.01);
+    let world = World::new(&scene);
+    let mut geometry = SceneGeometry::new(&world, None).unwrap();
+    let tris = geometry.triangles(&world);
+    let mut r = renderer();
+    let p = pinhole(96, 72);
+    let pose = look_at(Vec3::new(0.03, -0.035, 0.045), Vec3::new(0.0, 0.0, 0.008));
+    let eyes = stereo_eyes(&pose, p, 0.0);
+    let frame = r.render(&tris.vertices, &eyes).unwrap();
+    let table_z = scene.table.as_ref().unwrap().height as f32;
+    let tool = &world.tools()[0];
+    let tool_pose = tool.pose_at(0.0);
+    let (rot, at): (nalgebra::Matrix3<f32>, Vec3) = (
+        tool_pose.rotation.to_rotation_matrix().into_inner().cast(),
+        tool_pose.position.cast(),
+    );
+    let particles = &world.particles().x;
+    let spacing = world.particles().volume0[0].cbrt();
+    let mut counts = [0usize; 3];
+    for v in 0..72 {
+        for u in 0..96 {
+            let i = v * 96 + u;
+            let label = frame.labels[i];
+            let z = frame.depth[i];
+            assert_eq!(
+                label == 0,
+                z.is_nan(),
+                "pixel ({u}, {v}): depth {z}, label {label}"
+            );
+            if label == 0 {
+                continue;
+            }
+            let ray = Vec3::new(
+                (u as f32 - p.cx) / p.focal,
+                (v as f32 - p.cy) / p.focal,
+                1.0,
+            );
+            let x = pose * Point3::from(ray * z);
+            if label == LABEL_TABLE {
+                assert!(
+                    (x.z - table_z).abs() < 1e-4,
+                    "table pixel ({u}, {v}) at {x}"
+                );
+                counts[0] += 1;
+            } else if label == LABEL_TISSUE {
+                // On the block's surface: within a spacing of its particles' hull.
+                let nearest = particles
+                    .iter()
+                    .map(|q| (q - x.coords).norm())
+                    .fold(f32::INFINITY, f32::min);
+                assert!(
+                    nearest < 1.2 * spacing,
+                    "tissue pixel ({u}, {v}) {nearest} m from particles"
+                );
+                counts[1] += 1;
+            } else if label == LABEL_TOOL {
+                let local = rot.tr_mul(&(x.coords - at));
+                let d = tool.shape.query(local, tool_pose.jaw as f32).distance;
+                assert!(
+                    d.abs() < 2e-4,
+                    "tool pixel ({u}, {v}) {d} m off the gripper's surface"
+                );
+                counts[2] += 1;
+            } else {
+                panic!("pixel ({u}, {v}) labelled {label}: nothing of that label is in the scene");
+            }
+        }
+    }
+    println!(
+        "labelled pixels: table {}, tissue {}, gripper {}",
+        counts[0], counts[1], counts[2]
+    );
+    assert!(counts.iter().all(|&c| c > 30), "{counts:?}");
+}

@@ -1,0 +1,123 @@
+"""The endoscope's topics as a user sees them (tests/scenes/camera.toml: 2 x 160 x 120, 60°,
+6 mm baseline, 30 Hz).
+
+Subscribes /ECM/image_raw, /ECM/image_raw/compressed, /ECM/left/camera_info,
+/ECM/right/camera_info, /ECM/left/depth and /ECM/left/labels; checks sizes, encodings,
+steps, the JPEG's own header, stamps (simulated time, 1/30 s apart, the same on every topic
+of one picture), K and P against the scene's optics, and that depth and labels agree
+(NaN exactly where nothing was drawn).
+
+Prints `RESULT images=.. rate_hz=..`.
+"""
+
+import math
+import struct
+import time
+
+import rclpy
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image
+
+from common import check, fail
+
+W, H, HFOV, BASELINE, RATE = 160, 120, math.radians(60.0), 0.006, 30.0
+F = (W / 2) / math.tan(HFOV / 2)
+
+rclpy.init()
+node = rclpy.create_node("camera_probe")
+got = {}
+
+
+def keep(topic):
+    def on(msg):
+        got.setdefault(topic, []).append(msg)
+
+    return on
+
+
+for msg_type, topic in [
+    (Image, "/ECM/image_raw"),
+    (CompressedImage, "/ECM/image_raw/compressed"),
+    (CameraInfo, "/ECM/left/camera_info"),
+    (CameraInfo, "/ECM/right/camera_info"),
+    (Image, "/ECM/left/depth"),
+    (Image, "/ECM/left/labels"),
+]:
+    node.create_subscription(msg_type, topic, keep(topic), 10)
+
+end = time.monotonic() + 60.0
+while time.monotonic() < end:
+    if all(len(got.get(t, [])) >= 8 for t in ["/ECM/image_raw", "/ECM/left/camera_info"]) and all(
+        got.get(t) for t in ["/ECM/image_raw/compressed", "/ECM/right/camera_info",
+                             "/ECM/left/depth", "/ECM/left/labels"]
+    ):
+        break
+    rclpy.spin_once(node, timeout_sec=0.01)
+else:
+    fail("timed out waiting for the camera topics: " + str({t: len(m) for t, m in got.items()}))
+
+
+def stamp(m):
+    return m.header.stamp.sec + m.header.stamp.nanosec * 1e-9
+
+
+images = got["/ECM/image_raw"]
+image = images[-1]
+check(image.encoding == "rgb8", f"image encoding {image.encoding}")
+check((image.width, image.height) == (2 * W, H), f"side by side: {image.width} x {image.height}")
+check(image.step == 3 * 2 * W and len(image.data) == image.step * H, "step and data length")
+check(image.header.frame_id == "ECM_left_optical_frame", f"frame {image.header.frame_id}")
+data = bytes(image.data)
+# Something is drawn in both eyes: not one flat colour.
+for eye in range(2):
+    pixels = {data[3 * (y * 2 * W + eye * W + x): 3 * (y * 2 * W + eye * W + x) + 3]
+              for y in range(0, H, 7) for x in range(0, W, 7)}
+    check(len(pixels) > 20, f"eye {eye}: {len(pixels)} distinct colours sampled")
+
+stamps = [stamp(m) for m in images]
+check(all(0.0 < s < 1e6 for s in stamps), f"stamps are simulated time ({stamps[0]:.3f} s ...)")
+steps = [b - a for a, b in zip(stamps, stamps[1:])]
+check(all(s > 0 for s in steps), "stamps rise")
+check(min(steps) > 1 / RATE - 1e-3, f"at most {RATE} Hz in simulated time (min step {min(steps):.4f} s)")
+rate = (len(stamps) - 1) / (stamps[-1] - stamps[0])
+check(abs(min(steps) - 1 / RATE) < 2e-3, f"pictures 1/{RATE} s apart (min step {min(steps):.4f} s)")
+
+info_l = got["/ECM/left/camera_info"][-1]
+info_r = got["/ECM/right/camera_info"][-1]
+info_stamps = {stamp(m) for m in got["/ECM/left/camera_info"]}
+check(stamps[-1] in info_stamps or stamps[-2] in info_stamps, "camera_info stamps match the image's")
+for name, info in [("left", info_l), ("right", info_r)]:
+    check((info.width, info.height) == (W, H), f"{name} camera_info size {info.width} x {info.height}")
+    k = list(info.k)
+    check(abs(k[0] - F) < 1e-3 and abs(k[4] - F) < 1e-3, f"{name} K fx = fy = {k[0]:.3f} (expected {F:.3f})")
+    check(k[2] == W / 2 and k[5] == H / 2 and k[8] == 1.0, f"{name} K principal point ({k[2]}, {k[5]})")
+    check(info.distortion_model == "plumb_bob" and all(d == 0 for d in info.d), f"{name} no distortion")
+    check(info.header.frame_id == f"ECM_{name}_optical_frame", f"{name} frame {info.header.frame_id}")
+check(info_l.p[3] == 0.0, "left P Tx = 0")
+check(abs(info_r.p[3] + F * BASELINE) < 1e-6, f"right P Tx = {info_r.p[3]:.5f} = -f b")
+
+jpeg = bytes(got["/ECM/image_raw/compressed"][-1].data)
+check(got["/ECM/image_raw/compressed"][-1].format == "jpeg", "compressed format jpeg")
+check(jpeg[:2] == b"\xff\xd8" and jpeg[-2:] == b"\xff\xd9", f"JPEG SOI/EOI ({len(jpeg)} bytes)")
+# The frame header (SOF0) holds the JPEG's own height and width.
+i = 2
+size = None
+while i < len(jpeg) - 4:
+    marker, length = jpeg[i + 1], struct.unpack(">H", jpeg[i + 2:i + 4])[0]
+    if marker in (0xC0, 0xC1, 0xC2):
+        size = struct.unpack(">HH", jpeg[i + 5:i + 9])
+        break
+    i += 2 + length
+check(size == (H, 2 * W), f"JPEG frame header height, width {size}")
+
+depth = got["/ECM/left/depth"][-1]
+labels = got["/ECM/left/labels"][-1]
+check(depth.encoding == "32FC1" and (depth.width, depth.height) == (W, H), "depth 32FC1, one eye")
+check(labels.encoding == "mono8" and (labels.width, labels.height) == (W, H), "labels mono8, one eye")
+z = struct.unpack(f"<{W * H}f", bytes(depth.data))
+lab = bytes(labels.data)
+if stamp(depth) == stamp(labels):
+    check(all(math.isnan(d) == (l == 0) for d, l in zip(z, lab)), "depth NaN exactly where no label")
+finite = [d for d in z if not math.isnan(d)]
+check(finite and 0.02 < min(finite) and max(finite) < 1.0, f"depth {min(finite):.4f}..{max(finite):.4f} m")
+check({1, 10, 100} <= set(lab), f"table, tissue and the probe labelled: {sorted(set(lab))}")
+print(f"RESULT images={len(images)} rate_hz={rate:.1f}", flush=True)
