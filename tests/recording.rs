@@ -529,6 +529,7 @@ fn a_scripted_headless_run_records_its_outputs() {
     // piece count at 5 Hz.
     let expected = [
         ("/tf", 30),
+        ("/tf_static", 1),
         ("/tissue/pieces", 5),
         ("/tissue/points", 30),
         ("/tissue/surface", 10),

@@ -187,6 +187,7 @@ impl OutputLayout {
         }
         out.push((self.topic(PIECES_TOPIC), UInt32::type_name()));
         out.push(("/tf".to_owned(), TFMessage::type_name()));
+        out.push(("/tf_static".to_owned(), TFMessage::type_name()));
         if let Some(f) = &self.force_feedback {
             out.push((f.topic.clone(), WrenchStamped::type_name()));
         }
