@@ -160,33 +160,83 @@ pub struct Chain {
     joints: Vec<ActuatedJoint>,
 }
 
-impl Chain {
-    /// Extracts the path from `base` down to `tip` (`tip` must be a descendant of `base`).
-    pub fn from_urdf(robot: &urdf_rs::Robot, base: &str, tip: &str) -> Result<Chain, ChainError> {
+/// A URDF's links and joints indexed once, so that any number of chains can be taken from
+/// it in time proportional to their length (a model with many links is read in linear time).
+pub struct UrdfTree<'a> {
+    robot: &'a urdf_rs::Robot,
+    links: HashSet<&'a str>,
+    parent_joint: HashMap<&'a str, &'a urdf_rs::Joint>,
+    child_joints: HashMap<&'a str, Vec<&'a urdf_rs::Joint>>,
+    by_name: HashMap<&'a str, &'a urdf_rs::Joint>,
+    /// The first joint that does not fit a tree (dangling or a second parent).
+    fault: Option<ChainError>,
+}
+
+impl<'a> UrdfTree<'a> {
+    /// Indexes `robot`'s links and joints.
+    pub fn new(robot: &'a urdf_rs::Robot) -> UrdfTree<'a> {
         let links: HashSet<&str> = robot.links.iter().map(|l| l.name.as_str()).collect();
-        for link in [base, tip] {
-            if !links.contains(link) {
-                return Err(ChainError::MissingLink(link.to_owned()));
-            }
-        }
         let mut parent_joint: HashMap<&str, &urdf_rs::Joint> = HashMap::new();
+        let mut child_joints: HashMap<&str, Vec<&urdf_rs::Joint>> = HashMap::new();
+        let mut fault = None;
         for joint in &robot.joints {
             for link in [&joint.parent.link, &joint.child.link] {
-                if !links.contains(link.as_str()) {
-                    return Err(ChainError::DanglingJoint {
+                if fault.is_none() && !links.contains(link.as_str()) {
+                    fault = Some(ChainError::DanglingJoint {
                         joint: joint.name.clone(),
                         link: link.clone(),
                     });
                 }
             }
             if let Some(first) = parent_joint.insert(&joint.child.link, joint) {
-                return Err(ChainError::MultipleParents {
-                    link: joint.child.link.clone(),
-                    first: first.name.clone(),
-                    second: joint.name.clone(),
-                });
+                if fault.is_none() {
+                    fault = Some(ChainError::MultipleParents {
+                        link: joint.child.link.clone(),
+                        first: first.name.clone(),
+                        second: joint.name.clone(),
+                    });
+                }
+            }
+            child_joints
+                .entry(joint.parent.link.as_str())
+                .or_default()
+                .push(joint);
+        }
+        let by_name = robot.joints.iter().map(|j| (j.name.as_str(), j)).collect();
+        UrdfTree {
+            robot,
+            links,
+            parent_joint,
+            child_joints,
+            by_name,
+            fault,
+        }
+    }
+
+    /// The joints whose parent is `link`, in the file's order.
+    pub fn child_joints(&self, link: &str) -> &[&'a urdf_rs::Joint] {
+        self.child_joints.get(link).map_or(&[], Vec::as_slice)
+    }
+}
+
+impl Chain {
+    /// Extracts the path from `base` down to `tip` (`tip` must be a descendant of `base`).
+    pub fn from_urdf(robot: &urdf_rs::Robot, base: &str, tip: &str) -> Result<Chain, ChainError> {
+        Chain::from_tree(&UrdfTree::new(robot), base, tip)
+    }
+
+    /// [`Chain::from_urdf`] on an indexed URDF.
+    pub fn from_tree(tree: &UrdfTree<'_>, base: &str, tip: &str) -> Result<Chain, ChainError> {
+        let robot = tree.robot;
+        for link in [base, tip] {
+            if !tree.links.contains(link) {
+                return Err(ChainError::MissingLink(link.to_owned()));
             }
         }
+        if let Some(fault) = &tree.fault {
+            return Err(fault.clone());
+        }
+        let parent_joint = &tree.parent_joint;
 
         // Walk up from the tip: in a tree the path to any ancestor is unique.
         let mut path = Vec::new();
@@ -208,8 +258,7 @@ impl Chain {
         }
         path.reverse();
 
-        let by_name: HashMap<&str, &urdf_rs::Joint> =
-            robot.joints.iter().map(|j| (j.name.as_str(), j)).collect();
+        let by_name = &tree.by_name;
         let mut joints: Vec<ActuatedJoint> = Vec::new();
         let mut segments = Vec::with_capacity(path.len());
         for joint in path {

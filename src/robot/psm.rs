@@ -1,11 +1,12 @@
 //! The dVRK Patient Side Manipulator: its kinematic chain from the URDF, joint and jaw limits,
 //! the RCM safety distance for Cartesian commands, IK, and `move_jp` planning.
 
+use std::collections::{HashMap, HashSet};
 use std::path::Path;
 
 use nalgebra::{Isometry3, Matrix6xX, Translation3, Vector3};
 
-use crate::robot::chain::{Chain, ChainError, JointKind};
+use crate::robot::chain::{Chain, ChainError, JointKind, UrdfTree};
 use crate::robot::ik::{self, IkError, IkOptions, IkSolution};
 use crate::robot::joints::{JointCommandError, JointGroup};
 use crate::robot::trajectory::{Trajectory, TrajectoryError};
@@ -179,6 +180,22 @@ pub struct UrdfRoles {
     pub tool_link: Option<String>,
 }
 
+/// A link below the wrist: the joint from its parent.
+#[derive(Debug, Clone)]
+struct Attachment {
+    parent: Parent,
+    joint: Chain,
+}
+
+/// Where an [`Attachment`]'s parent link is.
+#[derive(Debug, Clone, Copy)]
+enum Parent {
+    /// On the arm's path (index in its links).
+    Path(usize),
+    /// Another attachment (index in the attachments, always earlier).
+    Attachment(usize),
+}
+
 /// One PSM: frames are named after the arm (`PSM1_base`, `PSM1`, `PSM1_tool_tip`, ...).
 #[derive(Debug, Clone)]
 pub struct Psm {
@@ -186,11 +203,11 @@ pub struct Psm {
     base_frame: String,
     /// From the base (the RCM) to dVRK's tool frame (what `measured_cp` reports).
     arm: Chain,
-    /// Index in `arm`'s links of the wrist (the child of `wrist_yaw`), where the jaws hang.
-    wrist: usize,
-    /// From the wrist to every link below it off the arm's path (tool tip, jaws); their only
-    /// variable is `jaw`.
-    attachments: Vec<Chain>,
+    /// Every link below the wrist off the arm's path (tool tip, jaws), parents before
+    /// children: one joint from its parent each; their only variable is `jaw`.
+    attachments: Vec<Attachment>,
+    /// The order [`Psm::link_frames`] lists `attachments` in: the file's order of links.
+    attachment_order: Vec<usize>,
     joints: JointGroup,
     jaw: JointGroup,
     ik_options: IkOptions,
@@ -304,16 +321,17 @@ impl Psm {
         // dvrk_model's current layout names the remote centre of motion `P_RCM_link`; in its Si
         // layout `P_base_link` is the arm's mounting, on the yaw axis 0.8 m from the RCM, so
         // the RCM link is the base wherever the tool hangs below it.
+        let tree = UrdfTree::new(&robot);
         let rcm_link = format!("{name}_RCM_link");
         let base_link = if roles.base_link.is_none()
             && has_link(&robot, &rcm_link)
-            && Chain::from_urdf(&robot, &rcm_link, &tool_link).is_ok()
+            && Chain::from_tree(&tree, &rcm_link, &tool_link).is_ok()
         {
             rcm_link
         } else {
             base_link
         };
-        let mut arm = Chain::from_urdf(&robot, &base_link, &tool_link)?;
+        let mut arm = Chain::from_tree(&tree, &base_link, &tool_link)?;
         if let Some(setback) = setback {
             arm = arm.with_fixed_tip(name, Isometry3::translation(0.0, 0.0, -setback));
         }
@@ -342,19 +360,40 @@ impl Psm {
                     PSM_JOINT_NAMES[5]
                 ))
             })?;
-        let mut attachments = Vec::new();
-        for link in &robot.links {
-            if path.contains(&link.name.as_str()) {
-                continue;
-            }
-            match Chain::from_urdf(&robot, path[wrist], &link.name) {
-                Ok(chain) => attachments.push(chain),
-                Err(ChainError::NoPath { .. }) => {}
-                Err(other) => return Err(other.into()),
+        // Breadth first from the wrist, one joint at a time: linear in the links below it.
+        let on_path: HashMap<&str, usize> = path.iter().enumerate().map(|(i, l)| (*l, i)).collect();
+        let mut attachments: Vec<Attachment> = Vec::new();
+        let mut queue = std::collections::VecDeque::from([(path[wrist], Parent::Path(wrist))]);
+        let mut seen = HashSet::from([path[wrist]]);
+        while let Some((link, parent)) = queue.pop_front() {
+            for joint in tree.child_joints(link) {
+                let child = joint.child.link.as_str();
+                if !seen.insert(child) {
+                    continue;
+                }
+                let place = match on_path.get(child) {
+                    Some(&i) => Parent::Path(i),
+                    None => {
+                        attachments.push(Attachment {
+                            parent,
+                            joint: Chain::from_tree(&tree, link, child)?,
+                        });
+                        Parent::Attachment(attachments.len() - 1)
+                    }
+                };
+                queue.push_back((child, place));
             }
         }
+        let link_index: HashMap<&str, usize> = robot
+            .links
+            .iter()
+            .enumerate()
+            .map(|(i, l)| (l.name.as_str(), i))
+            .collect();
+        let mut attachment_order: Vec<usize> = (0..attachments.len()).collect();
+        attachment_order.sort_by_key(|&a| link_index.get(attachments[a].joint.tip_link()));
         let mut jaw = None;
-        for chain in &attachments {
+        for chain in attachments.iter().map(|a| &a.joint) {
             for joint in chain.joints() {
                 if joint.name != JAW_JOINT_NAME {
                     return Err(PsmError::NotAPsm(format!(
@@ -408,8 +447,8 @@ impl Psm {
             name: name.to_owned(),
             base_frame: format!("{name}_base"),
             arm,
-            wrist,
             attachments,
+            attachment_order,
             joints: JointGroup::new(arm_joints),
             jaw: JointGroup::new(vec![jaw]),
             ik_options: IkOptions::default(),
@@ -499,7 +538,16 @@ impl Psm {
     /// first, then the arm, the tool frame, the tool tip and the jaws), for /tf.
     pub fn link_frames(&self, q: &[f64], jaw: f64) -> Result<Vec<LinkFrame>, PsmError> {
         let poses = self.arm.link_poses(q)?;
-        let wrist = poses[self.wrist];
+        let jaw_q = [jaw];
+        let mut below: Vec<Isometry3<f64>> = Vec::with_capacity(self.attachments.len());
+        for attachment in &self.attachments {
+            let parent = match attachment.parent {
+                Parent::Path(i) => poses[i],
+                Parent::Attachment(i) => below[i],
+            };
+            let q = &jaw_q[..attachment.joint.dof()];
+            below.push(parent * attachment.joint.tip_pose(q)?);
+        }
         let mut frames: Vec<LinkFrame> = self
             .arm
             .link_names()
@@ -510,12 +558,10 @@ impl Psm {
                 pose,
             })
             .collect();
-        for chain in &self.attachments {
-            let jaw_q = [jaw];
-            let q = &jaw_q[..chain.dof()];
+        for &i in &self.attachment_order {
             frames.push(LinkFrame {
-                link: chain.tip_link().to_owned(),
-                pose: wrist * chain.tip_pose(q)?,
+                link: self.attachments[i].joint.tip_link().to_owned(),
+                pose: below[i],
             });
         }
         Ok(frames)

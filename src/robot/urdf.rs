@@ -77,6 +77,18 @@ pub enum UrdfError {
         source: urdf_rs::UrdfError,
     },
     #[error(
+        "malformed URDF{}: elements nest deeper than {MAX_XML_DEPTH} levels at line {line} (a \
+         URDF needs five)",
+        .path.as_ref().map(|p| format!(" {}", p.display())).unwrap_or_default()
+    )]
+    /// Elements nested deeper than [`MAX_XML_DEPTH`].
+    TooDeep {
+        /// The file's path (`None` for URDF text given directly).
+        path: Option<PathBuf>,
+        /// The line where the nesting passes the limit.
+        line: usize,
+    },
+    #[error(
         "cannot expand {path}: the `{program}` command is not installed ({source}). Expand it \
          yourself, e.g. `xacro {path} > PSM1.urdf` (xacro from PyPI or ROS, with dvrk_model in a \
          sourced ROS workspace, or the scene's `dvrk_model` key set), and point `urdf =` at \
@@ -109,9 +121,67 @@ pub enum UrdfError {
     InvalidArmName(String),
 }
 
+/// The deepest element nesting a URDF may have: a URDF nests five levels (`robot`, `link`,
+/// `visual`, `geometry`, `mesh`); the XML parser recurses per level, so without a limit a
+/// file of nested elements overflows the stack.
+pub const MAX_XML_DEPTH: usize = 32;
+
+/// The deepest element nesting in XML `text` and the line where it passes `limit`, if it
+/// does (comments, processing instructions, declarations and CDATA are skipped; a scan of
+/// the text, before any parser recursion).
+fn nesting_over(text: &str, limit: usize) -> Option<usize> {
+    let bytes = text.as_bytes();
+    let mut depth = 0usize;
+    let mut i = 0;
+    while let Some(offset) = bytes[i..].iter().position(|&b| b == b'<') {
+        let start = i + offset;
+        let rest = &text[start..];
+        let (end_marker, kind) = if rest.starts_with("<!--") {
+            ("-->", 0)
+        } else if rest.starts_with("<![CDATA[") {
+            ("]]>", 0)
+        } else if rest.starts_with("<?") || rest.starts_with("<!") {
+            (">", 0)
+        } else if rest.starts_with("</") {
+            (">", -1)
+        } else {
+            (">", 1)
+        };
+        let Some(end) = rest.find(end_marker) else {
+            return None; // unterminated: the parser names the fault
+        };
+        let tag = &rest[..end];
+        match kind {
+            1 if !tag.ends_with('/') => {
+                depth += 1;
+                if depth > limit {
+                    return Some(text[..start].matches('\n').count() + 1);
+                }
+            }
+            -1 => depth = depth.saturating_sub(1),
+            _ => {}
+        }
+        i = start + end + end_marker.len();
+    }
+    None
+}
+
+fn parse(text: &str, path: Option<&Path>) -> Result<urdf_rs::Robot, UrdfError> {
+    if let Some(line) = nesting_over(text, MAX_XML_DEPTH) {
+        return Err(UrdfError::TooDeep {
+            path: path.map(Path::to_owned),
+            line,
+        });
+    }
+    urdf_rs::read_from_string(text).map_err(|source| UrdfError::Parse {
+        path: path.map(Path::to_owned),
+        source,
+    })
+}
+
 /// Parses URDF text.
 pub fn parse_urdf(text: &str) -> Result<urdf_rs::Robot, UrdfError> {
-    urdf_rs::read_from_string(text).map_err(|source| UrdfError::Parse { path: None, source })
+    parse(text, None)
 }
 
 /// Reads and parses a URDF file (read and parse failures are told apart, with the path).
@@ -130,10 +200,7 @@ pub fn load_urdf(path: &Path, dvrk_model: Option<&Path>) -> Result<urdf_rs::Robo
             source,
         })?
     };
-    urdf_rs::read_from_string(&text).map_err(|source| UrdfError::Parse {
-        path: Some(path.to_owned()),
-        source,
-    })
+    parse(&text, Some(path))
 }
 
 /// Runs `program` (the `xacro` command) on `path` and returns the URDF it prints.

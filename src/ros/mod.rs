@@ -3,7 +3,8 @@
 //! ([`outputs`]), the endoscope's images ([`camera`]), the node's topic wiring ([`node`]), the bag recorder and replay
 //! ([`recorder`], [`replay`], [`recover`] for a bag a killed run left), `/rosout` ([`rosout`]) and a run's setup
 //! shared by the node and a headless replay ([`session`]), `/clock` ([`sim_clock`]) and the
-//! node's status ([`status`]). The simulation itself is [`crate::sim`].
+//! node's status ([`status`]), and its DDS participant ([`participant`]: limits, discovery
+//! range, one node per name). The simulation itself is [`crate::sim`].
 //!
 //! # The node
 //!
@@ -138,6 +139,26 @@
 //! stops reading costs the frame rate nothing; 20,000 fuzzed CDR payloads, 2,057 mutated scene
 //! files and 1,600 fuzzed URDFs are refused with a message each, never a panic; a 30-minute
 //! soak (`launch-scripts/soak.py --minutes 30`) ran at 0.98× real time with 0 ERROR lines.
+//!
+//! # Reliability under hostile input
+//!
+//! What a process on the same network, or a crafted file, can do to the node, each row with
+//! its regression test (the DDS ones in a loopback namespace):
+//!
+//! | attack | what happens | test |
+//! |---|---|---|
+//! | RTPS DATA_FRAG claiming a 4 GiB sample, from made-up writers, to the discovery and user ports | dropped before anything is allocated ([`participant`]: 64 KiB per sample, 8 MiB in all, through a patched RustDDS); memory flat, /clock at its rate | `tests/hostile_network.rs` |
+//! | arrays longer than the arm's joints, names longer than a name can be, control characters | dropped on receipt with one short, rate-limited line stating the size; log lines escape control characters | `tests/ros_node.rs` (`tests/ros/test_bad_input.py`) |
+//! | SIGTERM, SIGHUP | finish the bag as SIGINT does, exit 0 ([`shutdown`]) | `tests/bag_faults.rs` |
+//! | a bag with a huge record length to `bag recover` or `--replay` | refused with a limit from the file's size; no partial output | `tests/bag_faults.rs` |
+//! | `--record` / `bag recover` onto an existing file or a symlink | refused unless `--force`; never written through a symlink | `tests/bag_faults.rs` |
+//! | a URDF with 10⁵ links | checked in linear time (about a second), bounded memory | `tests/urdf_limits.rs` |
+//! | 2·10⁵ nested XML elements in a URDF | refused: nesting deeper than 32 levels, with the line | `tests/urdf_limits.rs` |
+//! | a second node with the same name and namespace in the domain | refused at start, naming the first; the first runs on | `tests/hostile_network.rs` |
+//! | `ROS_AUTOMATIC_DISCOVERY_RANGE`, `ROS_LOCALHOST_ONLY` | honoured as ROS 2 defines them (LOCALHOST: loopback discovery only); an unknown range refused | `tests/hostile_network.rs`, unit test in [`participant`] |
+//!
+//! Not defended: any participant that can reach the node's ports may still command the arms
+//! (DDS Security, SROS2, is not used).
 
 pub mod camera;
 pub mod inputs;
@@ -146,6 +167,7 @@ pub mod names;
 pub mod node;
 pub mod outputs;
 pub mod parameters;
+pub mod participant;
 pub mod recorder;
 pub mod recover;
 pub mod replay;

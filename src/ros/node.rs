@@ -14,8 +14,8 @@ use std::time::{Duration, Instant};
 use ros2_client::log::Log;
 use ros2_client::{
     qos::{Durability, History, Reliability, WhenFull},
-    Context, ContextOptions, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher,
-    QosProfile, ReadError, Subscription,
+    MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher, QosProfile, ReadError,
+    Subscription,
 };
 
 use crate::config::Scene;
@@ -25,6 +25,7 @@ use crate::ros::msgs::*;
 use crate::ros::names::remap;
 use crate::ros::outputs::{self, ArmOutput, EventMessage, EventStamps, OutputLayout};
 use crate::ros::parameters::ParameterServices;
+use crate::ros::participant::{self, DiscoveryRange};
 use crate::ros::rosout::Rosout;
 use crate::ros::session::{finish_recording, prepare, NodeSettings, SessionError};
 use crate::ros::sim_clock::SimClock;
@@ -42,6 +43,18 @@ pub enum NodeError {
     #[error("ROS_DOMAIN_ID = {0:?}: expected an integer from 0 to 232")]
     /// `ROS_DOMAIN_ID` is not an integer from 0 to 232 (holds its value).
     DomainId(String),
+    #[error(
+        "a node named {node} already runs in this ROS domain (DDS participant {participant}): \
+         two nodes with one name would interleave their topics; stop it, or start this one \
+         with another --name or --namespace"
+    )]
+    /// Another participant in the domain already runs a node with this name and namespace.
+    NameTaken {
+        /// The node's fully qualified name.
+        node: String,
+        /// The other participant's GID.
+        participant: String,
+    },
     /// A ROS 2 / DDS call failed; `detail` is the library's own description.
     #[error("{what}: {detail}")]
     Ros {
@@ -311,11 +324,12 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
     let node_name = NodeName::new(&settings.namespace, &settings.name)
         .map_err(|e| err("node name / namespace", e))?;
     let domain_id = domain_id_from_env()?;
+    let discovery_range = DiscoveryRange::from_env()?;
     let (setup, recorder) = prepare(scene, settings)?;
     let layout = OutputLayout::new(scene, &setup, &settings.namespace);
     log_wire_distribution();
-    let context = Context::with_options(ContextOptions::new().domain_id(domain_id))
-        .map_err(|e| err("DDS participant", e))?;
+    let context = participant::open(domain_id, discovery_range)?;
+    participant::ensure_name_is_free(&context, &node_name)?;
     let mut node = context
         .new_node(node_name, NodeOptions::new().enable_rosout(true))
         .map_err(|e| err("node", e))?;
