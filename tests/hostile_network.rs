@@ -93,7 +93,7 @@ fn data_frag_claims_from_made_up_writers_leave_memory_bounded_and_the_node_publi
     if !network_prerequisites(true) {
         return;
     }
-    let domain = 61u16;
+    let domain = 81u16;
     let node = NodeProcess::start_with(&SMALL, domain);
     let pid = node.pid();
     // Discovery (multicast and the first participant's unicast port) and user traffic
@@ -180,7 +180,7 @@ fn a_second_node_with_the_same_name_is_refused_and_the_first_runs_on() {
     if !network_prerequisites(false) {
         return;
     }
-    let domain = 64u16;
+    let domain = 82u16;
     let first = NodeProcess::start_with(&SMALL, domain);
     std::thread::sleep(Duration::from_secs(2));
     let started = Instant::now();
@@ -214,7 +214,7 @@ fn an_unknown_discovery_range_is_refused_with_its_value() {
     let out = support::binary()
         .arg("run")
         .args(SMALL)
-        .env("ROS_DOMAIN_ID", "65")
+        .env("ROS_DOMAIN_ID", "83")
         .env("ROS_AUTOMATIC_DISCOVERY_RANGE", "NEIGHBOURS")
         .output()
         .expect("the binary runs");
