@@ -71,8 +71,14 @@ fn data_frag(
 
 /// Counts the node's /clock messages over `seconds` with rclpy (see tests/ros/count_clock.py).
 fn spawn_clock_count(seconds: f64, domain: u16) -> std::process::Child {
+    spawn_clock_count_waiting(seconds, 20.0, domain)
+}
+
+/// As [`spawn_clock_count`], giving up after `wait` seconds without a first message.
+fn spawn_clock_count_waiting(seconds: f64, wait: f64, domain: u16) -> std::process::Child {
     rclpy_command("count_clock.py", domain)
         .arg(seconds.to_string())
+        .arg(wait.to_string())
         .stdout(Stdio::piped())
         .spawn()
         .expect("cannot run python")
@@ -224,4 +230,29 @@ fn an_unknown_discovery_range_is_refused_with_its_value() {
         log.contains("ROS_AUTOMATIC_DISCOVERY_RANGE = \"NEIGHBOURS\": expected SUBNET, LOCALHOST"),
         "{log}"
     );
+}
+
+#[test]
+fn discovery_range_localhost_is_found_on_this_host_and_off_by_nobody() {
+    if !network_prerequisites(true) {
+        return;
+    }
+    let _one_at_a_time = one_at_a_time();
+    for (range, domain, found) in [("LOCALHOST", 84u16, true), ("OFF", 85, false)] {
+        let node = support::binary()
+            .args(["run", "--seconds", "10"])
+            .args(SMALL)
+            .env("ROS_DOMAIN_ID", domain.to_string())
+            .env("ROS_AUTOMATIC_DISCOVERY_RANGE", range)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("cannot start the node");
+        let clocks = clock_count(spawn_clock_count_waiting(1.0, 5.0, domain));
+        let mut node = node;
+        let _ = node.kill();
+        let _ = node.wait();
+        eprintln!("ROS_AUTOMATIC_DISCOVERY_RANGE={range}: {clocks} /clock messages in 1 s");
+        assert_eq!(clocks > 0, found, "{range}: {clocks} /clock messages");
+    }
 }
