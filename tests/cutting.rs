@@ -236,7 +236,8 @@ fn a_psm_holds_the_scalpel_blade_down_along_its_instrument() {
     let scene = shipped("cutting_psm.toml");
     let setup = dvrk_tissue_sim::sim::build_setup(&scene).unwrap();
     let held = setup.arms[0].tool_pose();
-    let keyframe = setup.world.tools()[setup.arm_tools[0]].pose_at(0.0);
+    let keyframe =
+        setup.world.tools()[setup.arm_tools[0].expect("the PSM holds the scalpel")].pose_at(0.0);
     let dp = (held.position - keyframe.position).norm();
     let angle = held.rotation.angle_to(&keyframe.rotation);
     assert!(dp < 1e-9, "arm {held:?} keyframe {keyframe:?}");
@@ -250,7 +251,7 @@ fn a_psm_holds_the_scalpel_blade_down_along_its_instrument() {
     let edge = held.position.z - height as f64;
     let block_top = scene.tissues[0].center[2] + 0.5 * scene.tissues[0].size[2];
     assert!((edge - block_top - 0.002).abs() < 1e-9, "edge at {edge} m");
-    let mut q = scene.arms[0].home_joints;
+    let mut q = scene.arms[0].home_joints.clone();
     q[2] += 0.015;
     let lowered = setup.arms[0].psm().forward(&q).unwrap();
     let world = dvrk_tissue_sim::sim::setup::arm_base(&scene.arms[0]) * lowered;

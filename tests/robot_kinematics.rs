@@ -2,8 +2,9 @@
 //! IK∘FK round trips, at pseudo-random joint vectors inside the limits.
 
 use dvrk_tissue_sim::robot::dh;
+use dvrk_tissue_sim::robot::ecm::ECM_JOINT_NAMES;
 use dvrk_tissue_sim::robot::psm::RCM_MIN_DISTANCE;
-use dvrk_tissue_sim::robot::{IkError, Psm, RcmPolicy};
+use dvrk_tissue_sim::robot::{ArmKind, IkError, Psm, RcmPolicy};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 
 /// SplitMix64: deterministic, so a failure reproduces.
@@ -408,4 +409,77 @@ fn si_layout_gives_the_si_dh_tool_frame() {
         assert!(dp < 1e-6 && dr < 1e-6, "{name}: {dp:e} m, {dr:e} rad");
         assert!(from_classic > 0.05, "{from_classic}");
     }
+}
+
+/// The built-in ECM at joint zero: the scope points straight down from the RCM along the
+/// base's −z, its tip 0.3829 − 0.3822 m past the RCM, the tool frame's z (the camera's
+/// optical axis) along the scope.
+#[test]
+fn ecm_at_joint_zero_points_the_scope_down_through_the_rcm() {
+    let ecm = Psm::classic_ecm("ECM").unwrap();
+    assert_eq!(ecm.kind(), ArmKind::Ecm);
+    assert_eq!(ecm.joints().names(), ECM_JOINT_NAMES);
+    assert!(ecm.jaw().is_empty());
+    assert_eq!(ecm.base_frame(), "ECM_base");
+    let tip = ecm.forward(&[0.0; 4]).unwrap();
+    let depth = 0.3829 - 0.3822;
+    assert!((tip.translation.vector - Vector3::new(0.0, 0.0, -depth)).norm() < 1e-12);
+    let z = tip.rotation * Vector3::z();
+    assert!((z - Vector3::new(0.0, 0.0, -1.0)).norm() < 1e-12, "z = {z}");
+    let limits: Vec<(f64, f64)> = ecm
+        .joints()
+        .joints()
+        .iter()
+        .map(|j| (j.lower, j.upper))
+        .collect();
+    assert_eq!(
+        limits,
+        [
+            (-1.595183, 1.581733),
+            (-0.78371, 1.157657),
+            (0.0, 0.254193),
+            (-1.552676, 1.566741)
+        ]
+    );
+}
+
+/// At known joints the URDF's tip is the DH table's, and insertion moves it along the
+/// scope's axis (the optical axis) through the RCM.
+#[test]
+fn ecm_urdf_matches_its_dh_table_at_a_known_pose() {
+    let ecm = Psm::classic_ecm("ECM").unwrap();
+    let q = [0.3, -0.4, 0.1, 0.5];
+    let tip = ecm.forward(&q).unwrap();
+    assert_same_pose(&tip, &dh::ecm_tool_pose(&q), 1e-12, "q = {q:?}");
+    // Yaw 0.3 rad about the base's x... the shaft stays on a line through the RCM whatever
+    // the pose: the tip is (insertion + 0.0007 m) from it, along the optical axis.
+    let z = tip.rotation * Vector3::z();
+    let p = tip.translation.vector;
+    assert!((p.norm() - (0.1 + 0.3829 - 0.3822)).abs() < 1e-12);
+    assert!(
+        (p.normalize() - z).norm() < 1e-12,
+        "tip {p} not along z {z}"
+    );
+    let deeper = ecm.forward(&[0.3, -0.4, 0.15, 0.5]).unwrap();
+    assert!((deeper.translation.vector - (p + 0.05 * z)).norm() < 1e-12);
+    // The roll turns the view about the optical axis and nothing else.
+    let rolled = ecm.forward(&[0.3, -0.4, 0.1, -0.5]).unwrap();
+    assert!((rolled.translation.vector - p).norm() < 1e-12);
+    assert!(((rolled.rotation * Vector3::z()) - z).norm() < 1e-12);
+    assert!((rolled.rotation.angle_to(&tip.rotation) - 1.0).abs() < 1e-9);
+    eprintln!(
+        "ECM tip at q = 0: {:?}",
+        ecm.forward(&[0.0; 4])
+            .unwrap()
+            .rotation
+            .to_rotation_matrix()
+    );
+    eprintln!(
+        "ECM tip at yaw 0.3: {:?}",
+        ecm.forward(&[0.3, 0.0, 0.1, 0.0]).unwrap()
+    );
+    eprintln!(
+        "ECM tip at pitch 0.3: {:?}",
+        ecm.forward(&[0.0, 0.3, 0.1, 0.0]).unwrap()
+    );
 }

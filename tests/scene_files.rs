@@ -263,7 +263,7 @@ tool = "probe"
 "#;
     let good = format!("{GOOD}{arm}");
     let scene = config::from_str(&good, Path::new("arm.toml")).unwrap();
-    assert_eq!(scene.arms[0].urdf, "urdf/psm.urdf");
+    assert_eq!(scene.arms[0].urdf_path(), "urdf/psm.urdf");
     assert_eq!(scene.arms[0].mode, config::ArmMode::Simulated);
     assert_eq!(scene.outputs.points_rate_hz, 30.0);
 
@@ -769,4 +769,102 @@ fn mesh_slicer_files_are_read_beside_the_scene_and_bad_ones_refused() {
     assert_single(&p, thickness_key, "0 < thickness");
     let p = mesh_slicer_problems(Some(FLAT_BLADE), "0.015");
     assert_single(&p, thickness_key, "height/2 = 0.01 m");
+}
+
+#[test]
+fn an_ecm_arm_is_validated_and_carries_the_camera() {
+    let ecm = r#"
+[[arm]]
+name = "ECM"
+kind = "ecm"
+base_xyz = [0.0, -0.1, 0.12]
+home_joints = [0.0, 0.0, 0.05, 0.0]
+[camera]
+resolution = [160, 120]
+"#;
+    let scene = config::from_str(&format!("{GOOD}{ecm}"), Path::new("ecm.toml")).unwrap();
+    assert_eq!(scene.arms[0].kind, dvrk_tissue_sim::robot::ArmKind::Ecm);
+    assert_eq!(scene.arms[0].urdf_path(), "urdf/ecm.urdf");
+    assert_eq!(scene.arms[0].tool, None);
+
+    // Six joints (a PSM's), a tool, a jaw, a mirror, a fixed camera position, two ECMs.
+    let bad = ecm
+        .replace(
+            "[0.0, 0.0, 0.05, 0.0]",
+            "[0.0, 0.0, 0.05, 0.0, 0.0, 0.0]\ntool = \"probe\"\nhome_jaw_deg = 30.0\njoint_speeds = [1.0, 1.0, 0.1, 1.0, 1.0, 1.0]\nmode = \"mirror\"",
+        )
+        .replace("[camera]", "[[arm]]\nname = \"ECM2\"\nkind = \"ecm\"\nbase_xyz = [0.0, 0.1, 0.12]\nhome_joints = [0.0, 0.0, 0.05, 0.0]\n[camera]\nposition = [0.0, 0.0, 0.1]\nlook_at = [0.0, 0.0, 0.0]");
+    let problems = problems_of(&format!("{GOOD}{bad}"));
+    let keys: Vec<&str> = problems.iter().map(|p| p.key.as_str()).collect();
+    for key in [
+        "arm[0] (ECM).home_joints",
+        "arm[0] (ECM).tool",
+        "arm[0] (ECM).home_jaw_deg",
+        "arm[0] (ECM).joint_speeds",
+        "arm[0] (ECM).mode",
+        "arm[1] (ECM2).kind",
+        "camera.position",
+    ] {
+        assert!(keys.contains(&key), "{key} not reported: {keys:?}");
+    }
+    let home = problems
+        .iter()
+        .find(|p| p.key.ends_with("home_joints"))
+        .unwrap();
+    assert!(home.allowed.contains("4 joint values"), "{}", home.allowed);
+
+    // A PSM still needs its tool; a camera without an ECM still needs a position.
+    let problems = problems_of(&format!(
+        "{GOOD}\n[[arm]]\nname = \"PSM1\"\nbase_xyz = [0.0, 0.0, 0.14]\nhome_joints = [0.0, 0.0, 0.12, 0.0, 0.0, 0.0]\n[camera]\n"
+    ));
+    let keys: Vec<&str> = problems.iter().map(|p| p.key.as_str()).collect();
+    assert!(keys.contains(&"arm[0] (PSM1).tool"), "{keys:?}");
+    assert!(keys.contains(&"camera.position"), "{keys:?}");
+}
+
+/// The shipped scenes with tissue put the ECM where the surgeon's view shows the liver: the
+/// scope's optical axis passes through the liver's top, from in front and above, with world
+/// up at the top of the picture.
+#[test]
+fn shipped_scenes_point_the_ecm_at_the_liver() {
+    use nalgebra::Vector3;
+    for file in ["config/default.toml", "config/teleop.toml"] {
+        let scene = config::load(Path::new(file)).unwrap();
+        let index = scene
+            .arms
+            .iter()
+            .position(|a| a.kind == dvrk_tissue_sim::robot::ArmKind::Ecm)
+            .unwrap_or_else(|| panic!("{file}: no ECM"));
+        let arm = &scene.arms[index];
+        let ecm = dvrk_tissue_sim::sim::setup::load_psm(index, arm).unwrap();
+        let view =
+            dvrk_tissue_sim::sim::setup::arm_base(arm) * ecm.forward(&arm.home_joints).unwrap();
+        let eye = view.translation.vector;
+        let forward = view.rotation * Vector3::z();
+        let down = view.rotation * Vector3::y();
+        let tissue = &scene.tissues[0];
+        let top = Vector3::new(
+            tissue.center[0],
+            tissue.center[1],
+            tissue.center[2] + 0.5 * tissue.size[2],
+        );
+        let to_top = top - eye;
+        let miss = (to_top - forward * to_top.dot(&forward)).norm();
+        assert!(
+            miss < 0.005,
+            "{file}: optical axis {miss} m from the liver's top"
+        );
+        assert!(
+            to_top.dot(&forward) > 0.05,
+            "{file}: liver not in front of the scope"
+        );
+        assert!(
+            forward.z < -0.5 && forward.y > 0.5,
+            "{file}: looking {forward}"
+        );
+        assert!(
+            down.z < -0.5 && down.x.abs() < 1e-3,
+            "{file}: picture's down is {down}"
+        );
+    }
 }

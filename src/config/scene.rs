@@ -372,17 +372,23 @@ pub struct Keyframe {
     pub jaw_deg: f64,
 }
 
-/// A PSM whose tool frame (FK ∘ base) drives one of the scene's tools in node runs.
+/// A dVRK arm: a PSM whose tool frame (FK ∘ base) drives one of the scene's tools in node
+/// runs, or the ECM that carries the camera.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Arm {
     /// dVRK arm name, also its topic namespace and frame prefix (`PSM1`).
     #[serde(default = "default_arm_name")]
     pub name: String,
-    /// PSM URDF: the project's `urdf/psm.urdf` (built in, the default) or dvrk_model's expanded
-    /// URDF; links are renamed for `name`. Relative paths are relative to the working directory.
-    #[serde(default = "default_arm_urdf")]
-    pub urdf: String,
+    /// `psm` (the default) or `ecm` (the endoscope: four joints, no jaw, no tool; the
+    /// scene's `[camera]` rides at its tip).
+    #[serde(default)]
+    pub kind: crate::robot::ArmKind,
+    /// The arm's URDF: the project's `urdf/psm.urdf` / `urdf/ecm.urdf` (built in, the
+    /// default for the kind) or dvrk_model's expanded URDF; links are renamed for `name`.
+    /// Relative paths are relative to the working directory.
+    #[serde(default)]
+    pub urdf: Option<String>,
     /// The dvrk_model package folder, for `$(find dvrk_model)` when `urdf` is a `.urdf.xacro`
     /// (expanded by the `xacro` command on a copy with it resolved; without it, xacro resolves
     /// it from a sourced ROS workspace).
@@ -396,10 +402,12 @@ pub struct Arm {
     /// else dvrk_model's `<arm>_tool_tip_link` moved back 10.2 mm to the jaw pivot).
     #[serde(default)]
     pub tool_link: Option<String>,
-    /// `move_jp` speed limits of yaw, pitch (rad/s), insertion (m/s), roll, wrist_pitch,
-    /// wrist_yaw (rad/s); default dVRK's (90°/s, 90°/s, 0.2 m/s, 1080°/s ×3), never the URDF's.
+    /// `move_jp` speed limits, one per joint (rad/s; insertion m/s). PSM: yaw, pitch,
+    /// insertion, roll, wrist_pitch, wrist_yaw, default dVRK's (90°/s, 90°/s, 0.2 m/s,
+    /// 1080°/s ×3); ECM: outer_yaw, outer_pitch, insertion, outer_roll, default 90°/s,
+    /// 90°/s, 0.2 m/s, 90°/s; never the URDF's.
     #[serde(default)]
-    pub joint_speeds: Option<[f64; 6]>,
+    pub joint_speeds: Option<Vec<f64>>,
     /// Jaw speed limit (rad/s); default dVRK's 720°/s.
     #[serde(default)]
     pub jaw_speed: Option<f64>,
@@ -408,13 +416,16 @@ pub struct Arm {
     /// World orientation of the base as roll, pitch, yaw about fixed x, y, z (degrees).
     #[serde(default)]
     pub base_rpy_deg: [f64; 3],
-    /// Joint values at start: yaw, pitch (rad), insertion (m), roll, wrist_pitch, wrist_yaw (rad).
-    pub home_joints: [f64; 6],
+    /// Joint values at start, one per joint: PSM yaw, pitch (rad), insertion (m), roll,
+    /// wrist_pitch, wrist_yaw (rad); ECM outer_yaw, outer_pitch (rad), insertion (m),
+    /// outer_roll (rad).
+    pub home_joints: Vec<f64>,
     /// Jaw opening at start (degrees).
     #[serde(default)]
     pub home_jaw_deg: f64,
-    /// Name of the `[[tool]]` this arm holds.
-    pub tool: String,
+    /// Name of the `[[tool]]` a PSM holds (required for a PSM; an ECM holds none).
+    #[serde(default)]
+    pub tool: Option<String>,
     /// The held tool's orientation in the arm's tool frame, as roll, pitch, yaw about fixed
     /// x, y, z (degrees). The tool frame's +z is the instrument's axis, out of its tip; a
     /// slicer's blade hangs along its own −z, so a PSM holding a scalpel uses [180, 0, 0].
@@ -432,9 +443,22 @@ pub struct Arm {
 fn default_arm_name() -> String {
     "PSM1".into()
 }
-fn default_arm_urdf() -> String {
-    "urdf/psm.urdf".into()
+
+impl Arm {
+    /// The URDF path the arm loads: the scene's, else the built-in one of its kind.
+    pub fn urdf_path(&self) -> &str {
+        match (&self.urdf, self.kind) {
+            (Some(path), _) => path,
+            (None, crate::robot::ArmKind::Psm) => DEFAULT_PSM_URDF,
+            (None, crate::robot::ArmKind::Ecm) => DEFAULT_ECM_URDF,
+        }
+    }
 }
+
+/// The PSM's built-in URDF path (used from the source tree, else compiled in).
+pub const DEFAULT_PSM_URDF: &str = "urdf/psm.urdf";
+/// The ECM's built-in URDF path (used from the source tree, else compiled in).
+pub const DEFAULT_ECM_URDF: &str = "urdf/ecm.urdf";
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]

@@ -4,6 +4,7 @@
 use super::scene::{ArmMode, Hold, Scene};
 use crate::mpm::grid::WALL_NODES;
 use crate::mpm::{Method, MAX_TOOLS};
+use crate::robot::ArmKind;
 use crate::tools::{ContactModel, Shape};
 use std::fmt;
 
@@ -557,12 +558,21 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
                     allowed: e.reason,
                 }),
         );
+        let ecm = scene.arms.iter().any(|a| a.kind == ArmKind::Ecm);
         c.require(
-            camera.position.is_some(),
+            ecm || camera.position.is_some(),
             "camera.position",
             camera.position,
-            "a camera needs `position` and `look_at`",
+            "a camera without an ECM [[arm]] needs `position` and `look_at`",
         );
+        if ecm {
+            c.require(
+                camera.position.is_none() && camera.look_at.is_none(),
+                "camera.position",
+                camera.position,
+                "nothing: the camera rides at the ECM's tip",
+            );
+        }
     }
     c.problems
 }
@@ -570,6 +580,13 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
 /// A tool dimension: a positive length up to [`MAX_LENGTH`].
 fn length(c: &mut Checker, key: String, value: f32) {
     c.positive_up_to(key, value as f64, MAX_LENGTH, "m");
+}
+
+fn kind_name(kind: ArmKind) -> &'static str {
+    match kind {
+        ArmKind::Psm => "PSM",
+        ArmKind::Ecm => "ECM",
+    }
 }
 
 /// Arm names are used as topic namespaces and frame prefixes.
@@ -580,11 +597,12 @@ fn is_ros_name(name: &str) -> bool {
 }
 
 fn validate_arms(c: &mut Checker, scene: &Scene) {
+    let psms = scene.arms.iter().filter(|a| a.kind == ArmKind::Psm).count();
     c.require(
-        scene.arms.len() <= 2,
+        psms <= 2,
         "arm",
-        scene.arms.len(),
-        "one or two [[arm]] tables",
+        psms,
+        "one or two [[arm]] tables of kind \"psm\"",
     );
     for (i, arm) in scene.arms.iter().enumerate() {
         let key = |k: &str| format!("arm[{i}] ({}).{k}", arm.name);
@@ -597,26 +615,35 @@ fn validate_arms(c: &mut Checker, scene: &Scene) {
         if scene.arms[..i].iter().any(|o| o.name == arm.name) {
             c.require(false, key("name"), &arm.name, "unique among arms");
         }
-        c.require(
-            !arm.urdf.is_empty(),
-            key("urdf"),
-            &arm.urdf,
-            "a URDF file path",
-        );
+        if let Some(urdf) = &arm.urdf {
+            c.require(!urdf.is_empty(), key("urdf"), urdf, "a URDF file path");
+        }
+        let ecm = arm.kind == ArmKind::Ecm;
+        let joints = if ecm { 4 } else { 6 };
         for (k, link) in [("base_link", &arm.base_link), ("tool_link", &arm.tool_link)] {
             if let Some(link) = link {
                 c.require(!link.is_empty(), key(k), link, "a link name of the URDF");
             }
         }
-        if let Some(speeds) = arm.joint_speeds {
+        if let Some(speeds) = &arm.joint_speeds {
             c.require(
-                speeds.iter().all(|v| *v > 0.0 && *v <= MAX_JOINT_SPEED),
+                speeds.len() == joints && speeds.iter().all(|v| *v > 0.0 && *v <= MAX_JOINT_SPEED),
                 key("joint_speeds"),
                 speeds,
-                format!("six speeds, 0 < speed ≤ {MAX_JOINT_SPEED} (rad/s; insertion m/s)"),
+                format!(
+                    "{joints} speeds (one per joint of the {}), 0 < speed ≤ {MAX_JOINT_SPEED} \
+                     (rad/s; insertion m/s)",
+                    kind_name(arm.kind)
+                ),
             );
         }
         if let Some(speed) = arm.jaw_speed {
+            c.require(
+                !ecm,
+                key("jaw_speed"),
+                speed,
+                "only on a PSM (the ECM has no jaw)",
+            );
             c.positive_up_to(key("jaw_speed"), speed, MAX_JOINT_SPEED, "rad/s");
         }
         c.require(
@@ -640,12 +667,18 @@ fn validate_arms(c: &mut Checker, scene: &Scene) {
         // The URDF's limits are checked when the arm is built; no PSM joint turns more than a
         // turn either way, nor inserts more than a metre.
         c.require(
-            arm.home_joints
-                .iter()
-                .all(|v| v.abs() <= std::f64::consts::TAU),
+            arm.home_joints.len() == joints
+                && arm
+                    .home_joints
+                    .iter()
+                    .all(|v| v.abs() <= std::f64::consts::TAU),
             key("home_joints"),
-            arm.home_joints,
-            "joint values of at most ±2π rad (insertion ±2π m), inside the URDF's limits",
+            &arm.home_joints,
+            format!(
+                "{joints} joint values (one per joint of the {}) of at most ±2π rad (insertion \
+                 ±2π m), inside the URDF's limits",
+                kind_name(arm.kind)
+            ),
         );
         c.within(
             key("home_jaw_deg"),
@@ -654,23 +687,53 @@ fn validate_arms(c: &mut Checker, scene: &Scene) {
             80.0,
             "° (the PSM jaw range; the URDF's limits are checked when the arm is built)",
         );
-        let tool = scene.tools.iter().position(|t| t.name == arm.tool);
-        c.require(
-            tool.is_some(),
-            key("tool"),
-            &arm.tool,
-            format!(
-                "the name of a [[tool]] ({})",
-                scene
-                    .tools
-                    .iter()
-                    .map(|t| t.name.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-        );
-        if scene.arms[..i].iter().any(|o| o.tool == arm.tool) {
-            c.require(false, key("tool"), &arm.tool, "a tool no other arm drives");
+        if ecm {
+            c.require(
+                arm.home_jaw_deg == 0.0,
+                key("home_jaw_deg"),
+                arm.home_jaw_deg,
+                "only on a PSM (the ECM has no jaw)",
+            );
+            if let Some(tool) = &arm.tool {
+                c.require(false, key("tool"), tool, "nothing: the ECM holds no tool");
+            }
+            c.require(
+                arm.tool_rpy_deg == [0.0; 3],
+                key("tool_rpy_deg"),
+                arm.tool_rpy_deg,
+                "only on a PSM (the ECM holds no tool)",
+            );
+            c.require(
+                arm.mode == ArmMode::Simulated,
+                key("mode"),
+                "mirror",
+                "\"simulated\" for the ECM",
+            );
+            if scene.arms[..i].iter().any(|o| o.kind == ArmKind::Ecm) {
+                c.require(false, key("kind"), "ecm", "at most one ECM");
+            }
+        } else {
+            let tool = arm.tool.as_deref().unwrap_or_default();
+            c.require(
+                scene.tools.iter().any(|t| t.name == tool),
+                key("tool"),
+                tool,
+                format!(
+                    "the name of a [[tool]] ({})",
+                    scene
+                        .tools
+                        .iter()
+                        .map(|t| t.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            );
+            if scene.arms[..i]
+                .iter()
+                .any(|o| o.kind == ArmKind::Psm && o.tool.as_deref() == Some(tool))
+            {
+                c.require(false, key("tool"), tool, "a tool no other arm drives");
+            }
         }
         if let Some(ns) = &arm.mirror_of {
             c.require(
@@ -690,10 +753,10 @@ fn validate_arms(c: &mut Checker, scene: &Scene) {
     if let Some(t) = &scene.teleop {
         let arm = scene.arms.iter().find(|a| a.name == t.arm);
         c.require(
-            arm.is_some_and(|a| a.mode == ArmMode::Simulated),
+            arm.is_some_and(|a| a.mode == ArmMode::Simulated && a.kind == ArmKind::Psm),
             "teleop.arm",
             &t.arm,
-            "the name of an [[arm]] with mode = \"simulated\"",
+            "the name of a PSM [[arm]] with mode = \"simulated\"",
         );
         for (k, v) in [("teleop.mtm", &t.mtm), ("teleop.console", &t.console)] {
             c.require(

@@ -18,6 +18,11 @@
 //!   REP 118 asks) and the label. Without any adapter [`gpu::Renderer::new`] says so and the
 //!   camera stays off.
 //!
+//! **Where** ([`rig`]): with an ECM `[[arm]]` the camera sits at the ECM's tool frame (the
+//! scope's tip, z along the scope), moved to the ECM's pose at the end of each frame that
+//! takes a picture, so `move_jp` on the ECM moves the view; without one it stays where
+//! `[camera] position` and `look_at` put it.
+//!
 //! The tissue mesh follows the particles as the backend last read them back, so on the GPU
 //! backend a camera frame reads the particle positions back (the solver's buffers are not
 //! drawn in place). A scene whose tissue is cut or torn is still drawn with the mesh of its

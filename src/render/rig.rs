@@ -38,7 +38,15 @@ impl CameraRig {
     pub fn for_world(world: &World) -> Option<CameraRig> {
         let scene = world.scene();
         let settings = scene.camera.clone().filter(|c| c.enabled)?;
-        let pose = settings.fixed_pose()?;
+        let on_ecm = scene
+            .arms
+            .iter()
+            .any(|a| a.kind == crate::robot::ArmKind::Ecm);
+        // On an ECM the frame loop sets the pose before each picture.
+        let pose = match on_ecm {
+            true => Isometry3::identity(),
+            false => settings.fixed_pose()?,
+        };
         let strain =
             (settings.colour == TissueColour::Strain).then_some(scene.outputs.points_scalar);
         let geometry = match SceneGeometry::new(world, strain) {
@@ -68,6 +76,12 @@ impl CameraRig {
             geometry,
             next: 0.0,
         })
+    }
+
+    /// Moves the camera: `pose` is its left-right centre's optical frame in the world (z
+    /// forward, x right, y down), e.g. the ECM's tool frame.
+    pub fn set_pose(&mut self, pose: Isometry3<f32>) {
+        self.pose = pose;
     }
 
     /// The camera's settings.

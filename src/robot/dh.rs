@@ -1,4 +1,4 @@
-//! Modified Denavit–Hartenberg forward kinematics of the classic PSM, straight from the table in
+//! Modified Denavit–Hartenberg forward kinematics of the classic PSM and ECM, straight from the tables in
 //! dVRK's configuration (shared/reference/dvrk.md).
 //!
 //! The simulation itself uses the URDF ([`crate::robot::Chain`]); this module is the independent
@@ -99,6 +99,28 @@ pub const PSM_SI_LARGE_NEEDLE_DRIVER_420006: [DhRow; 6] = [
     revolute(-FRAC_PI_2, 0.0, 0.0, -FRAC_PI_2),
     revolute(-FRAC_PI_2, 0.0091, 0.0, -FRAC_PI_2),
 ];
+
+/// Classic ECM with a straight scope: outer_yaw, outer_pitch, insertion, outer_roll (dVRK's
+/// ECM table: the PSM's first three rows with a −0.3822 m insertion offset, the scope's
+/// d = 0.3829 m). Its tool frame, the scope's tip, is DH frame 4.
+pub const ECM_CLASSIC: [DhRow; 4] = [
+    revolute(FRAC_PI_2, 0.0, 0.0, FRAC_PI_2),
+    revolute(-FRAC_PI_2, 0.0, 0.0, -FRAC_PI_2),
+    DhRow {
+        kind: JointKind::Prismatic,
+        alpha: FRAC_PI_2,
+        a: 0.0,
+        theta: 0.0,
+        d: 0.0,
+        offset: -0.3822,
+    },
+    revolute(0.0, 0.0, 0.3829, 0.0),
+];
+
+/// The ECM's tool frame (the scope's tip, what `measured_cp` reports) in its RCM frame.
+pub fn ecm_tool_pose(q: &[f64; 4]) -> Isometry3<f64> {
+    forward(&ECM_CLASSIC, q)[3]
+}
 
 /// dVRK's tool offset: the pure rotation from DH frame 6 to the reported tool frame.
 pub fn psm_tool_offset() -> Isometry3<f64> {

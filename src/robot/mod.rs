@@ -1,5 +1,5 @@
 //! Robot models: URDF loading, serial kinematic chains (FK, Jacobian, IK), the dVRK PSM with its
-//! tool and jaw, joint-command validation and `move_jp` trajectories, and the MTM→PSM
+//! tool and jaw, the ECM that carries the endoscope, joint-command validation and `move_jp` trajectories, and the MTM→PSM
 //! teleoperation mapping.
 //!
 //! Everything here is plain math on `f64` (SI units, nalgebra types): no ROS types and no clocks,
@@ -7,6 +7,7 @@
 
 pub mod chain;
 pub mod dh;
+pub mod ecm;
 pub mod ik;
 pub mod joints;
 pub mod psm;
@@ -17,7 +18,7 @@ pub mod urdf;
 pub use chain::{ActuatedJoint, Chain, ChainError, JointKind};
 pub use ik::{IkError, IkOptions, IkSolution};
 pub use joints::{JointCommandError, JointGroup};
-pub use psm::{CartesianSolution, LinkFrame, Psm, PsmError, RcmPolicy, SafeTarget};
+pub use psm::{ArmKind, CartesianSolution, LinkFrame, Psm, PsmError, RcmPolicy, SafeTarget};
 pub use teleop::{Teleop, TeleopConfig, TeleopError, TeleopState, TeleopTarget};
 pub use trajectory::{Trajectory, TrajectoryError};
 pub use urdf::UrdfError;

@@ -101,6 +101,14 @@ pub enum PsmError {
         /// The link name given.
         link: String,
     },
+    #[error("{got} joint speed limits given, the arm has {expected} joints")]
+    /// A list of speed limits whose length is not the arm's joint count.
+    SpeedCount {
+        /// The arm's joint count.
+        expected: usize,
+        /// The number of speeds given.
+        got: usize,
+    },
     #[error("speed limit of joint `{joint}` must be a finite number > 0, got {value}")]
     /// A joint speed limit that is not a finite number > 0.
     InvalidSpeed {
@@ -196,11 +204,28 @@ enum Parent {
     Attachment(usize),
 }
 
-/// One PSM: frames are named after the arm (`PSM1_base`, `PSM1`, `PSM1_tool_tip`, ...).
+/// Which dVRK arm a URDF describes (`[[arm]] kind`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ArmKind {
+    /// A Patient Side Manipulator: six joints and a jaw, holding a scene tool.
+    #[default]
+    Psm,
+    /// The Endoscope Camera Manipulator: four joints, the camera at its tip
+    /// (see [`crate::robot::ecm`]).
+    Ecm,
+}
+
+/// One dVRK arm, a PSM or the ECM: frames are named after the arm (`PSM1_base`, `PSM1`,
+/// `PSM1_tool_tip`, ...).
 #[derive(Debug, Clone)]
 pub struct Psm {
     name: String,
+    kind: ArmKind,
     base_frame: String,
+    /// The chain's base link in the RCM frame (identity unless the URDF's RCM link hangs
+    /// beside the chain rather than above it, as in dvrk_model's classic ECM).
+    root: Isometry3<f64>,
     /// From the base (the RCM) to dVRK's tool frame (what `measured_cp` reports).
     arm: Chain,
     /// Every link below the wrist off the arm's path (tool tip, jaws), parents before
@@ -260,77 +285,15 @@ impl Psm {
         name: &str,
         roles: &UrdfRoles,
     ) -> Result<Psm, PsmError> {
-        urdf::check_arm_name(name)?;
-        let has_link =
-            |robot: &urdf_rs::Robot, link: &str| robot.links.iter().any(|l| l.name == link);
-
-        let (prefix, file_base) = match &roles.base_link {
-            Some(base) => {
-                if !has_link(&robot, base) {
-                    return Err(PsmError::NoSuchRoleLink {
-                        key: "base_link",
-                        link: base.clone(),
-                    });
-                }
-                let prefix = base_prefix(base).map(|(p, _)| p).or_else(|| {
-                    base.split_once('_')
-                        .map(|(p, _)| p)
-                        .filter(|p| urdf::check_arm_name(p).is_ok())
-                });
-                (prefix.map(str::to_owned), base.clone())
-            }
-            None => {
-                let (prefix, base) = find_base(&robot, name)?;
-                (Some(prefix), base)
-            }
-        };
-        let (base_link, tool_link) = match &prefix {
-            Some(prefix) => {
-                urdf::rename_arm_prefix(&mut robot, prefix, name)?;
-                (
-                    urdf::rename_link(&file_base, prefix, name),
-                    roles
-                        .tool_link
-                        .as_ref()
-                        .map(|t| urdf::rename_link(t, prefix, name)),
-                )
-            }
-            None => (file_base, roles.tool_link.clone()),
-        };
-        let (tool_link, setback) = match tool_link {
-            Some(tool) if has_link(&robot, &tool) => (tool, None),
-            Some(_) => {
-                return Err(PsmError::NoSuchRoleLink {
-                    key: "tool_link",
-                    link: roles.tool_link.clone().unwrap_or_default(),
-                })
-            }
-            None => {
-                let tip = format!("{name}_tool_tip_link");
-                if has_link(&robot, name) {
-                    (name.to_owned(), None)
-                } else if has_link(&robot, &tip) {
-                    (tip, Some(DVRK_MODEL_TOOL_TIP_SETBACK))
-                } else {
-                    return Err(PsmError::NoToolLink {
-                        tried: format!("`{name}`, `{tip}`"),
-                    });
-                }
-            }
-        };
-        // dvrk_model's current layout names the remote centre of motion `P_RCM_link`; in its Si
-        // layout `P_base_link` is the arm's mounting, on the yaw axis 0.8 m from the RCM, so
-        // the RCM link is the base wherever the tool hangs below it.
+        let tool_frames = [
+            (name.to_owned(), None),
+            (
+                format!("{name}_tool_tip_link"),
+                Some(DVRK_MODEL_TOOL_TIP_SETBACK),
+            ),
+        ];
+        let (base_link, tool_link, setback) = locate_roles(&mut robot, name, roles, &tool_frames)?;
         let tree = UrdfTree::new(&robot);
-        let rcm_link = format!("{name}_RCM_link");
-        let base_link = if roles.base_link.is_none()
-            && has_link(&robot, &rcm_link)
-            && Chain::from_tree(&tree, &rcm_link, &tool_link).is_ok()
-        {
-            rcm_link
-        } else {
-            base_link
-        };
         let mut arm = Chain::from_tree(&tree, &base_link, &tool_link)?;
         if let Some(setback) = setback {
             arm = arm.with_fixed_tip(name, Isometry3::translation(0.0, 0.0, -setback));
@@ -445,7 +408,9 @@ impl Psm {
         );
         Ok(Psm {
             name: name.to_owned(),
+            kind: ArmKind::Psm,
             base_frame: format!("{name}_base"),
+            root: Isometry3::identity(),
             arm,
             attachments,
             attachment_order,
@@ -455,15 +420,22 @@ impl Psm {
         })
     }
 
-    /// Replaces the `move_jp` speed limits (arm joints in canonical order, then the jaw), e.g.
-    /// from a scene; resets the servo jump bounds that derive from them.
-    pub fn set_speed_limits(&mut self, arm: &[f64; 6], jaw: f64) -> Result<(), PsmError> {
+    /// Replaces the `move_jp` speed limits (arm joints in canonical order, then the jaw where
+    /// the arm has one), e.g. from a scene; resets the servo jump bounds that derive from them.
+    pub fn set_speed_limits(&mut self, arm: &[f64], jaw: Option<f64>) -> Result<(), PsmError> {
+        if arm.len() != self.joints.len() {
+            return Err(PsmError::SpeedCount {
+                expected: self.joints.len(),
+                got: arm.len(),
+            });
+        }
         let mut joints = self.joints.joints().to_vec();
         let mut jaw_joint = self.jaw.joints().to_vec();
-        for (joint, &value) in joints
+        let jaw = jaw.into_iter().take(jaw_joint.len());
+        for (joint, value) in joints
             .iter_mut()
             .chain(jaw_joint.iter_mut())
-            .zip(arm.iter().chain([&jaw]))
+            .zip(arm.iter().copied().chain(jaw))
         {
             if !(value.is_finite() && value > 0.0) {
                 return Err(PsmError::InvalidSpeed {
@@ -476,6 +448,33 @@ impl Psm {
         self.joints = JointGroup::new(joints);
         self.jaw = JointGroup::new(jaw_joint);
         Ok(())
+    }
+
+    /// An arm built by the ECM's loader ([`crate::robot::ecm`]): no jaw, no attachments.
+    pub(crate) fn without_jaw(
+        name: &str,
+        kind: ArmKind,
+        root: Isometry3<f64>,
+        arm: Chain,
+        joints: JointGroup,
+    ) -> Psm {
+        Psm {
+            name: name.to_owned(),
+            kind,
+            base_frame: format!("{name}_base"),
+            root,
+            arm,
+            attachments: Vec::new(),
+            attachment_order: Vec::new(),
+            joints,
+            jaw: JointGroup::new(Vec::new()),
+            ik_options: IkOptions::default(),
+        }
+    }
+
+    /// A PSM or the ECM.
+    pub fn kind(&self) -> ArmKind {
+        self.kind
     }
 
     /// The arm name (`PSM1`), which is also the tool frame's name.
@@ -526,12 +525,22 @@ impl Psm {
 
     /// The tool frame (`measured_cp`) in the RCM frame.
     pub fn forward(&self, q: &[f64]) -> Result<Isometry3<f64>, PsmError> {
-        Ok(self.arm.tip_pose(q)?)
+        Ok(self.root * self.arm.tip_pose(q)?)
     }
 
     /// The tool frame's geometric Jacobian in the RCM frame (see [`Chain::jacobian`]).
     pub fn jacobian(&self, q: &[f64]) -> Result<Matrix6xX<f64>, PsmError> {
-        Ok(self.arm.jacobian(q)?)
+        let mut j = self.arm.jacobian(q)?;
+        if self.root != Isometry3::identity() {
+            let r = self.root.rotation.to_rotation_matrix();
+            for mut column in j.column_iter_mut() {
+                let linear = r * column.fixed_rows::<3>(0).into_owned();
+                let angular = r * column.fixed_rows::<3>(3).into_owned();
+                column.fixed_rows_mut::<3>(0).copy_from(&linear);
+                column.fixed_rows_mut::<3>(3).copy_from(&angular);
+            }
+        }
+        Ok(j)
     }
 
     /// The pose of every link on the arm's path and below the wrist in the RCM frame (base
@@ -555,13 +564,13 @@ impl Psm {
             .zip(poses)
             .map(|(link, pose)| LinkFrame {
                 link: link.to_owned(),
-                pose,
+                pose: self.root * pose,
             })
             .collect();
         for &i in &self.attachment_order {
             frames.push(LinkFrame {
                 link: self.attachments[i].joint.tip_link().to_owned(),
-                pose: below[i],
+                pose: self.root * below[i],
             });
         }
         Ok(frames)
@@ -650,6 +659,88 @@ impl Psm {
             &self.jaw.max_velocities(),
         )?)
     }
+}
+
+/// Finds the arm's base and tool links by the rule of [`Psm::from_urdf_with_roles`] and
+/// renames the file's links for arm `name`: returns the base link, the tool link and how far
+/// the tool frame lies behind it along its z (m), where the tool link is one of
+/// `tool_frames` (link, setback) found by default.
+pub(crate) fn locate_roles(
+    robot: &mut urdf_rs::Robot,
+    name: &str,
+    roles: &UrdfRoles,
+    tool_frames: &[(String, Option<f64>)],
+) -> Result<(String, String, Option<f64>), PsmError> {
+    urdf::check_arm_name(name)?;
+    let has_link = |robot: &urdf_rs::Robot, link: &str| robot.links.iter().any(|l| l.name == link);
+
+    let (prefix, file_base) = match &roles.base_link {
+        Some(base) => {
+            if !has_link(robot, base) {
+                return Err(PsmError::NoSuchRoleLink {
+                    key: "base_link",
+                    link: base.clone(),
+                });
+            }
+            let prefix = base_prefix(base).map(|(p, _)| p).or_else(|| {
+                base.split_once('_')
+                    .map(|(p, _)| p)
+                    .filter(|p| urdf::check_arm_name(p).is_ok())
+            });
+            (prefix.map(str::to_owned), base.clone())
+        }
+        None => {
+            let (prefix, base) = find_base(robot, name)?;
+            (Some(prefix), base)
+        }
+    };
+    let (base_link, tool_link) = match &prefix {
+        Some(prefix) => {
+            urdf::rename_arm_prefix(robot, prefix, name)?;
+            (
+                urdf::rename_link(&file_base, prefix, name),
+                roles
+                    .tool_link
+                    .as_ref()
+                    .map(|t| urdf::rename_link(t, prefix, name)),
+            )
+        }
+        None => (file_base, roles.tool_link.clone()),
+    };
+    let (tool_link, setback) = match tool_link {
+        Some(tool) if has_link(robot, &tool) => (tool, None),
+        Some(_) => {
+            return Err(PsmError::NoSuchRoleLink {
+                key: "tool_link",
+                link: roles.tool_link.clone().unwrap_or_default(),
+            })
+        }
+        None => match tool_frames.iter().find(|(link, _)| has_link(robot, link)) {
+            Some((link, setback)) => (link.clone(), *setback),
+            None => {
+                return Err(PsmError::NoToolLink {
+                    tried: tool_frames
+                        .iter()
+                        .map(|(link, _)| format!("`{link}`"))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                })
+            }
+        },
+    };
+    // dvrk_model's current layout names the remote centre of motion `P_RCM_link`; in its Si
+    // layout `P_base_link` is the arm's mounting, on the yaw axis 0.8 m from the RCM, so
+    // the RCM link is the base wherever the tool hangs below it.
+    let rcm_link = format!("{name}_RCM_link");
+    let base_link = if roles.base_link.is_none()
+        && has_link(robot, &rcm_link)
+        && Chain::from_urdf(robot, &rcm_link, &tool_link).is_ok()
+    {
+        rcm_link
+    } else {
+        base_link
+    };
+    Ok((base_link, tool_link, setback))
 }
 
 /// The arm prefix of a base link name and the rank of its suffix in [`BASE_SUFFIXES`]
@@ -943,7 +1034,7 @@ mod tests {
         let pitch = &psm.joints().joints()[1];
         assert!((pitch.upper - std::f64::consts::FRAC_PI_4).abs() < 1e-4);
         assert_eq!(psm.jaw().joints()[0].lower, -0.349);
-        psm.set_speed_limits(&[1.0, 1.0, 0.1, 2.0, 2.0, 2.0], 3.0)
+        psm.set_speed_limits(&[1.0, 1.0, 0.1, 2.0, 2.0, 2.0], Some(3.0))
             .unwrap();
         assert_eq!(
             psm.joints().max_velocities(),
@@ -954,7 +1045,7 @@ mod tests {
             0.1 * crate::robot::joints::DEFAULT_JUMP_WINDOW_S
         );
         assert!(matches!(
-            psm.set_speed_limits(&[1.0, 0.0, 0.1, 2.0, 2.0, 2.0], 3.0),
+            psm.set_speed_limits(&[1.0, 0.0, 0.1, 2.0, 2.0, 2.0], Some(3.0)),
             Err(PsmError::InvalidSpeed { joint, .. }) if joint == "pitch"
         ));
     }

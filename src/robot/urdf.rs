@@ -54,6 +54,9 @@ use std::path::{Path, PathBuf};
 /// The classic PSM with the Large Needle Driver, as shipped in `urdf/psm.urdf`.
 pub const CLASSIC_PSM_URDF: &str = include_str!("../../urdf/psm.urdf");
 
+/// The classic ECM with a straight scope, as shipped in `urdf/ecm.urdf`.
+pub const CLASSIC_ECM_URDF: &str = include_str!("../../urdf/ecm.urdf");
+
 /// The arm name our URDF files are written for; [`rename_arm_prefix`] replaces it.
 pub const URDF_ARM_PREFIX: &str = "PSM1";
 

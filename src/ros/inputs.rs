@@ -248,6 +248,7 @@ pub fn input_topics(scene: &Scene, namespace: &str) -> Vec<InputTopic> {
         };
         match arm.mode {
             ArmMode::Simulated => {
+                let ecm = arm.kind == crate::robot::ArmKind::Ecm;
                 for (suffix, kind) in [
                     ("servo_jp", ServoJp),
                     ("move_jp", MoveJp),
@@ -269,7 +270,11 @@ pub fn input_topics(scene: &Scene, namespace: &str) -> Vec<InputTopic> {
                     ("body/set_cf_orientation_absolute", CfOrientationAbsolute),
                     ("emulate_tool_present", EmulateToolPresent),
                 ] {
-                    push(name(&format!("{n}/{suffix}")), kind);
+                    // The ECM has no jaw and holds no tool to feel forces through.
+                    let psm_only = suffix.starts_with("jaw/") || suffix.ends_with("servo_cf");
+                    if !(ecm && psm_only) {
+                        push(name(&format!("{n}/{suffix}")), kind);
+                    }
                 }
             }
             ArmMode::Mirror => {

@@ -45,6 +45,14 @@
 //! These are the topics dVRK's Python client (`dvrk_python`'s `psm` on `crtk_python_client`)
 //! opens. Its `forward_kinematics` / `inverse_kinematics` services (cisst_msgs) are not
 //! served.
+//!
+//! An ECM (`kind = "ecm"`, e.g. `ECM`) has the same topics without the jaw, the tool and its
+//! contact wrench (no `jaw/...`, `tool_type`, `body/measured_cf`, `spatial/measured_cf`,
+//! `jaw/servo_jf`, `body/servo_cf`, `spatial/servo_cf`): `ECM/measured_js`, `setpoint_js`
+//! (`outer_yaw, outer_pitch, insertion, outer_roll`), `measured_cp`, `setpoint_cp` (frame
+//! `ECM_base`, the tool frame `ECM` at the scope's tip, where the camera is),
+//! `operating_state`, `move_jp`, `servo_jp`, `state_command`, ...; `/tf_static` carries
+//! `world` → `ECM_base`, `/tf` its links.
 //! | `tissue/points` | sensor_msgs/PointCloud2 | x, y, z and the scalar `points_scalar` names (`volumetric_strain`, `equivalent_strain` or `damage`), frame `world` |
 //! | `tissue/surface` | visualization_msgs/Marker | TRIANGLE_LIST in `world`: the mesh (fixed corner order, a strain colour and a UV per corner) or the isosurface |
 //! | `tissue/pieces` | std_msgs/UInt32 | separate tissue pieces, counted at `pieces_rate_hz` in simulated time while subscribed (and when recording) |
@@ -57,7 +65,7 @@
 //! | `/clock` | rosgraph_msgs/Clock | simulated time, once per frame |
 //! | `/rosout` | rcl_interfaces/Log | WARN and ERROR log lines, the arms' `error` (ERROR), `warning` (WARN) and `status` (INFO) events, logger `<namespace>.<name>` ([`rosout`]) |
 //! | `/diagnostics` | diagnostic_msgs/DiagnosticArray | latched, once a second: real-time factor, substeps and frames per second, backend, adapter |
-//! | `ECM/image_raw`, `ECM/image_raw/compressed`, `ECM/{left,right}/camera_info`, `ECM/{left,right}/depth`, `ECM/{left,right}/labels` | Image, CompressedImage, CameraInfo | with `[camera]`: the stereo endoscope ([`camera`]), rendered at `camera.rate_hz` in simulated time while subscribed |
+//! | `ECM/image_raw`, `ECM/image_raw/compressed`, `ECM/{left,right}/camera_info`, `ECM/{left,right}/depth`, `ECM/{left,right}/labels` | Image, CompressedImage, CameraInfo | with `[camera]`: the stereo endoscope ([`camera`]) at the ECM's tip (or fixed where the scene has no ECM), rendered at `camera.rate_hz` in simulated time while subscribed |
 //!
 //! - **Simulated arms** satisfy dVRK's `dvrk_arm_from_ros` contract: a dVRK console can
 //!   teleoperate them with a real MTM. They start ENABLED and homed at `home_joints`;

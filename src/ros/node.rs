@@ -216,20 +216,20 @@ struct ArmPublishers {
     measured_cp: Publisher<PoseStamped>,
     setpoint_cp: Publisher<PoseStamped>,
     measured_cv: Publisher<TwistStamped>,
-    jaw_measured_js: Publisher<JointState>,
-    jaw_setpoint_js: Publisher<JointState>,
+    /// A PSM's `jaw/measured_js`, `jaw/setpoint_js` (the ECM has no jaw).
+    jaw: Option<[Publisher<JointState>; 2]>,
     operating_state: Publisher<OperatingState>,
     error: Publisher<StringMsg>,
     warning: Publisher<StringMsg>,
     status: Publisher<StringMsg>,
     local_measured_cp: Publisher<PoseStamped>,
     local_setpoint_cp: Publisher<PoseStamped>,
-    body_measured_cf: Publisher<WrenchStamped>,
-    spatial_measured_cf: Publisher<WrenchStamped>,
+    /// A PSM's `body/measured_cf`, `spatial/measured_cf` (the ECM holds no tool).
+    measured_cf: Option<[Publisher<WrenchStamped>; 2]>,
     body_jacobian: Publisher<Float64MultiArray>,
     spatial_jacobian: Publisher<Float64MultiArray>,
-    /// Latched, sent once: kept alive for late subscribers.
-    _tool_type: Publisher<StringMsg>,
+    /// Latched, sent once: kept alive for late subscribers (a PSM's).
+    _tool_type: Option<Publisher<StringMsg>>,
     trajectory_ratio: Publisher<Float64>,
 }
 
@@ -354,10 +354,13 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
                 measured_cp: topics.publisher(&format!("{n}/measured_cp"), periodic_qos())?,
                 setpoint_cp: topics.publisher(&format!("{n}/setpoint_cp"), periodic_qos())?,
                 measured_cv: topics.publisher(&format!("{n}/measured_cv"), periodic_qos())?,
-                jaw_measured_js: topics
-                    .publisher(&format!("{n}/jaw/measured_js"), periodic_qos())?,
-                jaw_setpoint_js: topics
-                    .publisher(&format!("{n}/jaw/setpoint_js"), periodic_qos())?,
+                jaw: match output.psm.jaw().is_empty() {
+                    true => None,
+                    false => Some([
+                        topics.publisher(&format!("{n}/jaw/measured_js"), periodic_qos())?,
+                        topics.publisher(&format!("{n}/jaw/setpoint_js"), periodic_qos())?,
+                    ]),
+                },
                 operating_state: topics.publisher(&format!("{n}/operating_state"), event_qos())?,
                 error: topics.publisher(&format!("{n}/error"), event_qos())?,
                 warning: topics.publisher(&format!("{n}/warning"), event_qos())?,
@@ -366,19 +369,25 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
                     .publisher(&format!("{n}/local/measured_cp"), periodic_qos())?,
                 local_setpoint_cp: topics
                     .publisher(&format!("{n}/local/setpoint_cp"), periodic_qos())?,
-                body_measured_cf: topics
-                    .publisher(&format!("{n}/body/measured_cf"), periodic_qos())?,
-                spatial_measured_cf: topics
-                    .publisher(&format!("{n}/spatial/measured_cf"), periodic_qos())?,
+                measured_cf: match output.tool {
+                    None => None,
+                    Some(_) => Some([
+                        topics.publisher(&format!("{n}/body/measured_cf"), periodic_qos())?,
+                        topics.publisher(&format!("{n}/spatial/measured_cf"), periodic_qos())?,
+                    ]),
+                },
                 body_jacobian: topics.publisher(&format!("{n}/body/jacobian"), periodic_qos())?,
                 spatial_jacobian: topics
                     .publisher(&format!("{n}/spatial/jacobian"), periodic_qos())?,
-                _tool_type: {
-                    let p = topics.publisher(&format!("{n}/tool_type"), event_qos())?;
-                    let _ = p.publish(StringMsg {
-                        data: output.tool_type.clone(),
-                    });
-                    p
+                _tool_type: match &output.tool_type {
+                    None => None,
+                    Some(tool_type) => {
+                        let p = topics.publisher(&format!("{n}/tool_type"), event_qos())?;
+                        let _ = p.publish(StringMsg {
+                            data: tool_type.clone(),
+                        });
+                        Some(p)
+                    }
                 },
                 trajectory_ratio: topics
                     .publisher(&format!("{n}/trajectory_j/ratio"), event_qos())?,
@@ -883,10 +892,12 @@ impl Io {
                     data: status.trajectory_ratio,
                 });
             }
-            if let Some(tool) = frame.tools.get(arm.tool) {
+            if let (Some([body_p, spatial_p]), Some(tool)) =
+                (&p.measured_cf, arm.tool.and_then(|t| frame.tools.get(t)))
+            {
                 let (body, spatial) = outputs::measured_cf_messages(arm, status, tool, stamp);
-                let _ = p.body_measured_cf.publish(body);
-                let _ = p.spatial_measured_cf.publish(spatial);
+                let _ = body_p.publish(body);
+                let _ = spatial_p.publish(spatial);
             }
             if let Some((body, spatial)) = outputs::jacobian_messages(arm, status) {
                 let _ = p.body_jacobian.publish(body);
@@ -897,8 +908,12 @@ impl Io {
             let _ = p.local_setpoint_cp.publish(m.cp.clone());
             let _ = p.measured_js.publish(m.js.clone());
             let _ = p.setpoint_js.publish(m.js);
-            let _ = p.jaw_measured_js.publish(m.jaw);
-            let _ = p.jaw_setpoint_js.publish(m.jaw_setpoint);
+            if let (Some([measured, setpoint]), Some(jaw), Some(jaw_setpoint)) =
+                (&p.jaw, m.jaw, m.jaw_setpoint)
+            {
+                let _ = measured.publish(jaw);
+                let _ = setpoint.publish(jaw_setpoint);
+            }
             let _ = p.measured_cp.publish(m.cp.clone());
             let _ = p.setpoint_cp.publish(m.cp);
             let _ = p.measured_cv.publish(m.cv);

@@ -27,10 +27,11 @@ pub struct ArmOutput {
     pub base: Isometry3<f64>,
     /// Simulated arms publish their state; mirrored ones publish nothing on the arm's topics.
     pub simulated: bool,
-    /// Index of the scene tool the arm holds (its contact wrench is `measured_cf`).
-    pub tool: usize,
-    /// The held tool's scene name (`tool_type`).
-    pub tool_type: String,
+    /// Index of the scene tool a PSM holds (its contact wrench is `measured_cf`); `None`
+    /// for the ECM.
+    pub tool: Option<usize>,
+    /// The held tool's scene name (`tool_type`); `None` for the ECM.
+    pub tool_type: Option<String>,
 }
 
 /// MTM force feedback: the tool's contact wrench × scale on `<mtm>/body/servo_cf`.
@@ -96,7 +97,7 @@ impl OutputLayout {
                 psm: sim.psm().clone(),
                 base: *sim.base(),
                 simulated: arm.mode == ArmMode::Simulated,
-                tool: setup.arm_tools.get(index).copied().unwrap_or(0),
+                tool: setup.arm_tools.get(index).copied().flatten(),
                 tool_type: arm.tool.clone(),
             })
             .collect();
@@ -106,7 +107,7 @@ impl OutputLayout {
                 ForceFeedback {
                     topic: resolve(namespace, &format!("{}/body/servo_cf", t.mtm)),
                     scale: t.force_feedback_scale,
-                    tool: setup.arm_tools.get(arm).copied().unwrap_or(0),
+                    tool: setup.arm_tools.get(arm).copied().flatten().unwrap_or(0),
                 }
             })
         });
@@ -144,12 +145,11 @@ impl OutputLayout {
         let mut out = Vec::new();
         for arm in self.arms.iter().filter(|a| a.simulated) {
             let n = &arm.name;
-            for t in [
-                "measured_js",
-                "setpoint_js",
-                "jaw/measured_js",
-                "jaw/setpoint_js",
-            ] {
+            let jaw: &[&str] = match arm.psm.jaw().is_empty() {
+                true => &[],
+                false => &["jaw/measured_js", "jaw/setpoint_js"],
+            };
+            for t in ["measured_js", "setpoint_js"].iter().chain(jaw) {
                 out.push((self.topic(&format!("{n}/{t}")), JointState::type_name()));
             }
             for t in ["measured_cp", "setpoint_cp"] {
@@ -210,25 +210,26 @@ pub(crate) fn joint_state(
     }
 }
 
-/// A simulated arm's periodic state messages (joints: measured = setpoint; the jaw: what
+/// A simulated arm's periodic state messages (joints: measured = setpoint; a PSM's jaw: what
 /// the tool's jaws reached, with the controller's effort, and the setpoint apart).
 pub(crate) struct ArmMessages {
     pub js: JointState,
-    pub jaw: JointState,
-    pub jaw_setpoint: JointState,
+    pub jaw: Option<JointState>,
+    pub jaw_setpoint: Option<JointState>,
     pub cp: PoseStamped,
     pub cv: TwistStamped,
 }
 
 pub(crate) fn arm_messages(arm: &ArmOutput, status: &ArmStatus, stamp: Time) -> ArmMessages {
     let names = arm.psm.joints().names();
+    let has_jaw = !arm.psm.jaw().is_empty();
     ArmMessages {
         js: joint_state(stamp, &names, &status.q, &status.qdot),
-        jaw: JointState {
+        jaw: has_jaw.then(|| JointState {
             effort: vec![status.jaw_effort],
             ..joint_state(stamp, &["jaw"], &[status.jaw], &[status.jaw_rate])
-        },
-        jaw_setpoint: joint_state(stamp, &["jaw"], &[status.jaw_setpoint], &[]),
+        }),
+        jaw_setpoint: has_jaw.then(|| joint_state(stamp, &["jaw"], &[status.jaw_setpoint], &[])),
         cp: PoseStamped {
             header: Header::new(stamp, &arm.base_frame),
             pose: Pose::from_isometry(&status.cp),

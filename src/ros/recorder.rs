@@ -618,13 +618,15 @@ impl Bag {
                 let n = &arm.name;
                 self.write(&format!("{n}/measured_js"), Qos::Periodic, end, &m.js)?;
                 self.write(&format!("{n}/setpoint_js"), Qos::Periodic, end, &m.js)?;
-                self.write(&format!("{n}/jaw/measured_js"), Qos::Periodic, end, &m.jaw)?;
-                self.write(
-                    &format!("{n}/jaw/setpoint_js"),
-                    Qos::Periodic,
-                    end,
-                    &m.jaw_setpoint,
-                )?;
+                if let (Some(jaw), Some(setpoint)) = (&m.jaw, &m.jaw_setpoint) {
+                    self.write(&format!("{n}/jaw/measured_js"), Qos::Periodic, end, jaw)?;
+                    self.write(
+                        &format!("{n}/jaw/setpoint_js"),
+                        Qos::Periodic,
+                        end,
+                        setpoint,
+                    )?;
+                }
                 self.write(&format!("{n}/measured_cp"), Qos::Periodic, end, &m.cp)?;
                 self.write(&format!("{n}/setpoint_cp"), Qos::Periodic, end, &m.cp)?;
                 self.write(&format!("{n}/measured_cv"), Qos::Periodic, end, &m.cv)?;

@@ -328,10 +328,13 @@ impl ArmSim {
             .joints()
             .validate::<&str>(&[], home, None)
             .map_err(ArmError::HomeJoints)?;
-        let jaw = psm
-            .jaw()
-            .validate::<&str>(&[], &[home_jaw], None)
-            .map_err(ArmError::HomeJaw)?[0];
+        let jaw = match psm.jaw().is_empty() {
+            true => 0.0,
+            false => psm
+                .jaw()
+                .validate::<&str>(&[], &[home_jaw], None)
+                .map_err(ArmError::HomeJaw)?[0],
+        };
         let n = q.len();
         let mut arm = ArmSim {
             psm,

@@ -63,6 +63,8 @@ pub struct Finished {
     surface: bool,
     pieces: bool,
     camera: bool,
+    /// The camera's pose for this frame's picture where the ECM carries it.
+    camera_pose: Option<Isometry3<f32>>,
     record: Option<(f64, FrameShare, Due)>,
 }
 
@@ -88,6 +90,7 @@ impl FrameLoop {
     pub fn new(mut setup: SimSetup, events: Option<SyncSender<(usize, ArmEvent)>>) -> FrameLoop {
         // Tools driven by arms start where the arm is, not where their keyframes are.
         for (arm, &tool) in setup.arms.iter().zip(&setup.arm_tools) {
+            let Some(tool) = tool else { continue };
             let pose = arm.tool_pose();
             setup
                 .world
@@ -165,13 +168,14 @@ impl FrameLoop {
         for a in 0..self.setup.arms.len() {
             let arm = &mut self.setup.arms[a];
             arm.advance(t_next);
-            let tool = self.setup.arm_tools[a];
-            if let Err(e) = self.setup.world.command_tool_pose(tool, arm.tool_pose()) {
-                tracing::error!("{}: {e}", arm.name());
-            }
-            if self.setup.world.tools()[tool].jaw().is_some() {
-                if let Err(e) = self.setup.world.command_jaw_effort(tool, arm.jaw_effort()) {
+            if let Some(tool) = self.setup.arm_tools[a] {
+                if let Err(e) = self.setup.world.command_tool_pose(tool, arm.tool_pose()) {
                     tracing::error!("{}: {e}", arm.name());
+                }
+                if self.setup.world.tools()[tool].jaw().is_some() {
+                    if let Err(e) = self.setup.world.command_jaw_effort(tool, arm.jaw_effort()) {
+                        tracing::error!("{}: {e}", arm.name());
+                    }
                 }
             }
             for event in arm.take_events() {
@@ -186,6 +190,8 @@ impl FrameLoop {
         let surface = wanted.surface || due.surface;
         let pieces = due.pieces || (wanted.pieces && self.pieces_due(t_next));
         let camera = wanted.camera && self.setup.camera.as_mut().is_some_and(|c| c.due(t_next));
+        // Where the ECM holds the camera at the frame's end, for the picture taken then.
+        let camera_pose = camera.then(|| endoscope_pose(&self.setup)).flatten();
         let needs_deformation = self
             .setup
             .surface
@@ -203,6 +209,7 @@ impl FrameLoop {
         let report = self.setup.world.finish_frame();
         let wall = began.elapsed();
         for (arm, &tool) in self.setup.arms.iter_mut().zip(&self.setup.arm_tools) {
+            let Some(tool) = tool else { continue };
             if let Some(jaw) = self.setup.world.tools()[tool].jaw() {
                 arm.set_jaw_measured(jaw.angle, jaw.rate, jaw.effort);
             }
@@ -239,6 +246,7 @@ impl FrameLoop {
             surface,
             pieces,
             camera,
+            camera_pose,
             record,
         };
         let stepped = Stepped {
@@ -286,6 +294,7 @@ impl FrameLoop {
             surface,
             pieces,
             camera,
+            camera_pose,
             record,
         } = finished;
         if pieces {
@@ -301,6 +310,9 @@ impl FrameLoop {
             frame.surface = Some(Arc::new(s.triangles(setup.world.particles())));
         }
         if let (true, Some(rig)) = (camera, &mut setup.camera) {
+            if let Some(pose) = camera_pose {
+                rig.set_pose(pose);
+            }
             match rig.render(&setup.world) {
                 Ok(images) => frame.camera = Some(Arc::new(images)),
                 Err(e) => {
@@ -441,6 +453,16 @@ impl FrameLoop {
     }
 }
 
+/// The camera's pose in the world where the scene has an ECM: its tool frame, the scope's
+/// tip (z along the scope, the optical axis).
+pub fn endoscope_pose(setup: &SimSetup) -> Option<Isometry3<f32>> {
+    let ecm = setup
+        .arms
+        .iter()
+        .find(|a| a.psm().kind() == crate::robot::ArmKind::Ecm)?;
+    Some((ecm.base() * ecm.cp()).cast::<f32>())
+}
+
 fn frame_of(setup: &SimSetup, report: Option<&FrameReport>) -> Frame {
     let world = &setup.world;
     let tools = world
@@ -449,7 +471,7 @@ fn frame_of(setup: &SimSetup, report: Option<&FrameReport>) -> Frame {
         .enumerate()
         .map(|(i, t)| {
             let pose = t.pose_at(world.time());
-            let arm = setup.arm_tools.iter().position(|&k| k == i);
+            let arm = setup.arm_tools.iter().position(|&k| k == Some(i));
             let frame_id = arm
                 .map(|a| setup.arms[a].name().to_owned())
                 .unwrap_or_else(|| t.name.clone());

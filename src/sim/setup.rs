@@ -12,8 +12,10 @@ use crate::config::{Outputs, Scene};
 use crate::output::mesh::MeshError;
 use crate::output::snapshot::SnapshotSchedule;
 use crate::output::{CloudOptions, SurfaceKind, TissueSurface};
+use crate::robot::ecm::ECM_SPEEDS;
 use crate::robot::psm::{UrdfRoles, DVRK_JAW_SPEED, DVRK_PSM_SPEEDS};
-use crate::robot::urdf::{self, CLASSIC_PSM_URDF};
+use crate::robot::urdf::{self, CLASSIC_ECM_URDF, CLASSIC_PSM_URDF};
+use crate::robot::ArmKind;
 use crate::robot::{Psm, PsmError, Teleop, TeleopConfig, TeleopError};
 use crate::sim::arm::{ArmError, ArmSim};
 use crate::sim::input::ReplayInput;
@@ -70,8 +72,8 @@ pub struct SimSetup {
     pub world: World,
     /// The scene's arms, scene order.
     pub arms: Vec<ArmSim>,
-    /// Scene tool index each arm drives.
-    pub arm_tools: Vec<usize>,
+    /// Scene tool index each arm drives (`None` for the ECM).
+    pub arm_tools: Vec<Option<usize>>,
     /// Teleoperation, when the scene has a `[teleop]` table.
     pub teleop: Option<TeleopBinding>,
     /// What the point cloud output carries.
@@ -139,47 +141,61 @@ pub struct ArmUrdfProblem {
     pub source: PsmError,
 }
 
-/// Loads an arm's PSM: its URDF file, or the built-in classic PSM when the default path
-/// `urdf/psm.urdf` is not found from the working directory; base and tool links as the scene
-/// names them or by the default rule; speed limits the scene's, else dVRK's.
+/// Loads an arm's model: its URDF file, or the built-in classic PSM / ECM when the default
+/// path of its kind (`urdf/psm.urdf`, `urdf/ecm.urdf`) is not found from the working
+/// directory; base and tool links as the scene names them or by the default rule; speed
+/// limits the scene's, else dVRK's.
 pub fn load_psm(index: usize, arm: &crate::config::Arm) -> Result<Psm, Box<ArmUrdfProblem>> {
     load_arm_psm(arm).map_err(|source| {
         let key = match &source {
             PsmError::NoSuchRoleLink { key, .. } => key,
             PsmError::NoBaseLink { .. } | PsmError::AmbiguousBase { .. } => "base_link",
             PsmError::NoToolLink { .. } => "tool_link",
-            PsmError::InvalidSpeed { .. } => "joint_speeds",
+            PsmError::InvalidSpeed { .. } | PsmError::SpeedCount { .. } => "joint_speeds",
             _ => "urdf",
         };
         Box::new(ArmUrdfProblem {
             index,
             arm: arm.name.clone(),
             key,
-            file: arm.urdf.clone(),
+            file: arm.urdf_path().to_owned(),
             source,
         })
     })
 }
 
 fn load_arm_psm(arm: &crate::config::Arm) -> Result<Psm, PsmError> {
-    let path = Path::new(&arm.urdf);
+    let path = Path::new(arm.urdf_path());
     let roles = UrdfRoles {
         base_link: arm.base_link.clone(),
         tool_link: arm.tool_link.clone(),
     };
-    let robot = if !path.exists() && arm.urdf == "urdf/psm.urdf" {
-        urdf::parse_urdf(CLASSIC_PSM_URDF)?
+    let built_in = match arm.kind {
+        ArmKind::Psm => CLASSIC_PSM_URDF,
+        ArmKind::Ecm => CLASSIC_ECM_URDF,
+    };
+    let robot = if !path.exists() && arm.urdf.is_none() {
+        urdf::parse_urdf(built_in)?
     } else {
         urdf::load_urdf(path, arm.dvrk_model.as_deref().map(Path::new))?
     };
-    let mut psm = Psm::from_urdf_with_roles(robot, &arm.name, &roles)?;
+    let mut psm = match arm.kind {
+        ArmKind::Psm => Psm::from_urdf_with_roles(robot, &arm.name, &roles)?,
+        ArmKind::Ecm => Psm::ecm_from_urdf_with_roles(robot, &arm.name, &roles)?,
+    };
+    let defaults: &[f64] = match arm.kind {
+        ArmKind::Psm => &DVRK_PSM_SPEEDS,
+        ArmKind::Ecm => &ECM_SPEEDS,
+    };
+    let jaw_default = (arm.kind == ArmKind::Psm).then_some(DVRK_JAW_SPEED);
     if arm.joint_speeds.is_some() || arm.jaw_speed.is_some() {
-        let joints = arm.joint_speeds.unwrap_or(DVRK_PSM_SPEEDS);
-        let jaw = arm.jaw_speed.unwrap_or(DVRK_JAW_SPEED);
-        psm.set_speed_limits(&joints, jaw)?;
+        let joints = arm.joint_speeds.as_deref().unwrap_or(defaults);
+        let jaw = arm.jaw_speed.or(jaw_default);
+        psm.set_speed_limits(joints, jaw)?;
         tracing::info!(
-            "arm {}: move_jp speed limits from the scene: {joints:?}, jaw {jaw} rad/s",
-            arm.name
+            "arm {}: move_jp speed limits from the scene: {joints:?}{}",
+            arm.name,
+            jaw.map(|j| format!(", jaw {j} rad/s")).unwrap_or_default()
         );
     } else {
         tracing::info!(
@@ -255,17 +271,24 @@ pub fn build_setup(scene: &Scene) -> Result<SimSetup, SetupError> {
             arm: arm.name.clone(),
             source,
         })?;
-        let tool = scene
-            .tools
-            .iter()
-            .position(|t| t.name == arm.tool)
-            .ok_or_else(|| SetupError::NoTool {
-                arm: arm.name.clone(),
-                tool: arm.tool.clone(),
-            })?;
-        sim.set_jaw_effort_limit(scene.tools[tool].jaw.effort_max);
-        let [r, p, y] = arm.tool_rpy_deg.map(f64::to_radians);
-        sim.set_tool_mount(UnitQuaternion::from_euler_angles(r, p, y));
+        let tool = match (arm.kind, &arm.tool) {
+            (ArmKind::Ecm, _) => None,
+            (ArmKind::Psm, name) => {
+                let name = name.as_deref().unwrap_or_default();
+                let tool = scene
+                    .tools
+                    .iter()
+                    .position(|t| t.name == name)
+                    .ok_or_else(|| SetupError::NoTool {
+                        arm: arm.name.clone(),
+                        tool: name.to_owned(),
+                    })?;
+                sim.set_jaw_effort_limit(scene.tools[tool].jaw.effort_max);
+                let [r, p, y] = arm.tool_rpy_deg.map(f64::to_radians);
+                sim.set_tool_mount(UnitQuaternion::from_euler_angles(r, p, y));
+                Some(tool)
+            }
+        };
         arms.push(sim);
         arm_tools.push(tool);
     }

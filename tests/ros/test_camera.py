@@ -1,5 +1,5 @@
 """The endoscope's topics as a user sees them (tests/scenes/camera.toml: 2 x 160 x 120, 60°,
-6 mm baseline, 30 Hz).
+6 mm baseline, 30 Hz, on the ECM).
 
 Subscribes /ECM/image_raw, /ECM/image_raw/compressed, /ECM/left/camera_info,
 /ECM/right/camera_info, /ECM/left/depth and /ECM/left/labels; checks sizes, encodings,
@@ -7,7 +7,11 @@ steps, the JPEG's own header, stamps (simulated time, 1/30 s apart, the same on 
 of one picture), K and P against the scene's optics, and that depth and labels agree
 (NaN exactly where nothing was drawn).
 
-Prints `RESULT images=.. rate_hz=..`.
+Then the ECM as dVRK's clients drive it: its CRTK topics exist with dVRK's types and no
+jaw, `measured_js` names its four joints, a `move_jp` turns it (measured_js follows to the
+goal, measured_cp moves) and the picture changes with it.
+
+Prints `RESULT images=.. rate_hz=.. ecm_moved_pixels=..`.
 """
 
 import math
@@ -15,7 +19,8 @@ import struct
 import time
 
 import rclpy
-from sensor_msgs.msg import CameraInfo, CompressedImage, Image
+from geometry_msgs.msg import PoseStamped
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image, JointState
 
 from common import check, fail
 
@@ -120,4 +125,59 @@ if stamp(depth) == stamp(labels):
 finite = [d for d in z if not math.isnan(d)]
 check(finite and 0.02 < min(finite) and max(finite) < 1.0, f"depth {min(finite):.4f}..{max(finite):.4f} m")
 check({1, 10, 100} <= set(lab), f"table, tissue and the probe labelled: {sorted(set(lab))}")
-print(f"RESULT images={len(images)} rate_hz={rate:.1f}", flush=True)
+
+# --- The ECM: topics, move_jp, and the view following it.
+topics = dict(node.get_topic_names_and_types())
+for topic, type_name in [
+    ("/ECM/measured_js", "sensor_msgs/msg/JointState"),
+    ("/ECM/setpoint_js", "sensor_msgs/msg/JointState"),
+    ("/ECM/measured_cp", "geometry_msgs/msg/PoseStamped"),
+    ("/ECM/setpoint_cp", "geometry_msgs/msg/PoseStamped"),
+    ("/ECM/measured_cv", "geometry_msgs/msg/TwistStamped"),
+    ("/ECM/operating_state", "crtk_msgs/msg/OperatingState"),
+    ("/ECM/move_jp", "sensor_msgs/msg/JointState"),
+    ("/ECM/servo_jp", "sensor_msgs/msg/JointState"),
+    ("/ECM/state_command", "crtk_msgs/msg/StringStamped"),
+]:
+    check(type_name in topics.get(topic, []), f"{topic} as {type_name}: {topics.get(topic)}")
+ecm_jaw = [t for t in topics if t.startswith("/ECM/jaw") or t.endswith("measured_cf") and "ECM" in t]
+check(not ecm_jaw, f"no jaw or contact wrench for the ECM: {ecm_jaw}")
+
+node.create_subscription(JointState, "/ECM/measured_js", keep("/ECM/measured_js"), 10)
+node.create_subscription(PoseStamped, "/ECM/measured_cp", keep("/ECM/measured_cp"), 10)
+move = node.create_publisher(JointState, "/ECM/move_jp", 10)
+
+
+def spin_until(predicate, seconds, what):
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        if predicate():
+            return
+        rclpy.spin_once(node, timeout_sec=0.01)
+    fail(f"timed out waiting for {what}")
+
+
+spin_until(lambda: got.get("/ECM/measured_js") and got.get("/ECM/measured_cp")
+           and move.get_subscription_count() > 0, 10.0, "the ECM's state and move_jp")
+js = got["/ECM/measured_js"][-1]
+check(list(js.name) == ["outer_yaw", "outer_pitch", "insertion", "outer_roll"], f"ECM joints {js.name}")
+check(max(abs(a - b) for a, b in zip(js.position, [0.0, 0.0, 0.05, 0.0])) < 1e-9, f"ECM home {js.position}")
+cp0 = got["/ECM/measured_cp"][-1]
+check(cp0.header.frame_id == "ECM_base", f"measured_cp frame {cp0.header.frame_id}")
+before = bytes(got["/ECM/image_raw"][-1].data)
+
+goal = [0.25, -0.1, 0.05, 0.0]
+move.publish(JointState(name=list(js.name), position=goal))
+spin_until(lambda: max(abs(a - b) for a, b in zip(got["/ECM/measured_js"][-1].position, goal)) < 1e-9,
+           10.0, "measured_js to reach the move_jp goal")
+moved_at = stamp(got["/ECM/measured_js"][-1])
+cp1 = got["/ECM/measured_cp"][-1].pose.position
+p0 = cp0.pose.position
+shift = math.dist((p0.x, p0.y, p0.z), (cp1.x, cp1.y, cp1.z))
+check(shift > 0.005, f"measured_cp moved {shift * 1000:.1f} mm")
+spin_until(lambda: stamp(got["/ECM/image_raw"][-1]) > moved_at + 0.05, 10.0, "a picture after the move")
+after = bytes(got["/ECM/image_raw"][-1].data)
+changed = sum(1 for i in range(0, len(after), 3)
+              if sum(abs(a - b) for a, b in zip(after[i:i + 3], before[i:i + 3])) > 30)
+check(changed > 0.1 * W * 2 * H, f"the picture follows the ECM: {changed} pixels changed")
+print(f"RESULT images={len(images)} rate_hz={rate:.1f} ecm_moved_pixels={changed}", flush=True)

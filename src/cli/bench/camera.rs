@@ -8,7 +8,7 @@ use dvrk_tissue_sim::config::Scene;
 use dvrk_tissue_sim::render::camera::stereo_eyes;
 use dvrk_tissue_sim::render::{CameraImages, Renderer, SceneGeometry};
 use dvrk_tissue_sim::ros::camera::compressed_message;
-use dvrk_tissue_sim::sim::frame_loop::{FrameLoop, Wanted};
+use dvrk_tissue_sim::sim::frame_loop::{endoscope_pose, FrameLoop, Wanted};
 use dvrk_tissue_sim::sim::setup::build_setup;
 use dvrk_tissue_sim::world::World;
 use std::fmt::Write;
@@ -45,8 +45,13 @@ pub fn run(scene: &Scene, frames: u32) -> Result<CameraBench> {
     let Some(camera) = scene.camera.clone() else {
         bail!("the scene has no [camera]");
     };
-    let Some(pose) = camera.fixed_pose() else {
-        bail!("the scene's camera has no position");
+    // A fixed camera, else where the scene's ECM holds it at home.
+    let pose = match camera.fixed_pose() {
+        Some(pose) => pose,
+        None => match endoscope_pose(&build_setup(scene)?) {
+            Some(pose) => pose,
+            None => bail!("the scene's camera has no position and no ECM carries it"),
+        },
     };
     let world = World::try_new(scene)?;
     let mut renderer = Renderer::new()?;
