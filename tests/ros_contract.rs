@@ -16,11 +16,11 @@ use std::time::{Duration, Instant};
 use dvrk_tissue_sim::ros::msgs::{JointState, OperatingState, RosMessage, TFMessage};
 use ros2_client::{
     qos::{Durability, History},
-    Context, ContextOptions, MessageTypeName, Name, NodeName, NodeOptions, QosProfile,
+    Context, ContextOptions, NodeName, NodeOptions, QosProfile,
 };
 
 mod support;
-use support::dds::network_prerequisites;
+use support::dds::{network_prerequisites, topic};
 use support::node::{run_rclpy, NodeProcess};
 
 const SMALL: &str = "tests/scenes/small.toml";
@@ -61,19 +61,6 @@ fn tf_children(
         .iter()
         .map(|t| (t.header.frame_id.clone(), t.child_frame_id.clone()))
         .collect()
-}
-
-fn topic<M: RosMessage>(
-    node: &mut ros2_client::Node,
-    name: &str,
-    qos: &QosProfile,
-) -> ros2_client::dds::rustdds::Topic {
-    node.create_topic(
-        &Name::parse(name).unwrap(),
-        MessageTypeName::new(M::PACKAGE, M::NAME),
-        qos,
-    )
-    .unwrap()
 }
 
 /// Polls `take` until `done` holds for what it gathered, at most 10 s.

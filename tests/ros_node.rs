@@ -14,12 +14,11 @@ use dvrk_tissue_sim::ros::msgs::{
 };
 use ros2_client::{
     qos::{Durability, History},
-    Context, ContextOptions, MessageTypeName, Name, NodeName, NodeOptions, QosProfile,
-    Subscription,
+    Context, ContextOptions, NodeName, NodeOptions, QosProfile, Subscription,
 };
 
 mod support;
-use support::dds::network_prerequisites as prerequisites;
+use support::dds::{network_prerequisites as prerequisites, topic};
 use support::node::{run_rclpy, NodeProcess};
 
 /// One node at a time: two cores, and every test's timing matters.
@@ -141,19 +140,6 @@ fn rclpy_receives_30k_point_clouds_whole_at_30_hz() {
 }
 
 // ---- crtk_msgs topics (no Python wheel): a ros2-client peer ----
-
-fn topic<M: RosMessage>(
-    node: &mut ros2_client::Node,
-    name: &str,
-    qos: &QosProfile,
-) -> ros2_client::dds::rustdds::Topic {
-    node.create_topic(
-        &Name::parse(name).unwrap(),
-        MessageTypeName::new(M::PACKAGE, M::NAME),
-        qos,
-    )
-    .unwrap()
-}
 
 /// What the peer has received so far.
 struct Probe {

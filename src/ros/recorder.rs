@@ -802,11 +802,8 @@ mod tests {
         }
     }
 
-    #[test]
-    fn a_writer_behind_costs_whole_frames_counted_never_a_wait() {
-        // A writer that never drains: the queue fills and every further frame is dropped
-        // whole (inputs with it) and counted, without blocking the caller.
-        let (tx, rx) = sync_channel(3);
+    /// A dropping tap sending into `tx`, and its drop counters.
+    fn tap(tx: SyncSender<FrameRecord>) -> (RecordTap, Arc<Dropped>) {
         let dropped = Arc::new(Dropped::default());
         let rates = OutputRates {
             arm: 60.0,
@@ -817,13 +814,22 @@ mod tests {
             thread: 30.0,
             pieces: 5.0,
         };
-        let mut tap = RecordTap {
+        let tap = RecordTap {
             tx,
             schedule: SimSchedule::new(&rates),
             dropped: dropped.clone(),
             last_warning: None,
             lossless: false,
         };
+        (tap, dropped)
+    }
+
+    #[test]
+    fn a_writer_behind_costs_whole_frames_counted_never_a_wait() {
+        // A writer that never drains: the queue fills and every further frame is dropped
+        // whole (inputs with it) and counted, without blocking the caller.
+        let (tx, rx) = sync_channel(3);
+        let (mut tap, dropped) = tap(tx);
         for _ in 0..10 {
             tap.send(record(2));
         }
@@ -839,23 +845,7 @@ mod tests {
     #[test]
     fn a_lossless_tap_waits_for_the_writer_and_drops_nothing() {
         let (tx, rx) = sync_channel(3);
-        let dropped = Arc::new(Dropped::default());
-        let rates = OutputRates {
-            arm: 60.0,
-            points: 30.0,
-            surface: 10.0,
-            wrench: 60.0,
-            tf: 50.0,
-            thread: 30.0,
-            pieces: 5.0,
-        };
-        let mut tap = RecordTap {
-            tx,
-            schedule: SimSchedule::new(&rates),
-            dropped: dropped.clone(),
-            last_warning: None,
-            lossless: false,
-        };
+        let (mut tap, dropped) = tap(tx);
         tap.wait_when_behind();
         // A slow writer: the queue of 3 fills, and the sender waits instead of dropping.
         let writer = std::thread::spawn(move || {

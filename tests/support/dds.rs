@@ -5,6 +5,9 @@
 
 use std::path::PathBuf;
 
+use dvrk_tissue_sim::ros::msgs::RosMessage;
+use ros2_client::{MessageTypeName, Name, QosProfile};
+
 use super::root;
 
 /// The venv `.ci/run` creates with the PyPI ROS 2 wheels and rosbags.
@@ -53,4 +56,18 @@ pub fn network_prerequisites(need_python: bool) -> bool {
             false
         }
     }
+}
+
+/// The DDS topic `name` of message type `M` on `node`, for a ros2-client peer of the node.
+pub fn topic<M: RosMessage>(
+    node: &mut ros2_client::Node,
+    name: &str,
+    qos: &QosProfile,
+) -> ros2_client::dds::rustdds::Topic {
+    node.create_topic(
+        &Name::parse(name).unwrap(),
+        MessageTypeName::new(M::PACKAGE, M::NAME),
+        qos,
+    )
+    .unwrap()
 }
