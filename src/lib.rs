@@ -15,6 +15,7 @@
 //! - [`mpm`]: the tissue. The method (MLS-MPM, PIC, PB-MPM, the implicit solver), the time
 //!   step, contact and wrenches, and which method to choose, with the measurements behind it.
 //!   - [`mpm::cpu`]: the reference solver; block-coloured P2G without atomics.
+//!   - [`mpm::cpu::tlmpm`]: total Lagrangian MPM: tissue that never parts by numerics.
 //!   - [`mpm::gpu`]: the GPU backend: its design, P2G variants, the implicit solve on the
 //!     device, agreement with the CPU and what the H100 measured.
 //!   - [`mpm::crack`]: cutting: crack planes, the side test, pieces, PB-MPM's cut, its cost.

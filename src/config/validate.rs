@@ -212,6 +212,29 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
         s.cg_tolerance,
         "0 < cg_tolerance < 1 (implicit: CG residual relative to the Newton residual)",
     );
+    if s.method == Method::TlMpm {
+        // Total Lagrangian MPM keeps every particle's rest neighbours: there is nothing to
+        // split, and a crack would have to be carried back to the rest configuration.
+        c.require(
+            s.split_max_edge_cells == 0.0,
+            "solver.split_max_edge_cells",
+            s.split_max_edge_cells,
+            "0 with solver.method = \"tl_mpm\" (its tissue never parts by numerics)",
+        );
+        let slicer = scene
+            .tools
+            .iter()
+            .position(|t| matches!(t.shape, Shape::Slicer { .. } | Shape::MeshSlicer { .. }));
+        c.require(
+            slicer.is_none(),
+            "solver.method",
+            s.method,
+            format!(
+                "mls_mpm, pic_mpm, pb_mpm or implicit: tool[{}] cuts, and tl_mpm does not cut",
+                slicer.unwrap_or_default()
+            ),
+        );
+    }
     c.require(
         s.split_max_edge_cells == 0.0 || (0.5..=8.0).contains(&s.split_max_edge_cells),
         "solver.split_max_edge_cells",

@@ -35,6 +35,15 @@
 //!   constraint conserve momentum, so the sum is the momentum the tool exchanged (a block
 //!   resting on a tool carries its weight to within 10⁻⁶, `tests/pbmpm.rs`).
 //! - **Implicit** (`method = "implicit"`): backward Euler by Newton–CG, below.
+//! - **Total Lagrangian MPM** (`method = "tl_mpm"`, [`cpu::tlmpm`]): the shape functions
+//!   live on the rest configuration, so tissue pulled far past a cell per particle stays one
+//!   piece, where the updated-Lagrangian methods part it by numerics (the default liver
+//!   lifted 25 mm above the grasp: MLS-MPM tears a chunk away at 10–13 mm; `tl_mpm` holds it
+//!   to the top with the wrench rising to about 1.4 N, `config/deep_lift.toml`). Its cost:
+//!   about twice MLS-MPM's time per substep on the CPU, and more substeps where the jaws
+//!   squeeze the tissue (the substep shrinks by the largest 1/σ_min(F), see
+//!   [`cpu::CpuSolver::wave_speed_factor`]). It has no GPU kernels, cuts nothing and does
+//!   not tear.
 //! - **Tools and contact** ([`crate::tools`]): signed distance fields evaluated per grid node
 //!   inside each tool's bounding box, the nearest tool owning a node. Approaching nodes lose
 //!   the normal component of their velocity relative to the tool, Coulomb friction reduces the
@@ -245,6 +254,10 @@ pub enum Method {
     /// Backward-Euler MLS-MPM solved as an energy minimisation (Gast et al. 2015): substeps
     /// bound by advection only, stiffness from E and ν; see [`cpu::implicit`].
     Implicit,
+    /// Total Lagrangian MPM (de Vaucorbeil et al. 2020): shape functions on the rest
+    /// configuration, so tissue pulled however far stays one piece; explicit, substeps as
+    /// MLS-MPM's. CPU only; no cutting or tearing (see [`cpu::tlmpm`]).
+    TlMpm,
 }
 
 impl Method {

@@ -91,16 +91,30 @@ impl ToolKinematics {
             return None;
         }
         let (lever, jaw) = self.grip_region(x)?;
+        Some(self.held(x, v, lever, jaw))
+    }
+
+    /// The grip on a grid node at `x` moving at `v` wherever it is: the material grip holds
+    /// the nodes its captured particles touch, in or out of the region.
+    #[inline(always)]
+    pub fn hold_anywhere(&self, x: Vec3, v: Vec3) -> Held {
+        let p = self.rotation.tr_mul(&(x - self.translation));
+        let lever = (p.y * p.y + p.z * p.z).sqrt();
+        self.held(x, v, lever, if p.y >= 0.0 { 1 } else { 2 })
+    }
+
+    #[inline(always)]
+    fn held(&self, x: Vec3, v: Vec3, lever: f32, jaw: u8) -> Held {
         let v_jaws = self.linear_velocity + self.angular_velocity.cross(&(x - self.translation));
         let dv = v_jaws - v;
         let along_normal = self.jaw_normal() * self.jaw_normal().dot(&dv);
         let required = dv - along_normal;
-        Some(Held {
-            v: v + along_normal + required * self.grip,
+        Held {
+            v: v + along_normal + required * self.grip.max(0.0),
             required,
             lever,
             jaw,
-        })
+        }
     }
 
     /// The jaws' closing direction (the tool's y axis, world frame).

@@ -42,7 +42,7 @@ impl StepParams {
     pub fn new(scene: &Scene, wave_speed: f64) -> Self {
         let s = &scene.solver;
         let (bounding_wave_speed, requested_dt) = match s.method {
-            Method::MlsMpm | Method::PicMpm => (wave_speed, s.dt),
+            Method::MlsMpm | Method::PicMpm | Method::TlMpm => (wave_speed, s.dt),
             Method::PbMpm => (0.0, Some(s.dt.unwrap_or(PB_MPM_DEFAULT_DT))),
             // Implicit Euler is stable at any step: only advection bounds it.
             Method::Implicit => (0.0, s.dt),

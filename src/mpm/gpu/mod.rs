@@ -187,6 +187,8 @@ use sparse::SparseStage;
 pub const IMPLICIT_WITHOUT_FLOAT_ATOMICS: &str =
     "solver.method = \"implicit\" on an adapter without f32 atomics (SHADER_FLOAT32_ATOMIC)";
 /// How [`GpuError::Unsupported`] names the implicit method in a scene with a slicer.
+pub const TOTAL_LAGRANGIAN: &str = "solver.method = \"tl_mpm\" (total Lagrangian MPM)";
+/// What the GPU backend lacks for the implicit method in a scene with a slicer.
 pub const IMPLICIT_WITH_CUTTING: &str = "solver.method = \"implicit\" in a scene that cuts";
 
 /// Why the GPU backend could not be used.
@@ -266,6 +268,9 @@ pub struct GpuSolver {
 /// What of `setup` the backend cannot step on this adapter: the implicit method needs f32
 /// atomics and a scene that does not cut (see `implicit`).
 pub fn unsupported(ctx: &GpuContext, setup: &SolverSetup) -> Option<&'static str> {
+    if setup.method == Method::TlMpm {
+        return Some(TOTAL_LAGRANGIAN);
+    }
     if setup.method != Method::Implicit {
         return None;
     }
@@ -511,6 +516,7 @@ impl GpuSolver {
                     Method::MlsMpm | Method::PicMpm => self.record_substep(&mut pass, s, &groups),
                     Method::PbMpm => self.record_pb_substep(&mut pass, s, entries, &groups),
                     Method::Implicit => unreachable!("implicit frames: submit_implicit_frame"),
+                    Method::TlMpm => unreachable!("refused by `unsupported`"),
                 }
             }
             self.res.bind_step(&mut pass, 0);
@@ -658,7 +664,7 @@ impl GpuSolver {
 /// Step entries per substep (one, or one per PB-MPM iteration) and PB-MPM's relaxation.
 fn step_entries(method: Method, pb_mpm: PbMpmParams) -> (u32, f32) {
     match method {
-        Method::MlsMpm | Method::PicMpm | Method::Implicit => (1, 0.0),
+        Method::MlsMpm | Method::PicMpm | Method::Implicit | Method::TlMpm => (1, 0.0),
         Method::PbMpm => (pb_mpm.iterations.max(1), pb_mpm.relaxation),
     }
 }

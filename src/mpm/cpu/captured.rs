@@ -1,0 +1,149 @@
+//! Total Lagrangian MPM's grip: the tissue a gripper's jaws close on is captured as a set
+//! of particles, and the rest-configuration nodes they touch are held in proportion to the
+//! captured mass they carry (see [`crate::tools::grip`] for what holding a node means).
+//!
+//! The updated-Lagrangian solvers hold every node inside a box fixed to the jaws. On the
+//! rest configuration's grid such a box means nothing (its nodes do not move with the
+//! jaws), so total Lagrangian MPM holds material instead: the particles in the grip region
+//! when the press starts. A node all of whose mass is captured moves with the jaws; one at
+//! the edge of the captured tissue moves that share of the way, so the hold fades over a
+//! kernel's width rather than stopping at a box face.
+
+use super::super::grid::GridLayout;
+use super::super::kernel::Stencil;
+use super::super::particles::Particles;
+use super::super::{ToolImpulse, Vec3, MAX_TOOLS};
+use crate::tools::ToolKinematics;
+
+/// Which particles each gripper holds, and the held mass they put on the grid this substep.
+#[derive(Default)]
+pub(super) struct Captured {
+    /// Per particle: 0 when free, `t + 1` when gripper `t` holds it.
+    tool: Vec<u8>,
+    /// The held particles.
+    held: Vec<u32>,
+    /// Which grippers held during the last substep.
+    holding: [bool; MAX_TOOLS],
+    /// Per node: the held mass this substep (kg), and the gripper holding it (`t + 1`).
+    node_mass: Vec<f32>,
+    node_tool: Vec<u8>,
+    /// Nodes written this substep, cleared before the next scatter.
+    touched: Vec<usize>,
+}
+
+impl Captured {
+    /// Captures the particles in a gripper's grip region when it starts to hold, and lets
+    /// them go when it stops.
+    pub(super) fn update(&mut self, particles: &Particles, tools: &[ToolKinematics]) {
+        if self.tool.len() != particles.len() {
+            // Split halves start free; removed particles take their marks with them.
+            self.tool.resize(particles.len(), 0);
+            self.held.retain(|&p| (p as usize) < particles.len());
+        }
+        for (t, tool) in tools.iter().enumerate() {
+            let holds = tool.grip >= 0.0;
+            if holds == self.holding[t] {
+                continue;
+            }
+            self.holding[t] = holds;
+            let mark = t as u8 + 1;
+            if holds {
+                for (p, x) in particles.x.iter().enumerate() {
+                    if self.tool[p] == 0 && tool.grip_region(*x).is_some() {
+                        self.tool[p] = mark;
+                        self.held.push(p as u32);
+                    }
+                }
+            } else {
+                for &p in &self.held {
+                    if self.tool[p as usize] == mark {
+                        self.tool[p as usize] = 0;
+                    }
+                }
+                let marks = &self.tool;
+                self.held.retain(|&p| marks[p as usize] != 0);
+            }
+        }
+        for t in tools.len()..MAX_TOOLS {
+            self.holding[t] = false;
+        }
+    }
+
+    /// Spreads the held particles' mass over the stencils at `positions` (the current
+    /// ones, or the rest configuration's for total Lagrangian MPM).
+    pub(super) fn scatter_at(&mut self, layout: &GridLayout, positions: &[Vec3], mass: &[f32]) {
+        for &n in &self.touched {
+            self.node_mass[n] = 0.0;
+            self.node_tool[n] = 0;
+        }
+        self.touched.clear();
+        if self.held.is_empty() {
+            return;
+        }
+        if self.node_mass.len() != layout.node_count() {
+            self.node_mass = vec![0.0; layout.node_count()];
+            self.node_tool = vec![0; layout.node_count()];
+        }
+        for &p in &self.held {
+            let p = p as usize;
+            let s = Stencil::new((positions[p] - layout.origin) * layout.inv_dx);
+            for a in 0..3 {
+                for b in 0..3 {
+                    for c in 0..3 {
+                        let ijk = [
+                            (s.base.x + a as i32) as usize,
+                            (s.base.y + b as i32) as usize,
+                            (s.base.z + c as i32) as usize,
+                        ];
+                        let n = layout.node_index(ijk[0], ijk[1], ijk[2]);
+                        if self.node_tool[n] == 0 {
+                            self.touched.push(n);
+                        }
+                        self.node_mass[n] += s.weight(a, b, c) * mass[p];
+                        self.node_tool[n] = self.tool[p];
+                    }
+                }
+            }
+        }
+    }
+
+    /// The gripper holding node `n` and the held share of the node's mass `m`.
+    #[inline(always)]
+    pub(super) fn share(&self, n: usize, m: f32) -> Option<(usize, f32)> {
+        let t = *self.node_tool.get(n)?;
+        (t != 0).then(|| (t as usize - 1, (self.node_mass[n] / m).min(1.0)))
+    }
+}
+
+/// The grip on a node carrying the held share `share` of its mass `m`: its velocity moves
+/// that share of the way to the region grip's, and the impulse and the grip's sums are
+/// recorded as the region grip records them for a whole node.
+#[inline(always)]
+pub(super) fn hold_share(
+    tools: &[ToolKinematics],
+    t: usize,
+    share: f32,
+    x: Vec3,
+    v: Vec3,
+    m: f32,
+    impulses: &mut [ToolImpulse; MAX_TOOLS],
+) -> Vec3 {
+    let tool = &tools[t];
+    let held = tool.hold_anywhere(x, v);
+    let v_new = v + (held.v - v) * share;
+    let dp = ((v - v_new) * m).cast::<f64>();
+    let arm = (x - tool.translation).cast::<f64>();
+    let normal = tool.jaw_normal().cast::<f64>();
+    let hinge = tool.rotation.column(0).into_owned().cast::<f64>();
+    let jaw_share = crate::tools::sdf::jaw_angle(held.jaw, 1.0) as f64;
+    let imp = &mut impulses[t];
+    imp.linear += dp;
+    imp.angular += arm.cross(&dp);
+    imp.contact_nodes += 1;
+    imp.jaw_opening += jaw_share * arm.cross(&(normal * normal.dot(&dp))).dot(&hinge);
+    let held_mass = m * share;
+    imp.grip.required += (held.required * held_mass).cast::<f64>();
+    imp.grip.mass += held_mass as f64;
+    imp.grip.mass_lever += (held_mass * held.lever) as f64;
+    v_new
+}

@@ -1,0 +1,327 @@
+//! Total Lagrangian MPM (de Vaucorbeil, Nguyen & Hutchinson 2020) on the CPU: the shape
+//! functions are evaluated at the particles' rest positions on the grid of the rest
+//! configuration, once, so two particles that share nodes at rest share them forever, and
+//! the tissue cannot come apart by numerics however far it is pulled.
+//!
+//! The substep, with Xₚ the rest position, Pₚ the first Piola–Kirchhoff stress and V⁰ₚ the
+//! rest volume:
+//!
+//! - P2G: mᵢ = Σ wᵢₚ mₚ (fixed), momentum Σ wᵢₚ mₚ vₚ, force fᵢ = −Σ V⁰ₚ Pₚ ∇Nᵢ(Xₚ) plus
+//!   gravity, and the node's current place x̄ᵢ = Σ wᵢₚ mₚ xₚ / mᵢ;
+//! - the grid update at x̄ᵢ: the grip, the tools' contact and the domain walls as the
+//!   updated-Lagrangian solver applies them at a node's grid position (a reference node
+//!   moves with the material it carries, so contact asks where it is now); the bonded
+//!   table holds the nodes whose rest position is on it;
+//! - G2P: vₚ by FLIP (0.99) blended with PIC, xₚ += dt Σ wᵢₚ vᵢ, and
+//!   Fₚ += dt Σ vᵢ ⊗ ∇Nᵢ(Xₚ): F comes from the rest configuration's gradients, never from
+//!   a stencil that has moved.
+//!
+//! What it does not do: cut (a crack would have to be carried back to the rest
+//! configuration) or tear, and it has no GPU kernels yet; contact between separate pieces
+//! of tissue is not seen (their nodes never meet).
+
+use super::super::grid::{Boundary, GridLayout, TableHold, WALL_NODES};
+use super::super::guard::{GuardEvent, GuardKind};
+use super::super::kernel::Stencil;
+use super::super::material::kirchhoff_stress;
+use super::super::particles::Particles;
+use super::super::MaterialParams;
+use super::super::{Mat3, ToolImpulse, Vec3, MAX_TOOLS};
+use super::captured::{self, Captured};
+use super::node_contact::apply_tools;
+use crate::tools::{contact, ToolKinematics};
+use rayon::prelude::*;
+
+/// FLIP's share of the particle velocity update (the rest is PIC), as the paper uses.
+const FLIP: f32 = 0.99;
+
+/// The rest configuration and the grid on it.
+#[derive(Default)]
+pub(super) struct TotalLagrangian {
+    /// Rest positions.
+    rest: Vec<Vec3>,
+    /// Node mass (kg), fixed; dense over the layout's nodes.
+    mass: Vec<f32>,
+    /// Nodes with mass.
+    active: Vec<u32>,
+    momentum: Vec<Vec3>,
+    force: Vec<Vec3>,
+    /// Σ w m x over the node's particles (kg·m).
+    place: Vec<Vec3>,
+    /// Node velocity before and after the grid update.
+    v_before: Vec<Vec3>,
+    v_after: Vec<Vec3>,
+    /// For each active node, its particles and their weight and weight gradient (grid
+    /// units) at rest: `gathers[starts[k]..starts[k + 1]]` for `active[k]`. P2G gathers
+    /// along it, in parallel over nodes and in a fixed order (the result does not depend
+    /// on the thread count).
+    starts: Vec<u32>,
+    gathers: Vec<(u32, f32, Vec3)>,
+    /// Per particle this substep: −V⁰P / dx (scaled so that the force is `stress · ∇N`).
+    stress: Vec<Mat3>,
+    /// The last substep's largest bound on 1/σ_min(F) (see [`Self::stiffening`]).
+    stiffening: f32,
+}
+
+/// Quadratic B-spline weight derivatives along one axis (grid units), matching
+/// [`Stencil`]'s weights.
+#[inline(always)]
+fn weight_derivatives(fx: Vec3) -> [Vec3; 3] {
+    [
+        (fx - Vec3::repeat(1.5)),
+        (fx - Vec3::repeat(1.0)) * -2.0,
+        (fx - Vec3::repeat(0.5)),
+    ]
+}
+
+impl TotalLagrangian {
+    /// Takes the particles' current state as the rest configuration (on the first substep,
+    /// and again when particles are added).
+    fn ensure_rest(&mut self, layout: &GridLayout, particles: &Particles) {
+        if self.rest.len() == particles.len() {
+            return;
+        }
+        self.rest = particles.x.clone();
+        let n = layout.node_count();
+        self.mass = vec![0.0; n];
+        self.momentum = vec![Vec3::zeros(); n];
+        self.force = vec![Vec3::zeros(); n];
+        self.place = vec![Vec3::zeros(); n];
+        self.v_before = vec![Vec3::zeros(); n];
+        self.v_after = vec![Vec3::zeros(); n];
+        let mut by_node: Vec<Vec<(u32, f32, Vec3)>> = vec![Vec::new(); n];
+        for (p, x) in self.rest.iter().enumerate() {
+            let s = Stencil::new((x - layout.origin) * layout.inv_dx);
+            for_stencil(layout, &s, |node, w, grad| {
+                self.mass[node] += w * particles.mass[p];
+                by_node[node].push((p as u32, w, grad));
+            });
+        }
+        self.active = (0..n as u32)
+            .filter(|&i| self.mass[i as usize] > 0.0)
+            .collect();
+        self.starts = Vec::with_capacity(self.active.len() + 1);
+        self.gathers.clear();
+        for &i in &self.active {
+            self.starts.push(self.gathers.len() as u32);
+            self.gathers.extend_from_slice(&by_node[i as usize]);
+        }
+        self.starts.push(self.gathers.len() as u32);
+        self.stress = vec![Mat3::zeros(); particles.len()];
+    }
+
+    /// A bound on the largest 1/σ_min(F) of the last substep, at least 1: a Neo-Hookean
+    /// particle squeezed to σ_min stiffens by about 1/σ_min² along that axis (the F⁻ᵀ
+    /// terms of its stress), so elastic waves cross a rest cell up to 1/σ_min times sooner.
+    /// The tissue a lift stretches narrows across the pull; without this the substep that
+    /// was stable at rest runs away when the jaws let such tissue go.
+    pub(super) fn stiffening(&self) -> f32 {
+        self.stiffening.max(1.0)
+    }
+
+    /// One explicit substep; returns the tools' impulses, the largest speed, the particles
+    /// clamped at the domain's edge and the guard's first event.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn substep(
+        &mut self,
+        layout: &GridLayout,
+        boundary: &Boundary,
+        materials: &[MaterialParams],
+        particles: &mut Particles,
+        captured: &mut Captured,
+        tools: &[ToolKinematics],
+        dt: f32,
+        gravity: Vec3,
+        max_speed_limit: f32,
+    ) -> ([ToolImpulse; MAX_TOOLS], f32, u32, Option<GuardEvent>) {
+        self.ensure_rest(layout, particles);
+        captured.update(particles, tools);
+        captured.scatter_at(layout, &self.rest, &particles.mass);
+        // P2G on the rest configuration: each particle's stress, then each node gathers.
+        let inv_dx = layout.inv_dx;
+        self.stiffening = self
+            .stress
+            .par_iter_mut()
+            .zip(particles.f.par_iter())
+            .zip(particles.material.par_iter())
+            .zip(particles.volume0.par_iter())
+            .map(|(((stress, f), mat), volume0)| {
+                let mat = materials[*mat as usize];
+                let tau = kirchhoff_stress(mat.model, mat.lame, f);
+                let f_inv = f.try_inverse().unwrap_or_else(Mat3::identity);
+                *stress = tau * f_inv.transpose() * (-volume0 * inv_dx);
+                // ‖A‖₂ ≤ √(‖A‖₁‖A‖∞): exact for a diagonal F, never below 1/σ_min.
+                let abs = f_inv.abs();
+                let columns = abs.row_sum().max();
+                let rows = abs.column_sum().max();
+                (columns * rows).sqrt()
+            })
+            .reduce(|| 1.0, f32::max);
+        let (starts, gathers, stress) = (&self.starts, &self.gathers, &self.stress);
+        let (mass, parts) = (&self.mass, &*particles);
+        let v_new: Vec<(Vec3, Vec3, Vec3)> = self
+            .active
+            .par_iter()
+            .enumerate()
+            .map(|(k, &i)| {
+                let m = mass[i as usize];
+                let (mut momentum, mut place, mut force) =
+                    (Vec3::zeros(), Vec3::zeros(), Vec3::zeros());
+                for &(p, w, grad) in &gathers[starts[k] as usize..starts[k + 1] as usize] {
+                    let p = p as usize;
+                    let wm = w * parts.mass[p];
+                    momentum += parts.v[p] * wm;
+                    place += parts.x[p] * wm;
+                    force += stress[p] * grad;
+                }
+                (place / m, momentum / m, (force / m + gravity) * dt)
+            })
+            .collect();
+        // Grid update at the nodes' current places.
+        let mut impulses = [ToolImpulse::default(); MAX_TOOLS];
+        for (&i, &(x, v_before, dv)) in self.active.iter().zip(&v_new) {
+            let i = i as usize;
+            let m = self.mass[i];
+            let mut v = v_before + dv;
+            v = match captured.share(i, m) {
+                Some((t, share)) => captured::hold_share(tools, t, share, x, v, m, &mut impulses),
+                None => apply_tools(tools, x, v, m, &mut impulses),
+            };
+            v = self.apply_boundary(layout, boundary, i, x, v);
+            self.v_before[i] = v_before;
+            self.v_after[i] = v;
+        }
+        // G2P, in parallel over particles.
+        let (lo, hi) = layout.particle_bounds();
+        let (rest, v_before, v_after) = (&self.rest, &self.v_before, &self.v_after);
+        let (max_speed, clamped, guard) = particles
+            .x
+            .par_iter_mut()
+            .zip(particles.v.par_iter_mut())
+            .zip(particles.c.par_iter_mut())
+            .zip(particles.f.par_iter_mut())
+            .zip(particles.material.par_iter())
+            .enumerate()
+            .fold(
+                || (0.0f32, 0u32, None::<GuardEvent>),
+                |(mut max_speed, mut clamped, guard), (p, ((((x, v), c), f), mat))| {
+                    let s = Stencil::new((rest[p] - layout.origin) * layout.inv_dx);
+                    let (mut v_pic, mut dv, mut grad_v) =
+                        (Vec3::zeros(), Vec3::zeros(), Mat3::zeros());
+                    for_stencil(layout, &s, |node, w, grad| {
+                        let vi = v_after[node];
+                        v_pic += vi * w;
+                        dv += (vi - v_before[node]) * w;
+                        grad_v += vi * (grad * layout.inv_dx).transpose();
+                    });
+                    let mut v_new = (*v + dv) * FLIP + v_pic * (1.0 - FLIP);
+                    let damping = materials[*mat as usize].damping;
+                    if damping > 0.0 {
+                        v_new /= 1.0 + damping * dt;
+                    }
+                    let mut g = (*x + v_pic * dt - layout.origin) * layout.inv_dx;
+                    let inside = g.sup(&lo).inf(&hi);
+                    if inside != g {
+                        clamped += 1;
+                        g = inside;
+                    }
+                    let f_new = *f + grad_v * dt;
+                    let speed = v_new.norm();
+                    let finite = speed.is_finite()
+                        && f_new.iter().all(|e| e.is_finite())
+                        && g.iter().all(|e| e.is_finite());
+                    if !finite || speed > max_speed_limit {
+                        let event = GuardEvent {
+                            kind: if finite {
+                                GuardKind::Runaway
+                            } else {
+                                GuardKind::NonFinite
+                            },
+                            particle: p as u32,
+                            position: *x,
+                            speed: if finite { speed } else { f32::NAN },
+                        };
+                        // Leave this particle as it was: nothing non-finite is stored.
+                        return (max_speed, clamped, GuardEvent::first(guard, Some(event)));
+                    }
+                    max_speed = max_speed.max(speed);
+                    *v = v_new;
+                    *c = grad_v;
+                    *x = layout.origin + g * layout.dx;
+                    *f = f_new;
+                    (max_speed, clamped, guard)
+                },
+            )
+            .reduce(
+                || (0.0, 0, None),
+                |a, b| (a.0.max(b.0), a.1 + b.1, GuardEvent::first(a.2, b.2)),
+            );
+        (impulses, max_speed, clamped, guard)
+    }
+
+    /// The table and the domain's slip walls: a bonded table holds the nodes whose rest
+    /// place is on it (bonded tissue never leaves it); a resting table and the walls act at
+    /// the node's current place.
+    fn apply_boundary(
+        &self,
+        layout: &GridLayout,
+        boundary: &Boundary,
+        node: usize,
+        x: Vec3,
+        mut v: Vec3,
+    ) -> Vec3 {
+        let (b, local) = (node / super::NODES_PER_BLOCK, node % super::NODES_PER_BLOCK);
+        let rest = layout.node_position(layout.node_coords(b, local));
+        if let Some((height, hold)) = boundary.table {
+            match hold {
+                TableHold::Bonded if rest.z <= height + 1e-3 * layout.dx => v = Vec3::zeros(),
+                TableHold::Resting { friction } if x.z <= height + 1e-3 * layout.dx => {
+                    v = contact::resolve(
+                        contact::ContactModel::Coulomb {
+                            friction,
+                            drag: 0.0,
+                        },
+                        v,
+                        Vec3::zeros(),
+                        Vec3::z(),
+                        Vec3::zeros(),
+                    )
+                }
+                _ => {}
+            }
+        }
+        let g = (x - layout.origin) * layout.inv_dx;
+        for axis in 0..3 {
+            if g[axis] < WALL_NODES as f32 && v[axis] < 0.0 {
+                v[axis] = 0.0;
+            }
+            if g[axis] > (layout.nodes[axis] as i32 - 1 - WALL_NODES) as f32 && v[axis] > 0.0 {
+                v[axis] = 0.0;
+            }
+        }
+        v
+    }
+}
+
+/// Calls `visit(node, weight, weight gradient in grid units)` for each node of a stencil.
+#[inline(always)]
+fn for_stencil(layout: &GridLayout, s: &Stencil, mut visit: impl FnMut(usize, f32, Vec3)) {
+    let dw = weight_derivatives(s.fx);
+    for a in 0..3 {
+        for b in 0..3 {
+            for c in 0..3 {
+                let node = layout.node_index(
+                    (s.base.x + a as i32) as usize,
+                    (s.base.y + b as i32) as usize,
+                    (s.base.z + c as i32) as usize,
+                );
+                let grad = Vec3::new(
+                    dw[a].x * s.w[b].y * s.w[c].z,
+                    s.w[a].x * dw[b].y * s.w[c].z,
+                    s.w[a].x * s.w[b].y * dw[c].z,
+                );
+                visit(node, s.weight(a, b, c), grad);
+            }
+        }
+    }
+}

@@ -1,0 +1,91 @@
+//! A surgeon's retraction, headless, on the shipped `config/deep_lift.toml`: its own keyframes
+//! grasp the default liver and lift it 25 mm above the grasp, hold, and open the jaws. Total
+//! Lagrangian MPM must keep the liver one piece all the way up, the wrench must rise with the
+//! lift, and opening must let the liver fall back.
+
+use dvrk_tissue_sim::config;
+use dvrk_tissue_sim::world::World;
+
+#[test]
+fn the_liver_lifted_25_mm_stays_one_piece_and_falls_back_when_released() {
+    let path = format!("{}/config/deep_lift.toml", env!("CARGO_MANIFEST_DIR"));
+    let scene = config::load(std::path::Path::new(&path)).unwrap();
+    let keys = &scene.tools[0].keyframes;
+    let close = keys.iter().find(|k| k.jaw_deg <= 0.0).unwrap();
+    let top = keys
+        .iter()
+        .filter(|k| k.jaw_deg <= 0.0)
+        .max_by(|a, b| a.position[2].total_cmp(&b.position[2]))
+        .unwrap();
+    let lift = top.position[2] - close.position[2];
+    assert!(lift >= 0.025, "the scene lifts {lift} m");
+    // Lifting starts at the last keyframe at the closing height; it ends at the top.
+    let lift_from = keys
+        .iter()
+        .filter(|k| k.position[2] == close.position[2])
+        .map(|k| k.t)
+        .fold(0.0, f64::max);
+    let open = keys.iter().rev().find(|k| k.jaw_deg <= 0.0).unwrap().t;
+
+    let mut world = World::new(&scene);
+    let top_of = |world: &World| {
+        world
+            .particles()
+            .x
+            .iter()
+            .map(|x| x.z as f64)
+            .fold(f64::MIN, f64::max)
+    };
+    let rest_top = top_of(&world);
+    // |F_z| once a tenth of the way up, then at every frame to the top.
+    let mut forces = Vec::new();
+    while world.time() < top.t - 1e-9 {
+        let report = world.step_frame().unwrap();
+        if world.time() >= lift_from + 0.1 * (top.t - lift_from) {
+            forces.push((world.time(), -report.wrenches[0].force.z));
+        }
+    }
+    let lifted_top = top_of(&world);
+    let pieces_at_top = world.pieces();
+    while world.time() < open + 0.8 {
+        world.step_frame().unwrap();
+    }
+    let released_top = top_of(&world);
+    let report = format!(
+        "top of the liver: {:.1} mm at rest, {:.1} mm lifted, {:.1} mm 0.8 s after opening; \
+         pieces at the top {pieces_at_top}, at the end {}; |F_z| from {:.3} N to {:.3} N",
+        rest_top * 1e3,
+        lifted_top * 1e3,
+        released_top * 1e3,
+        world.pieces(),
+        forces.first().unwrap().1,
+        forces.last().unwrap().1,
+    );
+    println!("{report}");
+    assert_eq!(pieces_at_top, 1, "torn by the lift: {report}");
+    assert_eq!(world.pieces(), 1, "in pieces after the release: {report}");
+    assert!(
+        lifted_top - rest_top >= 0.8 * lift,
+        "the liver did not follow the jaws up: {report}"
+    );
+    // The pull grows as the tissue stretches: every frame's force at least the last one's,
+    // less 2 % of the final force for the frame-to-frame ripple.
+    let last = forces.last().unwrap().1;
+    assert!(
+        last > 1.0,
+        "the gripper feels {last:.3} N at the top: {report}"
+    );
+    for pair in forces.windows(2) {
+        assert!(
+            pair[1].1 >= pair[0].1 - 0.02 * last,
+            "the force fell from {:.3} N to {:.3} N at t = {:.3} s: {report}",
+            pair[0].1,
+            pair[1].1,
+            pair[1].0
+        );
+    }
+    assert!(
+        released_top - rest_top < 0.3 * (lifted_top - rest_top),
+        "opening the jaws did not let the liver fall back: {report}"
+    );
+}
