@@ -13,7 +13,7 @@
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use dvrk_tissue_sim::ros::msgs::{JointState, OperatingState, RosMessage, TFMessage};
+use dvrk_tissue_sim::ros::msgs::{JointState, OperatingState, TFMessage};
 use ros2_client::{
     qos::{Durability, History},
     Context, ContextOptions, NodeName, NodeOptions, QosProfile,

@@ -10,7 +10,7 @@ use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use dvrk_tissue_sim::ros::msgs::{
-    Header, JointState, OperatingState, RosMessage, StringMsg, StringStamped, TFMessage,
+    Header, JointState, OperatingState, StringMsg, StringStamped, TFMessage,
 };
 use ros2_client::{
     qos::{Durability, History},
