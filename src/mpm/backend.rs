@@ -134,16 +134,6 @@ impl Backend {
         }
     }
 
-    /// How much faster than at rest elastic waves may travel in the tissue's present state
-    /// (see [`CpuSolver::wave_speed_factor`]); 1 on the GPU, whose methods are
-    /// updated-Lagrangian.
-    pub fn wave_speed_factor(&self) -> f64 {
-        match self {
-            Backend::Cpu(c) => c.solver.wave_speed_factor() as f64,
-            Backend::Gpu(_) => 1.0,
-        }
-    }
-
     /// Puts the particles back to where they were when the last frame started.
     pub fn restore_frame_start(&mut self) {
         match self {

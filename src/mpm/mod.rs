@@ -39,10 +39,10 @@
 //!   live on the rest configuration, so tissue pulled far past a cell per particle stays one
 //!   piece, where the updated-Lagrangian methods part it by numerics (the default liver
 //!   lifted 25 mm above the grasp: MLS-MPM tears a chunk away at 10–13 mm; `tl_mpm` holds it
-//!   to the top with the wrench rising to about 1.4 N, `config/deep_lift.toml`). Its cost:
+//!   to the top with the wrench rising to 2.8 N, `config/deep_lift.toml`). Its cost:
 //!   about twice MLS-MPM's time per substep on the CPU, and more substeps where the jaws
-//!   squeeze the tissue (the substep shrinks by the largest 1/σ_min(F), see
-//!   [`cpu::CpuSolver::wave_speed_factor`]). It has no GPU kernels, cuts nothing and does
+//!   squeeze the tissue (each substep is cut into ⌈1/σ_min(F)⌉ pieces, see
+//!   [`cpu::tlmpm`]). It has no GPU kernels, cuts nothing and does
 //!   not tear.
 //! - **Tools and contact** ([`crate::tools`]): signed distance fields evaluated per grid node
 //!   inside each tool's bounding box, the nearest tool owning a node. Approaching nodes lose

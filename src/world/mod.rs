@@ -342,8 +342,7 @@ impl World {
         if p.implicit {
             return timestep::advection_dt(p.cfl, p.dx, speed, p.gravity.norm() as f64);
         }
-        let wave_speed = p.bounding_wave_speed * self.backend.wave_speed_factor();
-        timestep::stable_dt(p.cfl, p.dx, wave_speed, speed)
+        timestep::stable_dt(p.cfl, p.dx, p.bounding_wave_speed, speed)
     }
 
     /// Holds tool `index` still at `pose` until it is commanded again (an arm's tool starts

@@ -1,13 +1,12 @@
 //! Total Lagrangian MPM's grip: the tissue a gripper's jaws close on is captured as a set
-//! of particles, and the rest-configuration nodes they touch are held in proportion to the
-//! captured mass they carry (see [`crate::tools::grip`] for what holding a node means).
+//! of particles, and the rest-configuration nodes that carry at least half their mass in
+//! captured particles are held (see [`crate::tools::grip`] for what holding a node means).
 //!
 //! The updated-Lagrangian solvers hold every node inside a box fixed to the jaws. On the
 //! rest configuration's grid such a box means nothing (its nodes do not move with the
 //! jaws), so total Lagrangian MPM holds material instead: the particles in the grip region
-//! when the press starts. A node all of whose mass is captured moves with the jaws; one at
-//! the edge of the captured tissue moves that share of the way, so the hold fades over a
-//! kernel's width rather than stopping at a box face.
+//! when the press starts. A node is held or not, never in part: a partial hold applied
+//! every substep would hold harder the more substeps a frame takes.
 
 use super::super::grid::GridLayout;
 use super::super::kernel::Stencil;
@@ -107,22 +106,28 @@ impl Captured {
         }
     }
 
-    /// The gripper holding node `n` and the held share of the node's mass `m`.
+    /// The gripper holding node `n` of mass `m`: the one whose captured particles carry at
+    /// least half of it. All or nothing, so that how firmly a node is held does not depend
+    /// on how many substeps hold it.
     #[inline(always)]
-    pub(super) fn share(&self, n: usize, m: f32) -> Option<(usize, f32)> {
+    pub(super) fn holder(&self, n: usize, m: f32) -> Option<usize> {
         let t = *self.node_tool.get(n)?;
-        (t != 0).then(|| (t as usize - 1, (self.node_mass[n] / m).min(1.0)))
+        (t != 0 && self.node_mass[n] >= 0.5 * m).then(|| t as usize - 1)
+    }
+
+    /// Whether a gripper holds particle `p`.
+    #[inline(always)]
+    pub(super) fn holds(&self, p: usize) -> bool {
+        self.tool.get(p).is_some_and(|&t| t != 0)
     }
 }
 
-/// The grip on a node carrying the held share `share` of its mass `m`: its velocity moves
-/// that share of the way to the region grip's, and the impulse and the grip's sums are
-/// recorded as the region grip records them for a whole node.
+/// The grip on a node of mass `m` that gripper `t` holds (see [`Captured::holder`]),
+/// recording the impulse and the grip's sums as the region grip records them.
 #[inline(always)]
-pub(super) fn hold_share(
+pub(super) fn hold(
     tools: &[ToolKinematics],
     t: usize,
-    share: f32,
     x: Vec3,
     v: Vec3,
     m: f32,
@@ -130,8 +135,7 @@ pub(super) fn hold_share(
 ) -> Vec3 {
     let tool = &tools[t];
     let held = tool.hold_anywhere(x, v);
-    let v_new = v + (held.v - v) * share;
-    let dp = ((v - v_new) * m).cast::<f64>();
+    let dp = ((v - held.v) * m).cast::<f64>();
     let arm = (x - tool.translation).cast::<f64>();
     let normal = tool.jaw_normal().cast::<f64>();
     let hinge = tool.rotation.column(0).into_owned().cast::<f64>();
@@ -141,9 +145,8 @@ pub(super) fn hold_share(
     imp.angular += arm.cross(&dp);
     imp.contact_nodes += 1;
     imp.jaw_opening += jaw_share * arm.cross(&(normal * normal.dot(&dp))).dot(&hinge);
-    let held_mass = m * share;
-    imp.grip.required += (held.required * held_mass).cast::<f64>();
-    imp.grip.mass += held_mass as f64;
-    imp.grip.mass_lever += (held_mass * held.lever) as f64;
-    v_new
+    imp.grip.required += (held.required * m).cast::<f64>();
+    imp.grip.mass += m as f64;
+    imp.grip.mass_lever += (m * held.lever) as f64;
+    held.v
 }

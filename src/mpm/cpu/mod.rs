@@ -238,17 +238,6 @@ impl CpuSolver {
         self.grid[self.layout.node_index(i, j, k)]
     }
 
-    /// How much faster than at rest elastic waves may travel in the tissue's present state:
-    /// for total Lagrangian MPM the largest 1/σ_min(F) of the last substep (its stencils do
-    /// not follow a squeezed particle, so the wave crosses a rest cell sooner); 1 for the
-    /// updated-Lagrangian methods, whose cells are the current configuration's.
-    pub fn wave_speed_factor(&self) -> f32 {
-        match self.method {
-            Method::TlMpm => self.total_lagrangian.stiffening(),
-            _ => 1.0,
-        }
-    }
-
     /// Number of grid blocks the last substep worked on.
     pub fn active_blocks(&self) -> usize {
         self.bins.touched.len()
