@@ -18,7 +18,7 @@ fn the_liver_lifted_25_mm_stays_one_piece_and_falls_back_when_released() {
         .max_by(|a, b| a.position[2].total_cmp(&b.position[2]))
         .unwrap();
     let lift = top.position[2] - close.position[2];
-    assert!(lift >= 0.025, "the scene lifts {lift} m");
+    assert!(lift >= 0.025 - 1e-9, "the scene lifts {lift} m");
     // Lifting starts at the last keyframe at the closing height; it ends at the top.
     let lift_from = keys
         .iter()
