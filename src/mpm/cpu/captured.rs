@@ -135,18 +135,5 @@ pub(super) fn hold(
 ) -> Vec3 {
     let tool = &tools[t];
     let held = tool.hold_anywhere(x, v);
-    let dp = ((v - held.v) * m).cast::<f64>();
-    let arm = (x - tool.translation).cast::<f64>();
-    let normal = tool.jaw_normal().cast::<f64>();
-    let hinge = tool.rotation.column(0).into_owned().cast::<f64>();
-    let jaw_share = crate::tools::sdf::jaw_angle(held.jaw, 1.0) as f64;
-    let imp = &mut impulses[t];
-    imp.linear += dp;
-    imp.angular += arm.cross(&dp);
-    imp.contact_nodes += 1;
-    imp.jaw_opening += jaw_share * arm.cross(&(normal * normal.dot(&dp))).dot(&hinge);
-    imp.grip.required += (held.required * m).cast::<f64>();
-    imp.grip.mass += m as f64;
-    imp.grip.mass_lever += (m * held.lever) as f64;
-    held.v
+    super::node_contact::record_hold(tool, t, x, v, m, &held, impulses)
 }

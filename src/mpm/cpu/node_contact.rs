@@ -22,6 +22,22 @@ pub(super) fn hold_node(
         .iter()
         .enumerate()
         .find_map(|(t, tool)| tool.hold(x, v).map(|held| (t, tool, held)))?;
+    Some(record_hold(tool, t, x, v, m, &held, impulses))
+}
+
+/// Records what holding the node at `x` (velocity `v`, mass `m`) as `held` costs gripper `t`:
+/// the impulse, the share along the jaw normal that pushes the jaws apart, and the grip's
+/// sums; returns the held velocity.
+#[inline(always)]
+pub(super) fn record_hold(
+    tool: &ToolKinematics,
+    t: usize,
+    x: Vec3,
+    v: Vec3,
+    m: f32,
+    held: &crate::tools::grip::Held,
+    impulses: &mut [ToolImpulse; MAX_TOOLS],
+) -> Vec3 {
     let dp = ((v - held.v) * m).cast::<f64>();
     let arm = (x - tool.translation).cast::<f64>();
     let normal = tool.jaw_normal().cast::<f64>();
@@ -35,7 +51,7 @@ pub(super) fn hold_node(
     imp.grip.required += (held.required * m).cast::<f64>();
     imp.grip.mass += m as f64;
     imp.grip.mass_lever += (m * held.lever) as f64;
-    Some(held.v)
+    held.v
 }
 
 /// Contact with the nearest tool the node is inside of (seed 000's collision-objects table:
