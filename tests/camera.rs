@@ -204,3 +204,59 @@ fn labels_match_the_shapes_drawn_in_a_shipped_scene() {
     );
     assert!(counts.iter().all(|&c| c > 30), "{counts:?}");
 }
+
+#[test]
+fn the_shipped_default_scene_puts_its_optical_frames_on_tf_static_under_the_ecm() {
+    use dvrk_tissue_sim::ros::outputs::{tf_static_message, OutputLayout};
+    use dvrk_tissue_sim::sim::{build_setup, frame_loop::endoscope_pose};
+    let path = format!("{}/config/default.toml", env!("CARGO_MANIFEST_DIR"));
+    let scene = dvrk_tissue_sim::config::load(std::path::Path::new(&path)).unwrap();
+    let mut setup = build_setup(&scene).unwrap();
+    let layout = OutputLayout::new(&scene, &setup, "/");
+    let fixed = tf_static_message(&layout).transforms;
+    let edges: Vec<(&str, &str)> = fixed
+        .iter()
+        .map(|t| (t.header.frame_id.as_str(), t.child_frame_id.as_str()))
+        .collect();
+    for edge in [
+        ("world", "PSM1_base"),
+        ("world", "ECM_base"),
+        ("ECM", "ECM_left_optical_frame"),
+        ("ECM", "ECM_right_optical_frame"),
+    ] {
+        assert!(edges.contains(&edge), "{edge:?} missing from {edges:?}");
+    }
+    // Through the ECM's tool frame, where the frame loop puts the camera, to the eyes the
+    // renderer draws from.
+    let tip = endoscope_pose(&setup).unwrap();
+    let rig = setup
+        .camera
+        .as_mut()
+        .expect("the camera (llvmpipe will do)");
+    rig.set_pose(tip);
+    for eye in rig.eyes() {
+        let name = if eye.pose.translation.vector.dot(&(tip.rotation * Vec3::x()))
+            < tip.translation.vector.dot(&(tip.rotation * Vec3::x()))
+        {
+            "ECM_left_optical_frame"
+        } else {
+            "ECM_right_optical_frame"
+        };
+        let t = &fixed
+            .iter()
+            .find(|t| t.child_frame_id == name)
+            .unwrap()
+            .transform;
+        let offset = Vec3::new(
+            t.translation.x as f32,
+            t.translation.y as f32,
+            t.translation.z as f32,
+        );
+        let at = tip * Point3::from(offset);
+        assert!(
+            (at.coords - eye.pose.translation.vector).norm() < 1e-6,
+            "{name}: tf puts it at {at}, the renderer at {}",
+            eye.pose.translation.vector
+        );
+    }
+}

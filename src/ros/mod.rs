@@ -58,7 +58,7 @@
 //! | `tissue/pieces` | std_msgs/UInt32 | separate tissue pieces, counted at `pieces_rate_hz` in simulated time while subscribed (and when recording) |
 //! | `tools/<tool>/wrench` | geometry_msgs/WrenchStamped | contact wrench on the tool, in its frame (`PSM1` for an arm's tool, the mount undone) |
 //! | `threads/<name>/centreline`, `threads/<name>/tension` | Marker, PointCloud2 | a suture thread's LINE_STRIP and its axial force per point |
-//! | `/tf_static` | tf2_msgs/TFMessage | once, transient local: `world` → `PSM1_base` |
+//! | `/tf_static` | tf2_msgs/TFMessage | once, transient local: `world` → `PSM1_base`; with a camera, `ECM` → `ECM_left_optical_frame` and `ECM_right_optical_frame` (`world` → them for a camera without an arm) |
 //! | `/tf` | tf2_msgs/TFMessage | `PSM1_base` → every arm link (with `[outputs] tf_arm_links = false` only `PSM1` and `PSM1_tool_tip`, leaving the links to dVRK's robot_state_publisher); scripted tools |
 //! | `MTMR/measured_cp`, `MTMR/gripper/measured_js`, `console/clutch`, `console/operator_present` | (sub, with `[teleop]`) | Joy `buttons[0] = 1` pressed |
 //! | `MTMR/body/servo_cf` | geometry_msgs/WrenchStamped | with `force_feedback`: the tool's contact wrench × scale |

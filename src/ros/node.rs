@@ -432,7 +432,7 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
     let tf: Publisher<TFMessage> = topics.publisher("/tf", periodic_qos())?;
     // The fixed frames, once: latched for every later subscriber.
     let tf_static: Publisher<TFMessage> = topics.publisher("/tf_static", tf_static_qos())?;
-    if let Err(e) = tf_static.publish(outputs::tf_static_message(&layout.arms)) {
+    if let Err(e) = tf_static.publish(outputs::tf_static_message(&layout)) {
         tracing::warn!("/tf_static: {e:?}");
     }
     let status: Publisher<DiagnosticArray> = topics.publisher("/diagnostics", status_qos())?;

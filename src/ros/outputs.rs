@@ -8,7 +8,8 @@ use crate::config::{ArmMode, Scene};
 use crate::output::{
     SurfaceTriangles, ThreadState, TissueCloud, CLOUD_POINT_STEP, THREAD_POINT_STEP,
 };
-use crate::robot::Psm;
+use crate::robot::{ArmKind, Psm};
+use crate::ros::camera;
 use crate::ros::msgs::*;
 use crate::ros::names::resolve;
 use crate::sim::arm::{ArmEvent, ArmStatus};
@@ -81,6 +82,8 @@ pub struct OutputLayout {
     pub rates: OutputRates,
     /// Whether `/tf` carries every arm link ([`tf_message`]).
     pub tf_arm_links: bool,
+    /// The camera's optical frames, for `/tf_static` (none without a camera).
+    pub camera_frames: Vec<TransformStamped>,
 }
 
 impl OutputLayout {
@@ -111,6 +114,24 @@ impl OutputLayout {
                 }
             })
         });
+        // The camera's optical frames: fixed under the ECM's tool frame where an ECM holds it.
+        let camera_frames = setup
+            .camera
+            .as_ref()
+            .and_then(|rig| {
+                let settings = rig.settings();
+                let (parent, pose) = match scene.arms.iter().find(|a| a.kind == ArmKind::Ecm) {
+                    Some(ecm) => (ecm.name.as_str(), Isometry3::identity()),
+                    None => ("world", settings.fixed_pose()?),
+                };
+                Some(camera::optical_frame_transforms(
+                    parent,
+                    &pose,
+                    settings.pinhole(),
+                    settings.baseline as f32,
+                ))
+            })
+            .unwrap_or_default();
         let o = &scene.outputs;
         OutputLayout {
             namespace: namespace.to_owned(),
@@ -128,6 +149,7 @@ impl OutputLayout {
                 pieces: o.pieces_rate_hz,
             },
             tf_arm_links: o.tf_arm_links,
+            camera_frames,
         }
     }
 
@@ -464,16 +486,19 @@ pub fn thread_tension_message(thread: &ThreadState, stamp: Time) -> PointCloud2 
     }
 }
 
-/// `world` → each arm's base: fixed, sent once on `/tf_static`.
-pub fn tf_static_message(arms: &[ArmOutput]) -> TFMessage {
+/// `world` → each arm's base, and the camera's optical frames: fixed, sent once on
+/// `/tf_static`.
+pub fn tf_static_message(layout: &OutputLayout) -> TFMessage {
     TFMessage {
-        transforms: arms
+        transforms: layout
+            .arms
             .iter()
             .map(|arm| TransformStamped {
                 header: Header::new(Time::default(), "world"),
                 child_frame_id: arm.base_frame.clone(),
                 transform: (&arm.base).into(),
             })
+            .chain(layout.camera_frames.iter().cloned())
             .collect(),
     }
 }

@@ -648,7 +648,7 @@ impl Bag {
         if due.tf {
             if !self.tf_static_written {
                 self.tf_static_written = true;
-                let m = outputs::tf_static_message(&self.layout.arms);
+                let m = outputs::tf_static_message(&self.layout);
                 self.write("/tf_static", Qos::Latched, end, &m)?;
             }
             let all_links = self.layout.tf_arm_links;
