@@ -207,6 +207,7 @@ fn labels_match_the_shapes_drawn_in_a_shipped_scene() {
 
 #[test]
 fn the_shipped_default_scene_puts_its_optical_frames_on_tf_static_under_the_ecm() {
+    use dvrk_tissue_sim::ros::camera::{optical_frame, EYES};
     use dvrk_tissue_sim::ros::outputs::{tf_static_message, OutputLayout};
     use dvrk_tissue_sim::sim::{build_setup, frame_loop::endoscope_pose};
     let path = format!("{}/config/default.toml", env!("CARGO_MANIFEST_DIR"));
@@ -234,14 +235,8 @@ fn the_shipped_default_scene_puts_its_optical_frames_on_tf_static_under_the_ecm(
         .as_mut()
         .expect("the camera (llvmpipe will do)");
     rig.set_pose(tip);
-    for eye in rig.eyes() {
-        let name = if eye.pose.translation.vector.dot(&(tip.rotation * Vec3::x()))
-            < tip.translation.vector.dot(&(tip.rotation * Vec3::x()))
-        {
-            "ECM_left_optical_frame"
-        } else {
-            "ECM_right_optical_frame"
-        };
+    for (eye, side) in rig.eyes().iter().zip(EYES) {
+        let name = optical_frame(side);
         let t = &fixed
             .iter()
             .find(|t| t.child_frame_id == name)
