@@ -8,6 +8,7 @@
 use super::cpu::{CpuSolver, SubstepInput};
 use super::frame_plan::{FramePlan, FrameStats};
 use super::gpu::GpuSolver;
+use super::stiffening;
 use super::{GridLayout, Particles};
 use serde::{Deserialize, Serialize};
 
@@ -101,12 +102,25 @@ impl Backend {
         match self {
             Backend::Cpu(c) => {
                 c.frame_start.copy_state_from(&c.solver.particles);
+                // Total Lagrangian MPM cuts each substep into pieces (see `stiffening`).
+                let pieces = if c.solver.method == super::Method::TlMpm {
+                    c.solver.stiffening_bounds().pieces(plan)
+                } else {
+                    1
+                };
+                let tools;
+                let steps = if pieces > 1 {
+                    tools = stiffening::pieced_tools(plan, pieces);
+                    stiffening::pieced(plan, pieces, &tools)
+                } else {
+                    *plan
+                };
                 let mut out = FrameStats::default();
-                for s in 0..plan.substeps as usize {
+                for s in 0..steps.substeps as usize {
                     let stats = c.solver.substep(&SubstepInput {
-                        dt: plan.dt,
-                        gravity: plan.gravity,
-                        tools: plan.substep_tools(s),
+                        dt: steps.dt,
+                        gravity: steps.gravity,
+                        tools: steps.substep_tools(s),
                     });
                     if stats.guard.is_some() {
                         out.guard = stats.guard;
@@ -120,6 +134,7 @@ impl Backend {
                     out.solve.add(stats.solve);
                     out.substeps_done += 1;
                 }
+                out.substeps_done /= pieces;
                 if out.guard.is_none() && c.solver.split.max_edge_cells > 0.0 {
                     let dx = c.solver.layout.dx;
                     let params = c.solver.split;

@@ -41,9 +41,9 @@
 //!   lifted 25 mm above the grasp: MLS-MPM tears a chunk away at 10–13 mm; `tl_mpm` holds it
 //!   to the top with the wrench rising to 2.8 N, `config/deep_lift.toml`). Its cost:
 //!   about twice MLS-MPM's time per substep on the CPU, and more substeps where the jaws
-//!   squeeze the tissue (each substep is cut into ⌈1/σ_min(F)⌉ pieces, see
-//!   [`cpu::tlmpm`]). It has no GPU kernels, cuts nothing and does
-//!   not tear.
+//!   squeeze the tissue (each substep is cut into ⌈1/σ_min(F)⌉ pieces, decided per frame,
+//!   see [`stiffening`]). It runs on the CPU and the GPU with the same math
+//!   (`tests/tlmpm_gpu.rs`), cuts nothing and does not tear.
 //! - **Tools and contact** ([`crate::tools`]): signed distance fields evaluated per grid node
 //!   inside each tool's bounding box, the nearest tool owning a node. Approaching nodes lose
 //!   the normal component of their velocity relative to the tool, Coulomb friction reduces the
@@ -224,6 +224,7 @@ pub mod material;
 pub mod particles;
 pub mod pieces;
 pub mod split;
+pub mod stiffening;
 pub mod timestep;
 
 pub use crate::math::{IVec3, Mat3, Vec3};

@@ -115,10 +115,13 @@ impl Captured {
         (t != 0 && self.node_mass[n] >= 0.5 * m).then(|| t as usize - 1)
     }
 
-    /// Whether a gripper holds particle `p`.
+    /// The gripper holding particle `p`, if one does.
     #[inline(always)]
-    pub(super) fn holds(&self, p: usize) -> bool {
-        self.tool.get(p).is_some_and(|&t| t != 0)
+    pub(super) fn tool_of(&self, p: usize) -> Option<usize> {
+        self.tool
+            .get(p)
+            .and_then(|&t| t.checked_sub(1))
+            .map(usize::from)
     }
 }
 

@@ -243,6 +243,12 @@ impl CpuSolver {
         self.bins.touched.len()
     }
 
+    /// Total Lagrangian MPM's stiffening bounds of the particles now (see
+    /// [`super::stiffening`]); only meaningful with `method = "tl_mpm"`.
+    pub fn stiffening_bounds(&self) -> super::stiffening::StiffeningBounds {
+        tlmpm::TotalLagrangian::stiffening_bounds(&self.particles, &self.captured)
+    }
+
     /// Advances the particles by one substep of `input.dt` and reports impulses, speed and guard
     /// events.
     pub fn substep(&mut self, input: &SubstepInput) -> SubstepStats {

@@ -16,20 +16,20 @@
 //!   Fₚ += dt Σ vᵢ ⊗ ∇Nᵢ(Xₚ): F comes from the rest configuration's gradients, never from
 //!   a stencil that has moved.
 //!
-//! - Stability: the substep the world chose at rest is cut into ⌈1/σ_min(F)⌉ pieces
-//!   (see `TotalLagrangian::pieces_of_substep`): tissue squeezed or narrowed by a pull
-//!   stiffens, and without this the liver `config/deep_lift.toml` lifts 25 mm ran away at
-//!   10 m/s when the jaws let it go.
+//! - Stability: each substep is cut into as many pieces as the tissue's stiffening asks
+//!   (see [`crate::mpm::stiffening`]); the backend cuts the frame's plan, so a call here
+//!   is one step.
 //!
 //! Measured on `config/deep_lift.toml` (the default liver, lifted 25 mm above the grasp,
-//! `run --headless --backend cpu --print-every 6`): one piece to the top and after the
-//! release, |F_z| rising every 0.1 s of the lift from 0.33 to 2.77 N, the top of the liver
-//! back at 23.0 mm (24 mm at rest) 0.8 s after the jaws open. MLS-MPM on the same lift
-//! tears a chunk away between 10.4 and 12.9 mm (0.91 N falling to 0.014 N).
+//! `tests/deep_lift.rs`): one piece to the top and after the release, |F_z| rising every
+//! 0.1 s of the lift from 0.39 to 2.78 N, the top of the liver at 23.5 mm at rest, 48.6 mm
+//! lifted and back at 23.7 mm 0.8 s after the jaws open. MLS-MPM on the same lift tears a
+//! chunk away between 10.4 and 12.9 mm (0.91 N falling to 0.014 N; `run --headless
+//! --backend cpu --print-every 6` on the scene with `method = "mls_mpm"`).
 //!
 //! What it does not do: cut (a crack would have to be carried back to the rest
-//! configuration) or tear, and it has no GPU kernels yet; contact between separate pieces
-//! of tissue is not seen (their nodes never meet).
+//! configuration) or tear; contact between separate pieces of tissue is not seen (their
+//! nodes never meet). The GPU runs the same math (`mpm::gpu`'s `tlmpm`).
 
 use super::super::grid::{Boundary, GridLayout, TableHold, WALL_NODES};
 use super::super::guard::{GuardEvent, GuardKind};
@@ -40,15 +40,12 @@ use super::super::MaterialParams;
 use super::super::{Mat3, ToolImpulse, Vec3, MAX_TOOLS};
 use super::captured::{self, Captured};
 use super::node_contact::apply_tools;
+use crate::mpm::stiffening::{inverse_stretch_bound, StiffeningBounds};
 use crate::tools::{contact, ToolKinematics};
 use rayon::prelude::*;
 
 /// FLIP's share of the particle velocity update (the rest is PIC), as the paper uses.
 const FLIP: f32 = 0.99;
-
-/// The most pieces a substep is cut into (tissue squeezed to a sixteenth of its rest
-/// length across; beyond that the guard is the answer).
-const MAX_PIECES: usize = 16;
 
 /// The rest configuration and the grid on it.
 #[derive(Default)]
@@ -123,32 +120,34 @@ impl TotalLagrangian {
         self.stress = vec![Mat3::zeros(); particles.len()];
     }
 
-    /// How many pieces the substep is cut into: the largest bound on 1/σ_min(F) over the
-    /// particles no gripper holds, rounded up. A Neo-Hookean particle squeezed to σ_min
-    /// stiffens by about 1/σ_min² along that axis (the F⁻ᵀ terms of its stress), so elastic
-    /// waves cross a rest cell up to 1/σ_min times sooner than the substep, sized at rest,
-    /// allows. The tissue a lift stretches narrows across the pull, and the tissue between
-    /// closed jaws is squeezed; a held particle does not count while its nodes move with the
-    /// jaws, and counts from the substep that lets it go.
-    fn pieces_of_substep(particles: &Particles, captured: &Captured) -> usize {
-        let bound = particles
+    /// The stiffening bounds of the particles now (see [`crate::mpm::stiffening`]): over
+    /// the free particles, and over each gripper's captured ones.
+    pub(super) fn stiffening_bounds(
+        particles: &Particles,
+        captured: &Captured,
+    ) -> StiffeningBounds {
+        particles
             .f
             .par_iter()
             .enumerate()
-            .filter(|(p, _)| !captured.holds(*p))
-            .map(|(_, f)| {
-                let f_inv = f.try_inverse().unwrap_or_else(Mat3::identity);
-                // ‖A‖₂ ≤ √(‖A‖₁‖A‖∞): exact for a diagonal F, never below 1/σ_min.
-                let abs = f_inv.abs();
-                (abs.row_sum().max() * abs.column_sum().max()).sqrt()
+            .fold(StiffeningBounds::default, |mut b, (p, f)| {
+                let bound = inverse_stretch_bound(f);
+                match captured.tool_of(p) {
+                    Some(t) => b.held[t] = b.held[t].max(bound),
+                    None => b.free = b.free.max(bound),
+                }
+                b
             })
-            .reduce(|| 1.0, f32::max);
-        // Within a whisker of a whole number the substep stays whole.
-        (bound - 1e-3).ceil().clamp(1.0, MAX_PIECES as f32) as usize
+            .reduce(StiffeningBounds::default, |mut a, b| {
+                a.free = a.free.max(b.free);
+                for (x, y) in a.held.iter_mut().zip(b.held) {
+                    *x = x.max(y);
+                }
+                a
+            })
     }
 
-    /// One explicit substep of `dt`, cut into as many pieces as the tissue's stiffening asks
-    /// (see [`Self::pieces_of_substep`]); returns the tools' impulses, the largest speed, the
+    /// One explicit step of `dt`: returns the tools' impulses, the largest speed, the
     /// particles clamped at the domain's edge and the guard's first event.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn substep(
@@ -166,47 +165,6 @@ impl TotalLagrangian {
         self.ensure_rest(layout, particles);
         captured.update(particles, tools);
         captured.scatter_at(layout, &self.rest, &particles.mass);
-        let pieces = Self::pieces_of_substep(particles, captured);
-        let mut out = ([ToolImpulse::default(); MAX_TOOLS], 0.0f32, 0u32, None);
-        for _ in 0..pieces {
-            let (impulses, speed, clamped, guard) = self.step(
-                layout,
-                boundary,
-                materials,
-                particles,
-                captured,
-                tools,
-                dt / pieces as f32,
-                gravity,
-                max_speed_limit,
-            );
-            for (sum, i) in out.0.iter_mut().zip(&impulses) {
-                sum.add(i);
-            }
-            out.1 = out.1.max(speed);
-            out.2 += clamped;
-            out.3 = GuardEvent::first(out.3, guard);
-            if out.3.is_some() {
-                break;
-            }
-        }
-        out
-    }
-
-    /// One explicit step of `dt`, as [`Self::substep`].
-    #[allow(clippy::too_many_arguments)]
-    fn step(
-        &mut self,
-        layout: &GridLayout,
-        boundary: &Boundary,
-        materials: &[MaterialParams],
-        particles: &mut Particles,
-        captured: &mut Captured,
-        tools: &[ToolKinematics],
-        dt: f32,
-        gravity: Vec3,
-        max_speed_limit: f32,
-    ) -> ([ToolImpulse; MAX_TOOLS], f32, u32, Option<GuardEvent>) {
         // P2G on the rest configuration: each particle's stress, then each node gathers.
         let inv_dx = layout.inv_dx;
         self.stress

@@ -204,6 +204,31 @@ fn scatter_apic_about(s: Stencil, m: f32, v: vec3<f32>, q: mat3x3<f32>, cut: Ste
     }
 }
 
+// Quadratic B-spline weight derivatives along each axis, in grid units (tlmpm.rs
+// `weight_derivatives`).
+fn weight_derivatives(fx: vec3<f32>) -> array<vec3<f32>, 3> {
+    return array<vec3<f32>, 3>(fx - vec3<f32>(1.5), (fx - vec3<f32>(1.0)) * -2.0, fx - vec3<f32>(0.5));
+}
+
+// The gradient (grid units) of stencil node (a, b, c)'s weight.
+fn weight_gradient(s: Stencil, dw: array<vec3<f32>, 3>, a: u32, b: u32, c: u32) -> vec3<f32> {
+    return vec3<f32>(dw[a].x * s.w[b].y * s.w[c].z, s.w[a].x * dw[b].y * s.w[c].z,
+                     s.w[a].x * s.w[b].y * dw[c].z);
+}
+
+// Node `node`'s words in the accumulators after every node's NODE_WORDS: total Lagrangian
+// MPM's dt·force xyz (momentum), the mass-weighted offset of its particles from it xyz (in
+// cells times PLACE_SCALE, added as mass) and the captured mass (tlmpm.wgsl).
+fn tl_words(node: u32) -> u32 {
+    return sim.nodes.w * NODES_PER_BLOCK * NODE_WORDS + TL_WORDS * node;
+}
+
+// The offsets' scale: in fixed point a node then resolves its place to 2^-26·4 of a cell's
+// mass·dx (a node of 1/1000 of a cell's mass to 0.06 µm at dx = 1 mm; the momentum unit
+// left the free block's bottom nodes 20 µm off and the walls caught them differently from
+// the CPU), and holds particles up to 128 cells from it at a cell's mass.
+const PLACE_SCALE: f32 = 0.25;
+
 fn grid_pos(x: vec3<f32>) -> vec3<f32> {
     return (x - sim.origin_dx.xyz) * sim.inv_dx;
 }
@@ -296,6 +321,27 @@ fn kirchhoff_stress(mat: Material, f: mat3x3<f32>) -> mat3x3<f32> {
     let r = rotation_of(f);
     let tau = ((f - r) * transpose(f)) * (2.0 * mat.mu);
     return tau + id * (mat.lambda * (j - 1.0) * j);
+}
+
+// F⁻ᵀ, from the cofactors (columns b×c, c×a, a×b of F = [a b c], over det F); the identity
+// for a singular F, as nalgebra's `try_inverse` fallback in the CPU solver.
+fn inverse_transpose(f: mat3x3<f32>) -> mat3x3<f32> {
+    let det = determinant(f);
+    if (det == 0.0) {
+        return mat3x3<f32>(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0));
+    }
+    return mat3x3<f32>(cross(f[1], f[2]), cross(f[2], f[0]), cross(f[0], f[1])) * (1.0 / det);
+}
+
+// √(‖F⁻¹‖₁‖F⁻¹‖∞), a bound on 1/σ_min(F) (stiffening.rs `inverse_stretch_bound`).
+fn inverse_stretch_bound(f: mat3x3<f32>) -> f32 {
+    let inv = transpose(inverse_transpose(f));
+    let a = abs(inv[0]);
+    let b = abs(inv[1]);
+    let c = abs(inv[2]);
+    let columns = vec3<f32>(a.x + a.y + a.z, b.x + b.y + b.z, c.x + c.y + c.z);
+    let rows = a + b + c;
+    return sqrt(max(max(columns.x, columns.y), columns.z) * max(max(rows.x, rows.y), rows.z));
 }
 
 // ---- tool SDFs (sdf.rs), tool frame ----
@@ -520,28 +566,59 @@ fn resolve(sticky: bool, friction: f32, drag: f32, v_node: vec3<f32>, v_tool: ve
     return v_tool + v_t * scale;
 }
 
-// Table plane and slip walls (cpu `apply_boundary`).
-fn apply_boundary(ijk: vec3<u32>, x: vec3<f32>, v_in: vec3<f32>) -> vec3<f32> {
+// Table plane and slip walls (cpu `apply_boundary`) at grid node ijk.
+fn apply_boundary(ijk: vec3<u32>, x: vec3<f32>, v: vec3<f32>) -> vec3<f32> {
+    return boundary_at(vec3<f32>(ijk), x.z, x, v);
+}
+
+// The table and the walls for a node at grid position g and place x whose bonding to a
+// bonded table is decided at height bonded_z: its own place for the updated-Lagrangian
+// solvers, its rest place for total Lagrangian MPM (tlmpm.rs `apply_boundary`).
+fn boundary_at(g: vec3<f32>, bonded_z: f32, x: vec3<f32>, v_in: vec3<f32>) -> vec3<f32> {
     var v = v_in;
     let table = sim.blocks.w;
-    if (table != TABLE_NONE && x.z <= sim.table.x + 1e-3 * sim.origin_dx.w) {
-        if (table == TABLE_BONDED) {
-            v = vec3<f32>(0.0);
-        } else {
-            v = resolve(false, sim.table.y, 0.0, v, vec3<f32>(0.0), vec3<f32>(0.0, 0.0, 1.0), vec3<f32>(0.0));
-        }
+    let eps = 1e-3 * sim.origin_dx.w;
+    if (table == TABLE_BONDED && bonded_z <= sim.table.x + eps) {
+        v = vec3<f32>(0.0);
     }
-    let walls = i32(WALL_NODES);
+    if (table == TABLE_RESTING && x.z <= sim.table.x + eps) {
+        v = resolve(false, sim.table.y, 0.0, v, vec3<f32>(0.0), vec3<f32>(0.0, 0.0, 1.0), vec3<f32>(0.0));
+    }
+    let walls = f32(WALL_NODES);
     for (var a = 0u; a < 3u; a++) {
-        let i = i32(ijk[a]);
-        if (i < walls && v[a] < 0.0) {
+        if (g[a] < walls && v[a] < 0.0) {
             v[a] = 0.0;
         }
-        if (i >= i32(sim.nodes[a]) - walls && v[a] > 0.0) {
+        if (g[a] > f32(sim.nodes[a] - 1u - WALL_NODES) && v[a] > 0.0) {
             v[a] = 0.0;
         }
     }
     return v;
+}
+
+// A node at x (velocity v, mass m) held by gripper `tool`, `lever` from its hinge on jaw
+// `jaw`'s side (tools/grip.rs `held`, node_contact.rs `record_hold`): the held velocity,
+// the momentum the tool takes and its moment, the share that turns the jaws, and the grip's
+// sums.
+struct Held {
+    v: vec3<f32>,
+    dp: vec3<f32>,
+    dl: vec3<f32>,
+    jaw_opening: f32,
+    required: vec3<f32>,
+    mass_lever: f32,
+}
+
+fn hold_at(tool: Tool, x: vec3<f32>, v: vec3<f32>, m: f32, lever: f32, jaw: u32) -> Held {
+    let arm = x - tool.trans.xyz;
+    let dv = tool.lin.xyz + cross(tool.ang.xyz, arm) - v;
+    let normal = tool.rot[1];
+    let along_normal = normal * dot(normal, dv);
+    let required = dv - along_normal;
+    let v_held = v + along_normal + required * max(tool.shape.w, 0.0);
+    let dp = (v - v_held) * m;
+    let opening = jaw_angle(jaw, 1.0) * dot(cross(arm, normal * dot(normal, dp)), tool.rot[0]);
+    return Held(v_held, dp, cross(arm, dp), opening, required * m, m * lever);
 }
 
 // Gripper `t`'s grip region at `x` (ToolKinematics::grip_region in tools/grip.rs): x the

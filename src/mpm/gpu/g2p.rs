@@ -11,6 +11,8 @@ pub struct G2pStage {
     g2p: wgpu::ComputePipeline,
     finalize: wgpu::ComputePipeline,
     extract: wgpu::ComputePipeline,
+    /// Total Lagrangian MPM's G2P, built only for it.
+    g2p_tl: Option<wgpu::ComputePipeline>,
 }
 
 impl G2pStage {
@@ -20,11 +22,20 @@ impl G2pStage {
             g2p: b.pipeline(&module, "g2p", false),
             finalize: b.pipeline(&module, "finalize_guard", false),
             extract: b.pipeline(&module, "extract_positions", false),
+            g2p_tl: b
+                .total_lagrangian
+                .then(|| b.pipeline(&module, "g2p_tl", false)),
         }
     }
 
     pub fn record(&self, pass: &mut wgpu::ComputePass, groups: &Groups) {
         pass.set_pipeline(&self.g2p);
+        pass.dispatch_workgroups(groups.particles, 1, 1);
+    }
+
+    /// Records total Lagrangian MPM's G2P (a solver built for it).
+    pub fn record_tl(&self, pass: &mut wgpu::ComputePass, groups: &Groups) {
+        pass.set_pipeline(self.g2p_tl.as_ref().expect("a total Lagrangian solver"));
         pass.dispatch_workgroups(groups.particles, 1, 1);
     }
 

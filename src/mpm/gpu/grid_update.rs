@@ -26,6 +26,8 @@ pub struct GridUpdateStage {
     /// The grid update after an implicit solve, which settles the nodes in contact itself.
     grid_update_implicit: wgpu::ComputePipeline,
     reduce: wgpu::ComputePipeline,
+    /// Total Lagrangian MPM's grid update, built only for it.
+    grid_update_tl: Option<wgpu::ComputePipeline>,
 }
 
 impl GridUpdateStage {
@@ -35,11 +37,24 @@ impl GridUpdateStage {
             grid_update: b.pipeline(&module, "grid_update", false),
             grid_update_implicit: b.pipeline(&module, "grid_update_implicit", false),
             reduce: b.pipeline(&module, "reduce_impulses", false),
+            grid_update_tl: b
+                .total_lagrangian
+                .then(|| b.pipeline(&module, "grid_update_tl", false)),
         }
     }
 
     pub fn record(&self, pass: &mut wgpu::ComputePass, groups: &Groups) {
         pass.set_pipeline(&self.grid_update);
+        pass.dispatch_workgroups_indirect(groups.active_blocks, 0);
+    }
+
+    /// Records total Lagrangian MPM's grid update (a solver built for it).
+    pub fn record_tl(&self, pass: &mut wgpu::ComputePass, groups: &Groups) {
+        pass.set_pipeline(
+            self.grid_update_tl
+                .as_ref()
+                .expect("a total Lagrangian solver"),
+        );
         pass.dispatch_workgroups_indirect(groups.active_blocks, 0);
     }
 

@@ -1,7 +1,9 @@
 // Grid update (cpu `update_grid`): velocity from momentum, gravity, contact with the
 // nearest tool the node is inside of (only tools whose bounding box holds the node are
 // evaluated), momentum exchange into per-tool impulses, table and walls. One workgroup per
-// active block; each block with contact leaves its per-tool sums in `partials`.
+// active block; each block with contact leaves its per-tool sums in `partials`. Total
+// Lagrangian MPM's (cpu tlmpm.rs) works on the rest configuration's nodes at their current
+// places, with its force and the material grip (`grid_update_tl`).
 
 var<workgroup> wg_guard: u32;
 var<workgroup> wg_contacts: atomic<u32>;
@@ -12,7 +14,12 @@ var<workgroup> wg_val: array<f32, NODES_PER_BLOCK * IMPULSE_WORDS>;
 
 @compute @workgroup_size(NODES_PER_BLOCK)
 fn grid_update(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
-    update_block(wid, lid, false);
+    update_block(wid, lid, false, false);
+}
+
+@compute @workgroup_size(NODES_PER_BLOCK)
+fn grid_update_tl(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    update_block(wid, lid, false, true);
 }
 
 // After an implicit solve: a node the solve settled in contact (`im_finish` left its
@@ -20,10 +27,10 @@ fn grid_update(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_
 // loses on the way is its tool's impulse (cpu `update_grid_with`).
 @compute @workgroup_size(NODES_PER_BLOCK)
 fn grid_update_implicit(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
-    update_block(wid, lid, true);
+    update_block(wid, lid, true, false);
 }
 
-fn update_block(wid: vec3<u32>, lid: u32, settled_by_solve: bool) {
+fn update_block(wid: vec3<u32>, lid: u32, settled_by_solve: bool, total_lagrangian: bool) {
     if (lid == 0u) {
         wg_guard = select(0u, 1u, guard_tripped());
         atomicStore(&wg_contacts, 0u);
@@ -45,9 +52,17 @@ fn update_block(wid: vec3<u32>, lid: u32, settled_by_solve: bool) {
     var grip_lever = 0.0;
     if (m > 0.0) {
         let ijk = node_coords(b, lid);
-        let x = sim.origin_dx.xyz + vec3<f32>(ijk) * sim.origin_dx.w;
+        let x_grid = sim.origin_dx.xyz + vec3<f32>(ijk) * sim.origin_dx.w;
+        var x = x_grid;
         let p = vec3<f32>(acc_load_p(at_node), acc_load_p(at_node + 1u), acc_load_p(at_node + 2u));
         var v = p / m + st.gravity.xyz * st.dt;
+        let tl = tl_words(node);
+        if (total_lagrangian) {
+            // The node's current place, and its force (tlmpm.rs `step`).
+            x += vec3<f32>(acc_load_m(tl + 3u), acc_load_m(tl + 4u), acc_load_m(tl + 5u))
+                * (sim.origin_dx.w / (PLACE_SCALE * m));
+            v += vec3<f32>(acc_load_p(tl), acc_load_p(tl + 1u), acc_load_p(tl + 2u)) / m;
+        }
         var settled = vec4<f32>(0.0);
         if (settled_by_solve) {
             settled = grid_v[node];
@@ -67,8 +82,30 @@ fn update_block(wid: vec3<u32>, lid: u32, settled_by_solve: bool) {
         if (handled) {
             v = settled.xyz;
         }
+        // Total Lagrangian MPM's material grip: the gripper whose captured particles carry at
+        // least half the node's mass holds it wherever it is (captured.rs `holder`).
+        var holder = 0u;
+        if (total_lagrangian) {
+            holder = atomicLoad(&tl_nodes[node]);
+        }
+        if (holder != 0u && acc_load_m(tl + 6u) >= 0.5 * m) {
+            hit_tool = holder - 1u;
+            let tool = tools[st.substep * sim.n_tools + hit_tool];
+            let local = transpose(tool.rot) * (x - tool.trans.xyz);
+            let lever = sqrt(local.y * local.y + local.z * local.z);
+            let held = hold_at(tool, x, v, m, lever, select(2u, 1u, local.y >= 0.0));
+            v = held.v;
+            dp = held.dp;
+            dl = held.dl;
+            jaw_opening = held.jaw_opening;
+            grip = held.required;
+            grip_mass = m;
+            grip_lever = held.mass_lever;
+            handled = true;
+            atomicAdd(&wg_contacts, 1u);
+        }
         // The grip of the first gripper that holds the node (cpu `hold_node`).
-        for (var t = 0u; t < sim.n_tools && !handled; t++) {
+        for (var t = 0u; t < sim.n_tools && !handled && !total_lagrangian; t++) {
             let tool = tools[st.substep * sim.n_tools + t];
             if (tool.shape.w < 0.0) {
                 continue;
@@ -77,20 +114,14 @@ fn update_block(wid: vec3<u32>, lid: u32, settled_by_solve: bool) {
             if (region.x < 0.0) {
                 continue;
             }
-            let arm = x - tool.trans.xyz;
-            let dv = tool.lin.xyz + cross(tool.ang.xyz, arm) - v;
-            let normal = tool.rot[1];
-            let along_normal = normal * dot(normal, dv);
-            let required = dv - along_normal;
-            let v_held = v + along_normal + required * tool.shape.w;
-            dp = (v - v_held) * m;
-            dl = cross(arm, dp);
-            jaw_opening = jaw_angle(u32(region.y), 1.0)
-                * dot(cross(arm, normal * dot(normal, dp)), tool.rot[0]);
-            grip = required * m;
+            let held = hold_at(tool, x, v, m, region.x, u32(region.y));
+            v = held.v;
+            dp = held.dp;
+            dl = held.dl;
+            jaw_opening = held.jaw_opening;
+            grip = held.required;
             grip_mass = m;
-            grip_lever = m * region.x;
-            v = v_held;
+            grip_lever = held.mass_lever;
             hit_tool = t;
             handled = true;
             atomicAdd(&wg_contacts, 1u);
@@ -128,7 +159,11 @@ fn update_block(wid: vec3<u32>, lid: u32, settled_by_solve: bool) {
             v = v_new;
             atomicAdd(&wg_contacts, 1u);
         }
-        v = apply_boundary(ijk, x, v);
+        if (total_lagrangian) {
+            v = boundary_at(grid_pos(x), x_grid.z, x, v);
+        } else {
+            v = apply_boundary(ijk, x, v);
+        }
         out = vec4<f32>(v, m);
     }
     grid_v[node] = out;

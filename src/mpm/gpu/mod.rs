@@ -1,4 +1,4 @@
-//! The MLS-MPM, PIC, PB-MPM and implicit solvers on wgpu: the CPU solvers' math in WGSL
+//! The MLS-MPM, PIC, PB-MPM, total Lagrangian and implicit solvers on wgpu: the CPU solvers' math in WGSL
 //! compute shaders. The CPU solver ([`crate::mpm::cpu`]) stays the reference and the fallback.
 //!
 //! Each stage is a unit: its `.wgsl` and, beside it, a host `.rs` owning its pipelines and
@@ -25,6 +25,9 @@
 //!   iterations' G2P; a PB-MPM substep records the stages above once per iteration, each
 //!   iteration with its own parameter entry (gravity in the first only), integrating in
 //!   the last (`record_pb_substep`);
+//! - `tlmpm`: total Lagrangian MPM's capture of the grip and its stiffening bounds; its
+//!   P2G, grid update and G2P are entries (`p2g_tl`, `grid_update_tl`, `g2p_tl`) of the
+//!   stages above, on the rest configuration's stencils (see that module);
 //! - `implicit`: backward-Euler MLS-MPM, Newton–CG on the grid velocities (its own
 //!   buffers in bind group 1; a frame is several submissions, see that module).
 //!
@@ -104,13 +107,15 @@
 //!
 //! # Agreement with the CPU
 //!
-//! `tests/gpu_agreement.rs`, `tests/implicit_gpu.rs`, `tests/cutting_gpu.rs` and
-//! `tests/tearing.rs` compare both P2G variants with the CPU on llvmpipe in CI (without any
-//! adapter they fail when `CI` is set and are skipped with the reason otherwise): a free block
-//! spinning, squeezed and falling within 1 µm (f32) and 5 µm (fixed point) of the CPU's
-//! positions, a grasp's forces within 2 % of the peak every frame, Hertz's RMS error to the
-//! same 0.1540, the guard's restore bit for bit, PB-MPM and PIC alike, and the implicit solve
-//! within 5 % of the displacement with Newton totals within 10 %.
+//! `tests/gpu_agreement.rs`, `tests/implicit_gpu.rs`, `tests/cutting_gpu.rs`,
+//! `tests/tlmpm_gpu.rs` and `tests/tearing.rs` compare both P2G variants with the CPU on
+//! llvmpipe in CI (without any adapter they fail when `CI` is set and are skipped with the
+//! reason otherwise): a free block spinning, squeezed and falling within 1 µm (f32) and
+//! 5 µm (fixed point) of the CPU's positions, a grasp's forces within 2 % of the peak every
+//! frame, Hertz's RMS error to the same 0.1540, the guard's restore bit for bit, PB-MPM and
+//! PIC alike, the implicit solve within 5 % of the displacement with Newton totals within
+//! 10 %, and total Lagrangian MPM's free block within 1 µm and 2 µm and its grip, lift and
+//! release within 10 µm and 0.5 % of the peak force every frame.
 //!
 //! # On an NVIDIA H100
 //!
@@ -162,10 +167,12 @@ mod prelude;
 mod readback;
 mod resources;
 mod sparse;
+mod tlmpm;
 
 use super::backend::P2gAtomics;
 use super::frame_plan::{FramePlan, FrameStats};
 use super::grid::Node;
+use super::stiffening::{self, StiffeningBounds, MAX_PIECES};
 use super::{GridLayout, Method, Particles, PbMpmParams, SolveCounts, SolverSetup, MAX_TOOLS};
 use crate::tools::Shape;
 use adapter::GpuContext;
@@ -181,13 +188,12 @@ use prelude::StageBuilder;
 use readback::Readback;
 use resources::{Resources, ARGS_GROUP};
 use sparse::SparseStage;
+use tlmpm::TlStages;
 
 /// How [`GpuError::Unsupported`] names the implicit method on an adapter without f32
 /// atomics (see `implicit`).
 pub const IMPLICIT_WITHOUT_FLOAT_ATOMICS: &str =
     "solver.method = \"implicit\" on an adapter without f32 atomics (SHADER_FLOAT32_ATOMIC)";
-/// How [`GpuError::Unsupported`] names the implicit method in a scene with a slicer.
-pub const TOTAL_LAGRANGIAN: &str = "solver.method = \"tl_mpm\" (total Lagrangian MPM)";
 /// What the GPU backend lacks for the implicit method in a scene with a slicer.
 pub const IMPLICIT_WITH_CUTTING: &str = "solver.method = \"implicit\" in a scene that cuts";
 
@@ -223,6 +229,19 @@ pub enum GpuError {
     Unsupported(&'static str),
 }
 
+/// Total Lagrangian MPM's passes and what the host keeps of it (see [`tlmpm`]).
+struct TotalLagrangian {
+    stages: TlStages,
+    /// The rest positions are on the device (written before the first frame).
+    rest_written: bool,
+    /// The stiffening bounds the next frame's pieces come from.
+    bounds: StiffeningBounds,
+    /// The bounds are not those of the device's state (a restore or a host edit since).
+    bounds_stale: bool,
+    /// Pieces each substep of the frame in flight is cut into.
+    pieces: u32,
+}
+
 /// Workgroup size of the per-particle and per-block stages.
 const WG: u32 = 64;
 
@@ -255,6 +274,8 @@ pub struct GpuSolver {
     pb: PbMpmStages,
     /// With `method = "implicit"`: the Newton–CG solve.
     implicit: Option<ImplicitStages>,
+    /// With `method = "tl_mpm"`: its own passes and host state.
+    total_lagrangian: Option<TotalLagrangian>,
     /// Newton and CG iterations of the frame in flight.
     frame_solve: SolveCounts,
     readback: Readback,
@@ -268,9 +289,6 @@ pub struct GpuSolver {
 /// What of `setup` the backend cannot step on this adapter: the implicit method needs f32
 /// atomics and a scene that does not cut (see `implicit`).
 pub fn unsupported(ctx: &GpuContext, setup: &SolverSetup) -> Option<&'static str> {
-    if setup.method == Method::TlMpm {
-        return Some(TOTAL_LAGRANGIAN);
-    }
     if setup.method != Method::Implicit {
         return None;
     }
@@ -349,19 +367,24 @@ impl GpuSolver {
             setup.particles.damage = vec![0.0; setup.particles.len()];
         }
         let max_substeps = setup.max_substeps.max(1);
-        // One Step entry per substep, per constraint iteration with PB-MPM.
+        // One Step entry per substep, per constraint iteration with PB-MPM; total
+        // Lagrangian MPM's substeps are cut into as many as MAX_PIECES steps, each with its
+        // own entry and tools.
         let (steps_per_substep, _) = step_entries(setup.method, setup.pb_mpm);
+        let total_lagrangian = setup.method == Method::TlMpm;
+        let step_capacity = max_substeps * if total_lagrangian { MAX_PIECES } else { 1 };
         let res = Resources::new(
             device,
             &ctx.queue,
             &setup,
             shapes,
-            max_substeps,
+            step_capacity,
             steps_per_substep as u64,
         );
         let builder = StageBuilder {
             device,
             float_p2g,
+            total_lagrangian,
             cutting: setup.cutting,
             plain: &res.plain,
             with_args: &res.with_args,
@@ -380,8 +403,16 @@ impl GpuSolver {
                 setup.implicit,
             )
         });
+        let total_lagrangian = total_lagrangian.then(|| TotalLagrangian {
+            stages: TlStages::new(&builder),
+            rest_written: false,
+            bounds: StiffeningBounds::default(),
+            bounds_stale: true,
+            pieces: 1,
+        });
         Ok(GpuSolver {
             implicit,
+            total_lagrangian,
             frame_solve: SolveCounts::default(),
             sparse: SparseStage::new(&builder),
             crack: CrackStage::new(&builder),
@@ -447,6 +478,9 @@ impl GpuSolver {
 
     fn upload_if_dirty(&mut self) {
         if self.host_dirty {
+            if let Some(tl) = &mut self.total_lagrangian {
+                tl.bounds_stale = true;
+            }
             let packed = pack::particles(&self.host);
             self.ctx
                 .queue
@@ -486,6 +520,10 @@ impl GpuSolver {
             self.tool_count
         );
         self.upload_if_dirty();
+        if self.method == Method::TlMpm {
+            self.submit_tl_frame(plan);
+            return;
+        }
         let (entries, relaxation) = step_entries(self.method, self.pb_mpm);
         self.res
             .write_frame_inputs(&self.ctx.queue, plan, entries, relaxation);
@@ -516,7 +554,7 @@ impl GpuSolver {
                     Method::MlsMpm | Method::PicMpm => self.record_substep(&mut pass, s, &groups),
                     Method::PbMpm => self.record_pb_substep(&mut pass, s, entries, &groups),
                     Method::Implicit => unreachable!("implicit frames: submit_implicit_frame"),
-                    Method::TlMpm => unreachable!("refused by `unsupported`"),
+                    Method::TlMpm => unreachable!("total Lagrangian frames: submit_tl_frame"),
                 }
             }
             self.res.bind_step(&mut pass, 0);
@@ -533,7 +571,66 @@ impl GpuSolver {
     pub fn collect_frame(&mut self) -> FrameStats {
         let mut stats = self.readback.collect(&self.ctx.device, &mut self.host);
         stats.solve = std::mem::take(&mut self.frame_solve);
+        if let Some(tl) = &mut self.total_lagrangian {
+            // Steps done, in whole substeps; the bounds decide the next frame's pieces.
+            stats.substeps_done /= tl.pieces;
+            tl.bounds = self.readback.stiffening;
+            tl.bounds_stale = stats.guard.is_some();
+        }
         stats
+    }
+
+    /// Records and submits a total Lagrangian frame (see [`tlmpm`]): the plan cut into the
+    /// pieces its stiffening bounds ask for, each piece a step of its own.
+    fn submit_tl_frame(&mut self, plan: &FramePlan) {
+        let tl = self
+            .total_lagrangian
+            .as_mut()
+            .expect("a total Lagrangian solver");
+        if !tl.rest_written {
+            let rest: Vec<[f32; 4]> = self.host.x.iter().map(|x| [x.x, x.y, x.z, 0.0]).collect();
+            self.ctx
+                .queue
+                .write_buffer(&self.res.tl_rest, 0, bytemuck::cast_slice(&rest));
+            tl.rest_written = true;
+        }
+        if tl.bounds_stale {
+            tl.bounds = StiffeningBounds::all_free(&self.host.f);
+            tl.bounds_stale = false;
+        }
+        tl.pieces = tl.bounds.pieces(plan);
+        let tools = stiffening::pieced_tools(plan, tl.pieces);
+        let steps = stiffening::pieced(plan, tl.pieces, &tools);
+        self.res.write_frame_inputs(&self.ctx.queue, &steps, 1, 0.0);
+        let mut encoder = self
+            .ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("total Lagrangian frame"),
+            });
+        encoder.copy_buffer_to_buffer(&self.res.particles, 0, &self.res.snapshot, 0, None);
+        {
+            let groups = self.groups();
+            let tl = self.total_lagrangian.as_ref().expect("checked above");
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("steps"),
+                timestamp_writes: None,
+            });
+            pass.set_bind_group(ARGS_GROUP, &self.res.args_group, &[]);
+            for step in 0..steps.substeps {
+                self.res.bind_step(&mut pass, step);
+                self.sparse.record(&mut pass, &groups);
+                tl.stages.record_capture(&mut pass, &groups);
+                self.p2g.record_tl(&mut pass, &groups);
+                self.grid_update.record_tl(&mut pass, &groups);
+                self.g2p.record_tl(&mut pass, &groups);
+                self.grid_update.record_reduce(&mut pass);
+            }
+            self.res.bind_step(&mut pass, 0);
+            tl.stages.record_bound(&mut pass, &groups);
+            self.g2p.record_frame_end(&mut pass, &groups);
+        }
+        self.submit_with_readback(encoder);
     }
 
     /// The dispatch sizes of a frame.
@@ -622,6 +719,7 @@ impl GpuSolver {
 
     /// Device-side copy of the frame-start state back into the particles.
     pub fn restore_frame_start(&mut self) {
+        self.mark_bounds_stale();
         self.submit_copy(&self.res.snapshot, Some(&self.res.crack_snapshot));
         self.host_dirty = false;
         self.download_all();
@@ -629,9 +727,17 @@ impl GpuSolver {
 
     /// Device-side copy of the rest state into the particles.
     pub fn reset_to_rest(&mut self) {
+        self.mark_bounds_stale();
         self.submit_copy(&self.res.rest, None);
         self.host_dirty = false;
         self.download_all();
+    }
+
+    /// The device's state changed behind total Lagrangian MPM's stiffening bounds.
+    fn mark_bounds_stale(&mut self) {
+        if let Some(tl) = &mut self.total_lagrangian {
+            tl.bounds_stale = true;
+        }
     }
 
     /// Blocking download of every particle field into the host copy (unless the host copy

@@ -14,6 +14,8 @@ pub const FIXED_SCALE: f32 = (1u32 << 26) as f32;
 
 pub struct P2gStage {
     p2g: wgpu::ComputePipeline,
+    /// Total Lagrangian MPM's P2G, built only for it.
+    p2g_tl: Option<wgpu::ComputePipeline>,
 }
 
 impl P2gStage {
@@ -21,11 +23,20 @@ impl P2gStage {
         let module = b.module("p2g", SOURCE);
         P2gStage {
             p2g: b.pipeline(&module, "p2g", false),
+            p2g_tl: b
+                .total_lagrangian
+                .then(|| b.pipeline(&module, "p2g_tl", false)),
         }
     }
 
     pub fn record(&self, pass: &mut wgpu::ComputePass, groups: &Groups) {
         pass.set_pipeline(&self.p2g);
+        pass.dispatch_workgroups(groups.particles, 1, 1);
+    }
+
+    /// Records total Lagrangian MPM's P2G (a solver built for it).
+    pub fn record_tl(&self, pass: &mut wgpu::ComputePass, groups: &Groups) {
+        pass.set_pipeline(self.p2g_tl.as_ref().expect("a total Lagrangian solver"));
         pass.dispatch_workgroups(groups.particles, 1, 1);
     }
 }

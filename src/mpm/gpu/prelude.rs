@@ -20,6 +20,7 @@ use super::grid_update::IMPULSE_WORDS;
 use super::pack::{WGSL_CODES, WGSL_STRUCTS};
 use super::readback::word;
 use super::resources::{Binding, ARGS_GROUP};
+use super::tlmpm::TL_WORDS;
 use super::WG;
 use crate::mpm::crack::MIN_OFFSET_CELLS;
 use crate::mpm::damage::TORN;
@@ -32,9 +33,9 @@ use std::fmt::Write;
 
 /// The shared declarations for a P2G variant (f32 or i32 fixed-point accumulators), in a
 /// solver that cuts (a scene with a slicer) or does not.
-fn prelude(float_p2g: bool, cutting: bool) -> String {
+fn prelude(float_p2g: bool, cutting: bool, total_lagrangian: bool) -> String {
     let mut out = String::from("// Generated from Rust (src/mpm/gpu/prelude.rs).\n\n");
-    let u32s: [(&str, usize); 7] = [
+    let u32s: [(&str, usize); 8] = [
         ("WG", WG as usize),
         ("BLOCK", BLOCK),
         ("NODES_PER_BLOCK", NODES_PER_BLOCK),
@@ -42,6 +43,7 @@ fn prelude(float_p2g: bool, cutting: bool) -> String {
         ("MAX_TOOLS", MAX_TOOLS),
         ("IMPULSE_WORDS", IMPULSE_WORDS),
         ("WALL_NODES", WALL_NODES as usize),
+        ("TL_WORDS", TL_WORDS),
     ];
     for (name, value) in u32s {
         writeln!(out, "const {name}: u32 = {value}u;").unwrap();
@@ -51,6 +53,9 @@ fn prelude(float_p2g: bool, cutting: bool) -> String {
     writeln!(out, "const SLIP_THRESHOLD: f32 = {SLIP_THRESHOLD:?};").unwrap();
     // Cutting: whether particles carry cracks, and the constants of crack.rs / slicer.rs.
     writeln!(out, "const CUTTING: bool = {cutting};").unwrap();
+    // Total Lagrangian MPM: the blocks come from the rest configuration, and the nodes
+    // carry its words (see `tlmpm.rs`).
+    writeln!(out, "const TOTAL_LAGRANGIAN: bool = {total_lagrangian};").unwrap();
     // The codes the shared structs' fields take (pack.rs).
     for (name, value) in WGSL_CODES {
         writeln!(out, "const {name}: u32 = {value}u;").unwrap();
@@ -106,7 +111,7 @@ fn prelude(float_p2g: bool, cutting: bool) -> String {
 
 /// Full source of one stage: the prelude, the shared functions, the damage model, the P2G
 /// accumulation variant, and the stage itself.
-fn shader_source(stage: &str, float_p2g: bool, cutting: bool) -> String {
+fn shader_source(stage: &str, float_p2g: bool, cutting: bool, total_lagrangian: bool) -> String {
     let acc = if float_p2g {
         include_str!("acc_float.wgsl")
     } else {
@@ -114,7 +119,7 @@ fn shader_source(stage: &str, float_p2g: bool, cutting: bool) -> String {
     };
     format!(
         "{}\n{}\n{}\n{acc}\n{stage}",
-        prelude(float_p2g, cutting),
+        prelude(float_p2g, cutting, total_lagrangian),
         include_str!("common.wgsl"),
         include_str!("damage.wgsl")
     )
@@ -127,6 +132,8 @@ pub struct StageBuilder<'a> {
     pub float_p2g: bool,
     /// Whether the scene cuts (see [`super::crack`]).
     pub cutting: bool,
+    /// Whether the solver is total Lagrangian MPM (see [`super::tlmpm`]).
+    pub total_lagrangian: bool,
     /// Group 0 only.
     pub plain: &'a wgpu::PipelineLayout,
     /// Group 0 and the indirect arguments.
@@ -139,7 +146,8 @@ impl StageBuilder<'_> {
             .create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(label),
                 source: wgpu::ShaderSource::Wgsl(
-                    shader_source(stage, self.float_p2g, self.cutting).into(),
+                    shader_source(stage, self.float_p2g, self.cutting, self.total_lagrangian)
+                        .into(),
                 ),
             })
     }
@@ -185,10 +193,19 @@ mod tests {
             ("g2p", super::super::g2p::SOURCE),
             ("pbmpm", super::super::pbmpm::SOURCE),
             ("crack", super::super::crack::SOURCE),
+            ("tlmpm", super::super::tlmpm::SOURCE),
         ];
-        for (float_p2g, cutting) in [(false, false), (true, false), (false, true), (true, true)] {
+        let variants = [
+            (false, false, false),
+            (true, false, false),
+            (false, true, false),
+            (true, true, false),
+            (false, false, true),
+            (true, false, true),
+        ];
+        for (float_p2g, cutting, total_lagrangian) in variants {
             for (name, stage) in stages {
-                let source = shader_source(stage, float_p2g, cutting);
+                let source = shader_source(stage, float_p2g, cutting, total_lagrangian);
                 let module = naga::front::wgsl::parse_str(&source)
                     .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&source)));
                 naga::valid::Validator::new(
@@ -197,12 +214,15 @@ mod tests {
                 )
                 .validate(&module)
                 .unwrap_or_else(|e| {
-                    panic!("{name} (float P2G {float_p2g}, cutting {cutting}): {e:?}")
+                    panic!(
+                        "{name} (float P2G {float_p2g}, cutting {cutting}, total Lagrangian \
+                         {total_lagrangian}): {e:?}"
+                    )
                 });
             }
         }
         // The implicit solve runs only with f32 atomics and without cuts.
-        let source = shader_source(&super::super::implicit::source(), true, false);
+        let source = shader_source(&super::super::implicit::source(), true, false, false);
         let module = naga::front::wgsl::parse_str(&source)
             .unwrap_or_else(|e| panic!("implicit: {}", e.emit_to_string(&source)));
         naga::valid::Validator::new(

@@ -6,6 +6,7 @@ use super::grid_update::IMPULSE_WORDS;
 use super::pack::{self, GpuParticle};
 use crate::mpm::frame_plan::FrameStats;
 use crate::mpm::guard::{GuardEvent, GuardKind};
+use crate::mpm::stiffening::StiffeningBounds;
 use crate::mpm::{Particles, Vec3, MAX_TOOLS};
 use std::sync::mpsc;
 
@@ -29,14 +30,19 @@ pub mod word {
     pub const GUARD_POS: usize = 8;
     /// MAX_TOOLS × IMPULSE_WORDS (see `IMPULSE_WORDS`).
     pub const IMPULSE: usize = 16;
+    /// Total Lagrangian MPM's stiffening bounds at the frame's end (f32 bits, positive):
+    /// over the free particles, then over each gripper's (MAX_TOOLS words).
+    pub const TL_BOUND: usize = IMPULSE + MAX_TOOLS * IMPULSE_WORDS;
 
     /// The values of the `GUARD_KIND` word: a particle's state went non-finite, or its speed
     /// passed the guard's.
     pub const GUARD_NON_FINITE: usize = 0;
     pub const GUARD_RUNAWAY: usize = 1;
 
+    use super::{IMPULSE_WORDS, MAX_TOOLS};
+
     /// Names (without the `S_` the shaders prefix) and indices, for the shader prelude.
-    pub const ALL: [(&str, usize); 10] = [
+    pub const ALL: [(&str, usize); 11] = [
         ("GUARD", GUARD),
         ("GUARD_PARTICLE", GUARD_PARTICLE),
         ("MAX_SPEED", MAX_SPEED),
@@ -47,10 +53,11 @@ pub mod word {
         ("GUARD_SPEED", GUARD_SPEED),
         ("GUARD_POS", GUARD_POS),
         ("IMPULSE", IMPULSE),
+        ("TL_BOUND", TL_BOUND),
     ];
 }
 
-pub const STATS_WORDS: usize = word::IMPULSE + MAX_TOOLS * IMPULSE_WORDS;
+pub const STATS_WORDS: usize = word::TL_BOUND + 1 + MAX_TOOLS;
 pub const STATS_BYTES: u64 = 1024;
 /// Bytes per particle of the end-of-frame extract: a position and three F columns, vec4 each.
 pub const EXTRACT_BYTES: usize = 64;
@@ -81,6 +88,8 @@ pub struct Readback {
     frame: u64,
     /// The frame submitted and not collected yet.
     pending: Option<PendingFrame>,
+    /// The stiffening bounds the last frame collected ended with (total Lagrangian MPM).
+    pub stiffening: StiffeningBounds,
 }
 
 /// A submitted frame whose readback is under way.
@@ -114,6 +123,7 @@ impl Readback {
             cutting,
             frame: 0,
             pending: None,
+            stiffening: StiffeningBounds::default(),
         }
     }
 
@@ -210,6 +220,11 @@ impl Readback {
             *f = pack::unpack_mat3(cols);
         }
         let stats = parse_stats(words);
+        let bound = |k: usize| f32::from_bits(words[word::TL_BOUND + k]);
+        self.stiffening = StiffeningBounds {
+            free: bound(0).max(1.0),
+            held: std::array::from_fn(|t| bound(t + 1)),
+        };
         drop(bytes);
         staging.unmap();
         stats

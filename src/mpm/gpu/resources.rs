@@ -9,6 +9,7 @@ use super::grid_update::IMPULSE_WORDS;
 use super::p2g::FIXED_SCALE;
 use super::pack::{self, GpuMaterial, GpuParticle, GpuTool, SimUniform, StepUniform};
 use super::readback::{self, extract_bytes_per_particle, CRACK_BYTES, STATS_BYTES};
+use super::tlmpm::TL_WORDS;
 use crate::mpm::frame_plan::FramePlan;
 use crate::mpm::grid::Node;
 use crate::mpm::{SolverSetup, TableHold, Vec3, MAX_TOOLS};
@@ -45,10 +46,16 @@ pub enum Binding {
     Cracks,
     /// The mesh slicers' blades (see `blade.rs`); a placeholder without one.
     Blades,
+    /// Total Lagrangian MPM: per particle, its rest position and the gripper holding it
+    /// (see `tlmpm.wgsl`); a placeholder with the other methods.
+    TlRest,
+    /// Total Lagrangian MPM: per node the gripper holding it, then per gripper whether it
+    /// held in the last substep; a placeholder with the other methods.
+    TlNodes,
 }
 
 impl Binding {
-    pub const ALL: [Binding; 15] = [
+    pub const ALL: [Binding; 17] = [
         Binding::Sim,
         Binding::Step,
         Binding::Particles,
@@ -64,6 +71,8 @@ impl Binding {
         Binding::Extract,
         Binding::Cracks,
         Binding::Blades,
+        Binding::TlRest,
+        Binding::TlNodes,
     ];
 
     /// The variable's name in WGSL.
@@ -84,6 +93,8 @@ impl Binding {
             Binding::Extract => "out_pos",
             Binding::Cracks => "cracks",
             Binding::Blades => "blades",
+            Binding::TlRest => "tl_rest",
+            Binding::TlNodes => "tl_nodes",
         }
     }
 
@@ -113,6 +124,8 @@ impl Binding {
             Binding::Extract => "array<vec4<f32>>",
             Binding::Cracks => "array<vec4<f32>>",
             Binding::Blades => "array<vec4<f32>>",
+            Binding::TlRest => "array<vec4<f32>>",
+            Binding::TlNodes => "array<atomic<u32>>",
         }
     }
 
@@ -138,7 +151,7 @@ impl Binding {
     }
 }
 
-const _: () = assert!(Binding::ALL.len() == Binding::Blades as usize + 1);
+const _: () = assert!(Binding::ALL.len() == Binding::TlNodes as usize + 1);
 
 /// Buffers, bind groups and pipeline layouts of one solver.
 pub struct Resources {
@@ -151,6 +164,8 @@ pub struct Resources {
     pub cracks: wgpu::Buffer,
     /// Frame-start cracks, for the guard's restore (16 unused bytes without a slicer).
     pub crack_snapshot: wgpu::Buffer,
+    /// Total Lagrangian MPM's rest positions and captures (16 unused bytes otherwise).
+    pub tl_rest: wgpu::Buffer,
     tools: wgpu::Buffer,
     steps: wgpu::Buffer,
     pub stats: wgpu::Buffer,
@@ -296,7 +311,27 @@ impl Resources {
                 as u64,
             copy,
         );
-        let grid_acc = storage(device, "grid accumulators", grid_bytes, copy);
+        // Total Lagrangian MPM's nodes carry words of their own after everyone's
+        // NODE_WORDS, its particles their rest positions, its nodes their grippers.
+        let total_lagrangian = setup.method == crate::mpm::Method::TlMpm;
+        let (tl_node_bytes, tl_rest_bytes, tl_nodes_bytes) = if total_lagrangian {
+            let nodes = layout.node_count();
+            (
+                (nodes * TL_WORDS * 4) as u64,
+                (n * 16) as u64,
+                ((nodes + MAX_TOOLS) * 4) as u64,
+            )
+        } else {
+            (0, 0, 0)
+        };
+        let grid_acc = storage(
+            device,
+            "grid accumulators",
+            grid_bytes + tl_node_bytes,
+            copy,
+        );
+        let tl_rest = storage(device, "rest positions", tl_rest_bytes, copy);
+        let tl_nodes = storage(device, "node grippers", tl_nodes_bytes, copy);
         let grid_v = storage(device, "grid velocity", grid_bytes, copy);
         let block_flags = storage(device, "block flags", (blocks * 4) as u64, copy);
         let active = storage(device, "active blocks", (blocks * 4) as u64, copy);
@@ -387,6 +422,8 @@ impl Resources {
             Binding::Extract => extract.as_entire_binding(),
             Binding::Cracks => cracks.as_entire_binding(),
             Binding::Blades => blades.as_entire_binding(),
+            Binding::TlRest => tl_rest.as_entire_binding(),
+            Binding::TlNodes => tl_nodes.as_entire_binding(),
         };
         let bind_entries: Vec<_> = Binding::ALL
             .iter()
@@ -424,6 +461,7 @@ impl Resources {
             rest,
             cracks,
             crack_snapshot,
+            tl_rest,
             tools,
             steps,
             stats,

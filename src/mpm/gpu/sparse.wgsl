@@ -14,14 +14,19 @@ fn begin() {
     atomicAdd(&stats[S_SUBSTEPS], 1u);
 }
 
-// One invocation per particle: flags the (up to 8) blocks its 3×3×3 stencil covers.
+// One invocation per particle: flags the (up to 8) blocks its 3×3×3 stencil covers (on the
+// rest configuration with total Lagrangian MPM).
 @compute @workgroup_size(WG)
 fn mark(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = gid.x;
     if (!particle_live(p)) {
         return;
     }
-    let s = make_stencil(grid_pos(particles[p].x.xyz));
+    var x = particles[p].x.xyz;
+    if (TOTAL_LAGRANGIAN) {
+        x = tl_rest[p].xyz;
+    }
+    let s = make_stencil(grid_pos(x));
     let hi_node = vec3<i32>(sim.nodes.xyz) - vec3<i32>(3);
     let base = vec3<u32>(clamp(s.base, vec3<i32>(0), hi_node));
     let lo = base / BLOCK;
@@ -78,11 +83,18 @@ fn compact(@builtin(local_invocation_index) lid: u32) {
     }
 }
 
-// One workgroup per active block: zeroes its nodes before P2G.
+// One workgroup per active block: zeroes its nodes before P2G (with total Lagrangian MPM,
+// their own words and gripper too).
 @compute @workgroup_size(NODES_PER_BLOCK)
 fn clear(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let node = active_blocks[wid.x] * NODES_PER_BLOCK + lid;
     for (var k = 0u; k < NODE_WORDS; k++) {
         acc_zero(NODE_WORDS * node + k);
+    }
+    if (TOTAL_LAGRANGIAN) {
+        for (var k = 0u; k < TL_WORDS; k++) {
+            acc_zero(tl_words(node) + k);
+        }
+        atomicStore(&tl_nodes[node], 0u);
     }
 }
