@@ -1,5 +1,6 @@
-//! The MLS-MPM, PIC, PB-MPM, total Lagrangian and implicit solvers on wgpu: the CPU solvers' math in WGSL
-//! compute shaders. The CPU solver ([`crate::mpm::cpu`]) stays the reference and the fallback.
+//! The MLS-MPM, PIC, PB-MPM, total Lagrangian and implicit solvers on wgpu: the CPU
+//! solvers' math in WGSL compute shaders. The CPU solver ([`crate::mpm::cpu`]) stays the
+//! reference and the fallback.
 //!
 //! Each stage is a unit: its `.wgsl` and, beside it, a host `.rs` owning its pipelines and
 //! recording its dispatches (`record`). Every shader starts with the prelude generated
