@@ -23,6 +23,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand};
 use dvrk_tissue_sim::mpm::backend::BackendChoice;
 use dvrk_tissue_sim::mpm::gpu::adapter;
+use dvrk_tissue_sim::mpm::Method;
 use std::path::{Path, PathBuf};
 use sweep::SweepPlan;
 
@@ -51,6 +52,9 @@ pub enum BenchCommand {
         /// Frames to time (after one warm-up frame).
         #[arg(long, default_value_t = 20)]
         frames: u32,
+        /// MPM formulation to time (`mls_mpm`, `tl_mpm`, `pic_mpm`, `pb_mpm` or `implicit`).
+        #[arg(long, default_value = "mls_mpm", value_parser = scene_value::<Method>)]
+        method: Method,
     },
     /// Error of the scenes with analytic answers at a few resolutions.
     Accuracy,
@@ -180,8 +184,8 @@ pub fn run(args: BenchArgs) -> Result<()> {
             }
             Ok(())
         }
-        BenchCommand::Throughput { frames } => {
-            let result = throughput::run_seed000(frames);
+        BenchCommand::Throughput { frames, method } => {
+            let result = throughput::run_seed000(frames, method)?;
             print_and_write("throughput", &result.table(), None)
         }
         BenchCommand::Scaling {

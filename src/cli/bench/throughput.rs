@@ -1,12 +1,15 @@
 //! Throughput on the seed-000 scene size: ≈24,000 particles, a 64³ grid over the domain,
 //! dt from CFL, a gripper retracting the tissue (SurRoL's benchmark setting).
 
+use anyhow::{bail, Result};
 use dvrk_tissue_sim::config::builders::*;
+use dvrk_tissue_sim::mpm::Method;
 use dvrk_tissue_sim::world::World;
 use std::time::Instant;
 
 pub struct ThroughputResult {
     pub backend: &'static str,
+    pub method: Method,
     pub particles: usize,
     pub grid: [usize; 3],
     pub frames: u32,
@@ -23,10 +26,14 @@ impl ThroughputResult {
     pub fn table(&self) -> String {
         let ms_per_substep = 1e3 * self.wall_s / self.substeps as f64;
         format!(
-            "| backend | threads | particles | grid | frames | substeps | wall (s) | ms/substep | ms per 25-substep frame | M particle-substeps/s |\n\
-             |---|---|---|---|---|---|---|---|---|---|\n\
-             | {} | {} | {} | {}×{}×{} | {} | {} | {:.3} | {:.3} | {:.2} | {:.2} |\n",
+            "| backend | method | threads | particles | grid | frames | substeps | wall (s) | ms/substep | ms per 25-substep frame | M particle-substeps/s |\n\
+             |---|---|---|---|---|---|---|---|---|---|---|\n\
+             | {} | {} | {} | {} | {}×{}×{} | {} | {} | {:.3} | {:.3} | {:.2} | {:.2} |\n",
             self.backend,
+            serde_json::to_value(self.method)
+                .ok()
+                .and_then(|v| v.as_str().map(str::to_owned))
+                .unwrap_or_default(),
             self.threads,
             self.particles,
             self.grid[0],
@@ -42,9 +49,15 @@ impl ThroughputResult {
     }
 }
 
-/// Times `frames` frames of the seed-000 scene on the CPU backend after one warm-up frame.
-pub fn run_seed000(frames: u32) -> ThroughputResult {
-    let scene = seed000_scene();
+/// Times `frames` frames of the seed-000 scene stepped by `method` on the CPU backend after
+/// one warm-up frame.
+pub fn run_seed000(frames: u32, method: Method) -> Result<ThroughputResult> {
+    let mut scene = seed000_scene();
+    scene.solver.method = method;
+    let errors = dvrk_tissue_sim::config::validate(&scene);
+    if !errors.is_empty() {
+        bail!("the seed-000 scene with solver.method = {method:?}: {errors:?}");
+    }
     let mut world = World::new(&scene);
     world.step_frame().expect("seed-000 scene is stable");
     let start = Instant::now();
@@ -55,15 +68,16 @@ pub fn run_seed000(frames: u32) -> ThroughputResult {
             .expect("seed-000 scene is stable")
             .substeps as u64;
     }
-    ThroughputResult {
+    Ok(ThroughputResult {
         backend: "cpu",
+        method,
         particles: world.particles().len(),
         grid: world.layout().nodes,
         frames,
         substeps,
         wall_s: start.elapsed().as_secs_f64(),
         threads: rayon::current_num_threads(),
-    }
+    })
 }
 
 #[cfg(test)]
