@@ -27,6 +27,15 @@
 //! chunk away between 10.4 and 12.9 mm (0.91 N falling to 0.014 N; `run --headless
 //! --backend cpu --print-every 6` on the scene with `method = "mls_mpm"`).
 //!
+//! Speed on the CPU (`bench throughput --method tl_mpm --frames 5`, the seed-000 scene,
+//! 24,000 particles, 2 cores shared with other builds, load average 4.8–5.5; the build
+//! before the compact node arrays run alternately in the same sitting): 1.44–1.57 M
+//! particle-substeps/s before, 1.50–1.60 M after (MLS-MPM 2.8 M at `--frames 20`, load
+//! 5.7–7.3). P2G reads each particle as one 64-byte `Source`, the nodes are stored
+//! compactly in the order of `active` (the default scene's few thousand stay in cache), G2P
+//! finds its nodes through the cached `stencil_nodes` (108 bytes a particle) and the grid
+//! update runs in parallel over chunks of nodes.
+//!
 //! What it does not do: cut (a crack would have to be carried back to the rest
 //! configuration) or tear; contact between separate pieces of tissue is not seen (their
 //! nodes never meet). The GPU runs the same math (`mpm::gpu`'s `tlmpm`).
@@ -52,25 +61,62 @@ const FLIP: f32 = 0.99;
 pub(super) struct TotalLagrangian {
     /// Rest positions.
     rest: Vec<Vec3>,
-    /// Node mass (kg), fixed; dense over the layout's nodes.
-    mass: Vec<f32>,
-    /// Nodes with mass.
+    /// The nodes with mass at rest (storage indices); the node arrays below are indexed by
+    /// the place `k` of a node in this list, so they are compact and stay in cache.
     active: Vec<u32>,
-    momentum: Vec<Vec3>,
-    force: Vec<Vec3>,
-    /// Σ w m x over the node's particles (kg·m).
-    place: Vec<Vec3>,
-    /// Node velocity before and after the grid update.
-    v_before: Vec<Vec3>,
-    v_after: Vec<Vec3>,
-    /// For each active node, its particles and their weight and weight gradient (grid
-    /// units) at rest: `gathers[starts[k]..starts[k + 1]]` for `active[k]`. P2G gathers
-    /// along it, in parallel over nodes and in a fixed order (the result does not depend
-    /// on the thread count).
+    /// Node mass (kg), fixed.
+    mass: Vec<f32>,
+    /// For each node, its particles and their weight and weight gradient (grid units) at
+    /// rest: `gathers[starts[k]..starts[k + 1]]` for `active[k]`. P2G gathers along it, in
+    /// parallel over nodes and in a fixed order (the result does not depend on the thread
+    /// count).
     starts: Vec<u32>,
     gathers: Vec<(u32, f32, Vec3)>,
-    /// Per particle this substep: −V⁰P / dx (scaled so that the force is `stress · ∇N`).
-    stress: Vec<Mat3>,
+    /// For each particle, the place in `active` of each node of its rest stencil, in
+    /// [`for_stencil`]'s order (108 bytes a particle): G2P reads the compact node arrays
+    /// through it instead of locating the nodes again every substep.
+    stencil_nodes: Vec<[u32; 27]>,
+    /// Per particle this substep, what the nodes gather from it, in one cache line.
+    sources: Vec<Source>,
+    /// Per node this substep: the velocity after the grid update, and its change there;
+    /// one more, always zero, for the stencil nodes without mass.
+    velocity: Vec<NodeVelocity>,
+    /// Per chunk of [`CHUNK`] nodes, the tools' impulses of its grid update; summed in
+    /// chunk order, so the sum does not depend on the thread count.
+    chunk_impulses: Vec<[ToolImpulse; MAX_TOOLS]>,
+}
+
+/// Nodes per parallel task of the grid update.
+const CHUNK: usize = 256;
+
+/// What a particle gives its nodes in P2G: velocity, place, mass and −V⁰P / dx (scaled so
+/// that the force is `stress · ∇N`).
+#[derive(Clone, Copy)]
+#[repr(C, align(64))]
+struct Source {
+    v: Vec3,
+    x: Vec3,
+    mass: f32,
+    stress: Mat3,
+}
+
+impl Default for Source {
+    fn default() -> Self {
+        Source {
+            v: Vec3::zeros(),
+            x: Vec3::zeros(),
+            mass: 0.0,
+            stress: Mat3::zeros(),
+        }
+    }
+}
+
+/// A node's velocity after the grid update and its change in the grid update and P2G's
+/// forces (what FLIP adds to a particle).
+#[derive(Clone, Copy, Default)]
+struct NodeVelocity {
+    after: Vec3,
+    change: Vec3,
 }
 
 /// Quadratic B-spline weight derivatives along one axis (grid units), matching
@@ -93,31 +139,47 @@ impl TotalLagrangian {
         }
         self.rest = particles.x.clone();
         let n = layout.node_count();
-        self.mass = vec![0.0; n];
-        self.momentum = vec![Vec3::zeros(); n];
-        self.force = vec![Vec3::zeros(); n];
-        self.place = vec![Vec3::zeros(); n];
-        self.v_before = vec![Vec3::zeros(); n];
-        self.v_after = vec![Vec3::zeros(); n];
+        let mut mass = vec![0.0f32; n];
         let mut by_node: Vec<Vec<(u32, f32, Vec3)>> = vec![Vec::new(); n];
         for (p, x) in self.rest.iter().enumerate() {
             let s = Stencil::new((x - layout.origin) * layout.inv_dx);
             for_stencil(layout, &s, |node, w, grad| {
-                self.mass[node] += w * particles.mass[p];
+                mass[node] += w * particles.mass[p];
                 by_node[node].push((p as u32, w, grad));
             });
         }
-        self.active = (0..n as u32)
-            .filter(|&i| self.mass[i as usize] > 0.0)
-            .collect();
+        self.active = (0..n as u32).filter(|&i| mass[i as usize] > 0.0).collect();
+        self.mass = self.active.iter().map(|&i| mass[i as usize]).collect();
+        let mut place = vec![u32::MAX; n];
         self.starts = Vec::with_capacity(self.active.len() + 1);
         self.gathers.clear();
-        for &i in &self.active {
+        for (k, &i) in self.active.iter().enumerate() {
+            place[i as usize] = k as u32;
             self.starts.push(self.gathers.len() as u32);
             self.gathers.extend_from_slice(&by_node[i as usize]);
         }
         self.starts.push(self.gathers.len() as u32);
-        self.stress = vec![Mat3::zeros(); particles.len()];
+        // A stencil node where the particle's weight is zero may carry no mass at all: it
+        // points at the zero velocity kept after the active nodes.
+        let still = self.active.len() as u32;
+        self.stencil_nodes = self
+            .rest
+            .iter()
+            .map(|x| {
+                let s = Stencil::new((x - layout.origin) * layout.inv_dx);
+                let mut nodes = [0u32; 27];
+                let mut j = 0;
+                for_stencil(layout, &s, |node, _, _| {
+                    nodes[j] = place[node].min(still);
+                    j += 1;
+                });
+                nodes
+            })
+            .collect();
+        self.sources = vec![Source::default(); particles.len()];
+        self.velocity = vec![NodeVelocity::default(); self.active.len() + 1];
+        self.chunk_impulses =
+            vec![[ToolImpulse::default(); MAX_TOOLS]; self.active.len().div_ceil(CHUNK)];
     }
 
     /// The stiffening bounds of the particles now (see [`crate::mpm::stiffening`]): over
@@ -167,54 +229,71 @@ impl TotalLagrangian {
         captured.scatter_at(layout, &self.rest, &particles.mass);
         // P2G on the rest configuration: each particle's stress, then each node gathers.
         let inv_dx = layout.inv_dx;
-        self.stress
+        self.sources
             .par_iter_mut()
             .zip(particles.f.par_iter())
             .zip(particles.material.par_iter())
             .zip(particles.volume0.par_iter())
-            .for_each(|(((stress, f), mat), volume0)| {
+            .zip(particles.v.par_iter())
+            .zip(particles.x.par_iter())
+            .zip(particles.mass.par_iter())
+            .for_each(|((((((source, f), mat), volume0), v), x), mass)| {
                 let mat = materials[*mat as usize];
                 let tau = kirchhoff_stress(mat.model, mat.lame, f);
                 let f_inv_t = f.try_inverse().unwrap_or_else(Mat3::identity).transpose();
-                *stress = tau * f_inv_t * (-volume0 * inv_dx);
+                *source = Source {
+                    v: *v,
+                    x: *x,
+                    mass: *mass,
+                    stress: tau * f_inv_t * (-volume0 * inv_dx),
+                };
             });
-        let (starts, gathers, stress) = (&self.starts, &self.gathers, &self.stress);
-        let (mass, parts) = (&self.mass, &*particles);
-        let v_new: Vec<(Vec3, Vec3, Vec3)> = self
-            .active
-            .par_iter()
+        // Each node gathers, then the grid update at the node's current place, in parallel
+        // over chunks of nodes.
+        let (starts, gathers, sources) = (&self.starts, &self.gathers, &self.sources);
+        let (active, mass, captured) = (&self.active, &self.mass, &*captured);
+        let nodes = self.active.len();
+        self.velocity[..nodes]
+            .par_chunks_mut(CHUNK)
+            .zip(self.chunk_impulses.par_iter_mut())
             .enumerate()
-            .map(|(k, &i)| {
-                let m = mass[i as usize];
-                let (mut momentum, mut place, mut force) =
-                    (Vec3::zeros(), Vec3::zeros(), Vec3::zeros());
-                for &(p, w, grad) in &gathers[starts[k] as usize..starts[k + 1] as usize] {
-                    let p = p as usize;
-                    let wm = w * parts.mass[p];
-                    momentum += parts.v[p] * wm;
-                    place += parts.x[p] * wm;
-                    force += stress[p] * grad;
+            .for_each(|(chunk, (velocity, impulses))| {
+                *impulses = [ToolImpulse::default(); MAX_TOOLS];
+                for (j, node) in velocity.iter_mut().enumerate() {
+                    let k = chunk * CHUNK + j;
+                    let m = mass[k];
+                    let (mut momentum, mut place, mut force) =
+                        (Vec3::zeros(), Vec3::zeros(), Vec3::zeros());
+                    for &(p, w, grad) in &gathers[starts[k] as usize..starts[k + 1] as usize] {
+                        let source = &sources[p as usize];
+                        let wm = w * source.mass;
+                        momentum += source.v * wm;
+                        place += source.x * wm;
+                        force += source.stress * grad;
+                    }
+                    let (x, v_before) = (place / m, momentum / m);
+                    let i = active[k] as usize;
+                    let mut v = v_before + (force / m + gravity) * dt;
+                    v = match captured.holder(i, m) {
+                        Some(t) => captured::hold(tools, t, x, v, m, impulses),
+                        None => apply_tools(tools, x, v, m, impulses),
+                    };
+                    v = Self::apply_boundary(layout, boundary, i, x, v);
+                    *node = NodeVelocity {
+                        after: v,
+                        change: v - v_before,
+                    };
                 }
-                (place / m, momentum / m, (force / m + gravity) * dt)
-            })
-            .collect();
-        // Grid update at the nodes' current places.
+            });
         let mut impulses = [ToolImpulse::default(); MAX_TOOLS];
-        for (&i, &(x, v_before, dv)) in self.active.iter().zip(&v_new) {
-            let i = i as usize;
-            let m = self.mass[i];
-            let mut v = v_before + dv;
-            v = match captured.holder(i, m) {
-                Some(t) => captured::hold(tools, t, x, v, m, &mut impulses),
-                None => apply_tools(tools, x, v, m, &mut impulses),
-            };
-            v = self.apply_boundary(layout, boundary, i, x, v);
-            self.v_before[i] = v_before;
-            self.v_after[i] = v;
+        for chunk in &self.chunk_impulses {
+            for (sum, impulse) in impulses.iter_mut().zip(chunk) {
+                sum.add(impulse);
+            }
         }
         // G2P, in parallel over particles.
         let (lo, hi) = layout.particle_bounds();
-        let (rest, v_before, v_after) = (&self.rest, &self.v_before, &self.v_after);
+        let (rest, stencil_nodes, velocity) = (&self.rest, &self.stencil_nodes, &self.velocity);
         let (max_speed, clamped, guard) = particles
             .x
             .par_iter_mut()
@@ -229,11 +308,12 @@ impl TotalLagrangian {
                     let s = Stencil::new((rest[p] - layout.origin) * layout.inv_dx);
                     let (mut v_pic, mut dv, mut grad_v) =
                         (Vec3::zeros(), Vec3::zeros(), Mat3::zeros());
-                    for_stencil(layout, &s, |node, w, grad| {
-                        let vi = v_after[node];
-                        v_pic += vi * w;
-                        dv += (vi - v_before[node]) * w;
-                        grad_v += vi * (grad * layout.inv_dx).transpose();
+                    let nodes = &stencil_nodes[p];
+                    for_stencil_weights(&s, |j, w, grad| {
+                        let node = velocity[nodes[j] as usize];
+                        v_pic += node.after * w;
+                        dv += node.change * w;
+                        grad_v += node.after * (grad * layout.inv_dx).transpose();
                     });
                     let mut v_new = (*v + dv) * FLIP + v_pic * (1.0 - FLIP);
                     let damping = materials[*mat as usize].damping;
@@ -284,7 +364,6 @@ impl TotalLagrangian {
     /// place is on it (bonded tissue never leaves it); a resting table and the walls act at
     /// the node's current place.
     fn apply_boundary(
-        &self,
         layout: &GridLayout,
         boundary: &Boundary,
         node: usize,
@@ -327,21 +406,31 @@ impl TotalLagrangian {
 /// Calls `visit(node, weight, weight gradient in grid units)` for each node of a stencil.
 #[inline(always)]
 fn for_stencil(layout: &GridLayout, s: &Stencil, mut visit: impl FnMut(usize, f32, Vec3)) {
+    for_stencil_weights(s, |j, w, grad| {
+        let (a, b, c) = (j / 9, (j / 3) % 3, j % 3);
+        let node = layout.node_index(
+            (s.base.x + a as i32) as usize,
+            (s.base.y + b as i32) as usize,
+            (s.base.z + c as i32) as usize,
+        );
+        visit(node, w, grad);
+    });
+}
+
+/// Calls `visit(j, weight, weight gradient in grid units)` for the stencil's nodes
+/// j = 9a + 3b + c, node (a, b, c) from its base.
+#[inline(always)]
+fn for_stencil_weights(s: &Stencil, mut visit: impl FnMut(usize, f32, Vec3)) {
     let dw = weight_derivatives(s.fx);
     for a in 0..3 {
         for b in 0..3 {
             for c in 0..3 {
-                let node = layout.node_index(
-                    (s.base.x + a as i32) as usize,
-                    (s.base.y + b as i32) as usize,
-                    (s.base.z + c as i32) as usize,
-                );
                 let grad = Vec3::new(
                     dw[a].x * s.w[b].y * s.w[c].z,
                     s.w[a].x * dw[b].y * s.w[c].z,
                     s.w[a].x * s.w[b].y * dw[c].z,
                 );
-                visit(node, s.weight(a, b, c), grad);
+                visit(9 * a + 3 * b + c, s.weight(a, b, c), grad);
             }
         }
     }
