@@ -294,6 +294,51 @@ tool = "probe"
         .any(|p| p.key.ends_with("mirror_of") && p.allowed.contains("mode = \"mirror\"")));
 }
 
+/// Bimanual teleoperation: `[[teleop]]` once per MTM–PSM pair (a single `[teleop]` table
+/// still reads as one pair); two pairs driving one arm, reading one MTM, on two consoles, or
+/// naming a missing arm are refused with the pair's key.
+#[test]
+fn teleop_pairs_read_as_a_table_or_an_array_and_clashes_are_refused() {
+    let pairs = config::load(Path::new("tests/scenes/bimanual.toml")).unwrap();
+    let read: Vec<(&str, &str)> = pairs
+        .teleop
+        .iter()
+        .map(|t| (t.arm.as_str(), t.mtm.as_str()))
+        .collect();
+    assert_eq!(read, [("PSM1", "MTMR"), ("PSM2", "MTML")]);
+    let single = config::load(Path::new("tests/scenes/small.toml")).unwrap();
+    assert_eq!(single.teleop.len(), 1);
+    assert_eq!(single.teleop[0].mtm, "MTMR");
+
+    let text = std::fs::read_to_string("tests/scenes/bimanual.toml").unwrap();
+    let clash = text.replace(
+        "arm = \"PSM2\"\nmtm = \"MTML\"",
+        "arm = \"PSM1\"\nmtm = \"MTMR\"\nconsole = \"pedals\"",
+    );
+    let problems = problems_of(&clash);
+    let found: Vec<(&str, &str)> = problems
+        .iter()
+        .map(|p| (p.key.as_str(), p.allowed.as_str()))
+        .collect();
+    for (key, allowed) in [
+        ("teleop[1].arm", "an arm no other [[teleop]] pair drives"),
+        ("teleop[1].mtm", "an MTM no other [[teleop]] pair reads"),
+        (
+            "teleop[1].console",
+            "the console of the other [[teleop]] pairs",
+        ),
+    ] {
+        assert!(
+            found
+                .iter()
+                .any(|(k, a)| *k == key && a.starts_with(allowed)),
+            "{key}: {allowed} not reported: {found:?}"
+        );
+    }
+    let missing = problems_of(&text.replace("arm = \"PSM2\"\nmtm", "arm = \"PSM3\"\nmtm"));
+    assert_single(&missing, "teleop[1].arm", "the name of a PSM [[arm]]");
+}
+
 #[test]
 fn surface_and_cloud_scalar_options_parse_and_bad_names_are_explained() {
     let scene = config::from_str(GOOD, Path::new("ok.toml")).unwrap();

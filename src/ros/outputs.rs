@@ -76,8 +76,8 @@ pub struct OutputLayout {
     pub tools: Vec<String>,
     /// Suture thread names, scene order.
     pub threads: Vec<String>,
-    /// MTM force feedback, when the scene's teleoperation asks for it.
-    pub force_feedback: Option<ForceFeedback>,
+    /// MTM force feedback, for each teleoperation pair that asks for it.
+    pub force_feedback: Vec<ForceFeedback>,
     /// How often each output is published.
     pub rates: OutputRates,
     /// Whether `/tf` carries every arm link ([`tf_message`]).
@@ -104,8 +104,11 @@ impl OutputLayout {
                 tool_type: arm.tool.clone(),
             })
             .collect();
-        let force_feedback = scene.teleop.as_ref().and_then(|t| {
-            t.force_feedback.then(|| {
+        let force_feedback = scene
+            .teleop
+            .iter()
+            .filter(|t| t.force_feedback)
+            .map(|t| {
                 let arm = scene.arms.iter().position(|a| a.name == t.arm).unwrap_or(0);
                 ForceFeedback {
                     topic: resolve(namespace, &format!("{}/body/servo_cf", t.mtm)),
@@ -113,7 +116,7 @@ impl OutputLayout {
                     tool: setup.arm_tools.get(arm).copied().flatten().unwrap_or(0),
                 }
             })
-        });
+            .collect();
         // The camera's optical frames: fixed under the ECM's tool frame where an ECM holds it.
         let camera_frames = setup
             .camera
@@ -210,7 +213,7 @@ impl OutputLayout {
         out.push((self.topic(PIECES_TOPIC), UInt32::type_name()));
         out.push(("/tf".to_owned(), TFMessage::type_name()));
         out.push(("/tf_static".to_owned(), TFMessage::type_name()));
-        if let Some(f) = &self.force_feedback {
+        for f in &self.force_feedback {
             out.push((f.topic.clone(), WrenchStamped::type_name()));
         }
         out
