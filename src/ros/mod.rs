@@ -163,7 +163,7 @@
 //! | a URDF with 10⁵ links | checked in linear time (about a second), bounded memory | `tests/urdf_limits.rs` |
 //! | 2·10⁵ nested XML elements in a URDF | refused: nesting deeper than 32 levels, with the line | `tests/urdf_limits.rs` |
 //! | a second node with the same name and namespace in the domain | refused at start, naming the first; the first runs on | `tests/hostile_network.rs` |
-//! | `ROS_AUTOMATIC_DISCOVERY_RANGE`, `ROS_LOCALHOST_ONLY` | honoured as ROS 2 defines them (LOCALHOST: rclpy on this host finds the node; OFF: nobody does); an unknown range refused | `tests/hostile_network.rs`, unit test in [`participant`] |
+//! | `ROS_AUTOMATIC_DISCOVERY_RANGE`, `ROS_LOCALHOST_ONLY` | honoured as ROS 2 defines them (LOCALHOST: rclpy on this host finds the node, and every socket of the node is bound to 127.0.0.1 or the multicast group, none to every interface; OFF: nobody does); an unknown range refused | `tests/hostile_network.rs`, unit test in [`participant`] |
 //!
 //! Not defended: any participant that can reach the node's ports may still command the arms
 //! (DDS Security, SROS2, is not used).
