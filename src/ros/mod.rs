@@ -43,8 +43,9 @@
 //! | `PSM1/body/set_cf_orientation_absolute`, `emulate_tool_present` | std_msgs/Bool (sub) | accepted, no effect (no force control; the tool is always present) |
 //!
 //! These are the topics dVRK's Python client (`dvrk_python`'s `psm` on `crtk_python_client`)
-//! opens. Its `forward_kinematics` / `inverse_kinematics` services (cisst_msgs) are not
-//! served.
+//! opens, and its `forward_kinematics` / `inverse_kinematics` services (crtk_msgs'
+//! `QueryForwardKinematics` / `QueryInverseKinematics`, [`kinematics`]) on every simulated
+//! arm.
 //!
 //! An ECM (`kind = "ecm"`, e.g. `ECM`) has the same topics without the jaw, the tool and its
 //! contact wrench (no `jaw/...`, `tool_type`, `body/measured_cf`, `spatial/measured_cf`,
@@ -170,6 +171,7 @@
 
 pub mod camera;
 pub mod inputs;
+pub mod kinematics;
 pub mod msgs;
 pub mod names;
 pub mod node;

@@ -21,6 +21,7 @@ use ros2_client::{
 use crate::config::Scene;
 use crate::render::CameraImages;
 use crate::ros::inputs::{input_topics, InputKind, InputMessage, InputTopic};
+use crate::ros::kinematics::KinematicsServices;
 use crate::ros::msgs::*;
 use crate::ros::names::remap;
 use crate::ros::outputs::{self, ArmOutput, EventMessage, EventStamps, OutputLayout};
@@ -337,6 +338,15 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
     let rosout = Rosout::start(&node);
 
     let parameters = ParameterServices::start(&mut node, settings.parameters.clone())?;
+    let mut kinematics = Vec::new();
+    for arm in layout.arms.iter().filter(|a| a.simulated) {
+        kinematics.push(KinematicsServices::start(
+            &mut node,
+            &settings.namespace,
+            &arm.name,
+            arm.psm.clone(),
+        )?);
+    }
     let mut topics = Topics {
         node: &mut node,
         namespace: settings.namespace.clone(),
@@ -514,6 +524,9 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
             }
             io.poll_inputs(&sim);
             parameters.serve();
+            for services in &kinematics {
+                services.serve();
+            }
             let frame = sim.frames.borrow().clone();
             io.publish_events(&sim, &rosout, Time::from_secs(frame.time));
             rosout.publish_logged(Time::from_secs(frame.time));
