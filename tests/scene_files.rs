@@ -287,6 +287,25 @@ tool = "probe"
     ] {
         assert!(keys.contains(&key), "{key} not reported: {keys:?}");
     }
+    let typed = arm.replace(
+        "tool = \"probe\"",
+        "tool = \"probe\"\ntool_type = \"MONOPOLAR_CURVED_SCISSORS:400179\"",
+    );
+    let scene = config::from_str(&format!("{GOOD}{typed}"), Path::new("typed.toml")).unwrap();
+    assert_eq!(
+        scene.arms[0].tool_type.as_deref(),
+        Some("MONOPOLAR_CURVED_SCISSORS:400179")
+    );
+    for bad in ["large needle driver", "LARGE_NEEDLE_DRIVER", "LND:40x"] {
+        let problems = problems_of(&format!(
+            "{GOOD}{}",
+            arm.replace(
+                "tool = \"probe\"",
+                &format!("tool = \"probe\"\ntool_type = \"{bad}\"")
+            )
+        ));
+        assert_single(&problems, "arm[0] (PSM1).tool_type", "NAME:model");
+    }
     let mirror = arm.replace("tool = \"probe\"", "tool = \"probe\"\nmirror_of = \"PSM1\"");
     let problems = problems_of(&format!("{GOOD}{mirror}"));
     assert!(problems

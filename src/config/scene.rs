@@ -436,6 +436,12 @@ pub struct Arm {
     /// slicer's blade hangs along its own −z, so a PSM holding a scalpel uses [180, 0, 0].
     #[serde(default)]
     pub tool_rpy_deg: [f64; 3],
+    /// What `<arm>/tool_type` reports, as dVRK names its instruments (`NAME:model`, e.g.
+    /// `"LARGE_NEEDLE_DRIVER:400006"`); absent: dVRK's Large Needle Driver for a gripper
+    /// (whose default jaw gains and effort limit are that tool's), the tool's scene name
+    /// otherwise.
+    #[serde(default)]
+    pub tool_type: Option<String>,
     #[serde(default)]
     /// `simulated` (the node is the arm, the default) or `mirror` (follows a real arm).
     pub mode: ArmMode,

@@ -681,6 +681,15 @@ fn validate_arms(c: &mut Checker, scene: &Scene) {
             arm.base_rpy_deg,
             format!("angles of at most ±{MAX_DEGREES}°"),
         );
+        if let Some(tool_type) = &arm.tool_type {
+            c.require(
+                is_dvrk_tool_type(tool_type),
+                key("tool_type"),
+                tool_type,
+                "dVRK's NAME:model, e.g. LARGE_NEEDLE_DRIVER:400006 (capitals, digits and _, \
+                 then : and digits; at most 64 characters)",
+            );
+        }
         c.require(
             arm.tool_rpy_deg.iter().all(|v| v.abs() <= MAX_DEGREES),
             key("tool_rpy_deg"),
@@ -719,6 +728,14 @@ fn validate_arms(c: &mut Checker, scene: &Scene) {
             );
             if let Some(tool) = &arm.tool {
                 c.require(false, key("tool"), tool, "nothing: the ECM holds no tool");
+            }
+            if let Some(tool_type) = &arm.tool_type {
+                c.require(
+                    false,
+                    key("tool_type"),
+                    tool_type,
+                    "nothing: the ECM holds no tool",
+                );
             }
             c.require(
                 arm.tool_rpy_deg == [0.0; 3],
@@ -862,4 +879,18 @@ fn validate_outputs(c: &mut Checker, scene: &Scene) {
         1.0,
         "m (0: off, else a cube edge)",
     );
+}
+
+/// dVRK's instrument naming, `NAME:model` (`LARGE_NEEDLE_DRIVER:400006`).
+fn is_dvrk_tool_type(value: &str) -> bool {
+    let Some((name, model)) = value.split_once(':') else {
+        return false;
+    };
+    value.len() <= 64
+        && !name.is_empty()
+        && name
+            .chars()
+            .all(|c| c.is_ascii_uppercase() || c.is_ascii_digit() || c == '_')
+        && !model.is_empty()
+        && model.chars().all(|c| c.is_ascii_digit())
 }

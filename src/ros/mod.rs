@@ -28,7 +28,7 @@
 //! | `PSM1/local/measured_cp`, `local/setpoint_cp` | geometry_msgs/PoseStamped | as `measured_cp` (the base frame is the arm's own) |
 //! | `PSM1/body/measured_cf`, `spatial/measured_cf` | geometry_msgs/WrenchStamped | the held tool's contact wrench in the tool frame `PSM1`; the same about the tool in `PSM1_base`'s orientation |
 //! | `PSM1/body/jacobian`, `spatial/jacobian` | std_msgs/Float64MultiArray | 6 × 6 row-major (linear rows first): tool twist in the tool frame / in `PSM1_base` |
-//! | `PSM1/tool_type`, `trajectory_j/ratio` | std_msgs/String, Float64 | latched: the scene's tool name; the share of dVRK's `move_jp` speeds in use |
+//! | `PSM1/tool_type`, `trajectory_j/ratio` | std_msgs/String, Float64 | latched: dVRK's instrument (`LARGE_NEEDLE_DRIVER:400006` for a gripper, the arm's `tool_type` where set, else the tool's scene name); the share of dVRK's `move_jp` speeds in use |
 //! | `PSM1/operating_state` | crtk_msgs/OperatingState | latched; a new stamp on every change; busy around each `move_*` |
 //! | `PSM1/error`, `warning`, `status` | std_msgs/String | latched; every rejected command is reported on `error` |
 //! | `PSM1/servo_jp`, `move_jp`, `jaw/servo_jp`, `jaw/move_jp` | sensor_msgs/JointState (sub) | names optional (then canonical order) |

@@ -31,7 +31,8 @@ pub struct ArmOutput {
     /// Index of the scene tool a PSM holds (its contact wrench is `measured_cf`); `None`
     /// for the ECM.
     pub tool: Option<usize>,
-    /// The held tool's scene name (`tool_type`); `None` for the ECM.
+    /// What `tool_type` reports (see [`crate::config::Arm::tool_type`]); `None` for the
+    /// ECM.
     pub tool_type: Option<String>,
 }
 
@@ -101,7 +102,7 @@ impl OutputLayout {
                 base: *sim.base(),
                 simulated: arm.mode == ArmMode::Simulated,
                 tool: setup.arm_tools.get(index).copied().flatten(),
-                tool_type: arm.tool.clone(),
+                tool_type: tool_type(scene, arm),
             })
             .collect();
         let force_feedback = scene
@@ -219,6 +220,23 @@ impl OutputLayout {
         out
     }
 }
+
+/// `<arm>/tool_type`: the arm's `tool_type`, else dVRK's Large Needle Driver for a gripper,
+/// else the held tool's scene name.
+fn tool_type(scene: &Scene, arm: &crate::config::Arm) -> Option<String> {
+    let held = scene
+        .tools
+        .iter()
+        .find(|t| Some(&t.name) == arm.tool.as_ref())?;
+    Some(match (&arm.tool_type, held.shape) {
+        (Some(chosen), _) => chosen.clone(),
+        (None, crate::tools::Shape::Gripper { .. }) => LARGE_NEEDLE_DRIVER.to_owned(),
+        (None, _) => held.name.clone(),
+    })
+}
+
+/// dVRK's name for the Large Needle Driver, the gripper's default instrument.
+pub const LARGE_NEEDLE_DRIVER: &str = "LARGE_NEEDLE_DRIVER:400006";
 
 pub(crate) fn joint_state(
     stamp: Time,
