@@ -150,12 +150,14 @@ fn a_vanished_mtm_leaves_the_psm_holding_and_teleop_resumes() {
     );
     let warnings: Vec<&str> = node_log
         .lines()
-        .filter(|l| l.contains("no MTM message"))
+        .filter(|l| l.contains("no message from the MTM MTMR"))
         .collect();
     assert_eq!(warnings.len(), 1, "{node_log}");
     assert!(warnings[0].contains("WARN") && warnings[0].contains("PSM1 holds"));
     assert_eq!(
-        node_log.matches("teleop: the MTM publishes again").count(),
+        node_log
+            .matches("teleop: the MTM MTMR publishes again")
+            .count(),
         1,
         "{node_log}"
     );

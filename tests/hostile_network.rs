@@ -6,7 +6,7 @@
 //! tests/ros_node.rs; `.ci/run` makes one); elsewhere prints `SKIPPED: <reason>` and passes,
 //! unless `CI` is set.
 
-use std::net::UdpSocket;
+use std::net::{Ipv4Addr, UdpSocket};
 use std::process::Stdio;
 use std::sync::{Mutex, MutexGuard};
 use std::time::{Duration, Instant};
@@ -232,6 +232,39 @@ fn an_unknown_discovery_range_is_refused_with_its_value() {
     );
 }
 
+/// The local address and port of every UDP socket process `pid` holds (from `/proc`).
+fn udp_sockets_of(pid: u32) -> Vec<(Ipv4Addr, u16)> {
+    let inodes: Vec<String> = std::fs::read_dir(format!("/proc/{pid}/fd"))
+        .expect("the node's file descriptors")
+        .filter_map(|fd| std::fs::read_link(fd.ok()?.path()).ok())
+        .filter_map(|target| {
+            let target = target.to_string_lossy().into_owned();
+            Some(
+                target
+                    .strip_prefix("socket:[")?
+                    .strip_suffix(']')?
+                    .to_owned(),
+            )
+        })
+        .collect();
+    let table = std::fs::read_to_string(format!("/proc/{pid}/net/udp")).expect("the UDP table");
+    table
+        .lines()
+        .skip(1)
+        .filter_map(|line| {
+            let fields: Vec<&str> = line.split_whitespace().collect();
+            let inode = *fields.get(9)?;
+            if !inodes.iter().any(|i| i == inode) {
+                return None;
+            }
+            let (ip, port) = fields.get(1)?.split_once(':')?;
+            // The kernel prints the network-order address word as a native integer.
+            let ip = Ipv4Addr::from(u32::from_be(u32::from_str_radix(ip, 16).ok()?));
+            Some((ip, u16::from_str_radix(port, 16).ok()?))
+        })
+        .collect()
+}
+
 #[test]
 fn discovery_range_localhost_is_found_on_this_host_and_off_by_nobody() {
     if !network_prerequisites(true) {
@@ -250,6 +283,19 @@ fn discovery_range_localhost_is_found_on_this_host_and_off_by_nobody() {
             .expect("cannot start the node");
         let clocks = clock_count(spawn_clock_count_waiting(1.0, 5.0, domain));
         let mut node = node;
+        if range == "LOCALHOST" {
+            let bound = udp_sockets_of(node.id());
+            eprintln!("LOCALHOST: the node's UDP sockets are bound to {bound:?}");
+            assert!(bound.len() >= 4, "the node's UDP sockets: {bound:?}");
+            assert!(
+                bound
+                    .iter()
+                    .all(|(ip, _)| *ip == Ipv4Addr::LOCALHOST
+                        || *ip == Ipv4Addr::new(239, 255, 0, 1)),
+                "LOCALHOST: every socket on loopback or the multicast group, none on every \
+                 interface: {bound:?}"
+            );
+        }
         let _ = node.kill();
         let _ = node.wait();
         eprintln!("ROS_AUTOMATIC_DISCOVERY_RANGE={range}: {clocks} /clock messages in 1 s");

@@ -2,7 +2,7 @@
 //! (tests/ros/test_contract.py) reads the graph (one type per topic), `/rosout` (the arms'
 //! events with the node's logger name and dVRK's levels) and `/diagnostics`; a ros2-client
 //! peer in this process reads what has no Python wheel: crtk_msgs (a refused move's busy
-//! pair) and tf2_msgs (`world` → `PSM1_base` once on `/tf_static`, the links on `/tf`). On a
+//! pair, the forward and inverse kinematics services) and tf2_msgs (`world` → `PSM1_base` once on `/tf_static`, the links on `/tf`). On a
 //! second, started with `--ros-args` (tests/ros/test_ros_args.py): namespace, node name, a
 //! remap and parameters, and `/tf` with the links left to dVRK's robot_state_publisher.
 //!
@@ -13,10 +13,15 @@
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use dvrk_tissue_sim::ros::msgs::{JointState, OperatingState, TFMessage};
+use dvrk_tissue_sim::ros::kinematics::{
+    ForwardKinematicsRequest, ForwardKinematicsResponse, InverseKinematicsRequest,
+    InverseKinematicsResponse,
+};
+use dvrk_tissue_sim::ros::msgs::{JointState, OperatingState, PoseStamped, TFMessage};
 use ros2_client::{
     qos::{Durability, History},
-    Context, ContextOptions, NodeName, NodeOptions, QosProfile,
+    Context, ContextOptions, Name, NodeName, NodeOptions, QosProfile, ServiceMapping,
+    ServiceTypeName,
 };
 
 mod support;
@@ -86,6 +91,48 @@ where
     }
     panic!(
         "timed out waiting for {what}; got {seen:?}\n--- node log ---\n{}",
+        log()
+    );
+}
+
+/// Calls `/PSM1/<service>` (crtk_msgs `type_name`) until it answers, at most 10 s (the
+/// first requests may go out before the service is matched).
+fn call<Req, Resp>(
+    peer: &mut ros2_client::Node,
+    service: &str,
+    type_name: &str,
+    request: Req,
+    log: impl Fn() -> String,
+) -> Resp
+where
+    Req: ros2_client::Message + Clone + 'static,
+    Resp: ros2_client::Message + 'static,
+{
+    let qos = reliable();
+    let client = peer
+        .create_client::<Req, Resp>(
+            ServiceMapping::Enhanced,
+            &Name::new("/PSM1", service).unwrap(),
+            &ServiceTypeName::new("crtk_msgs", type_name),
+            qos.clone(),
+            qos,
+        )
+        .unwrap();
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while Instant::now() < deadline {
+        let id = client.send_request(request.clone()).unwrap();
+        let resend = Instant::now() + Duration::from_millis(500);
+        while Instant::now() < resend {
+            if let Ok(Some((answered, response))) = client.receive_response() {
+                if answered == id {
+                    return response;
+                }
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+    panic!(
+        "no answer from /PSM1/{service}\n--- node log ---\n{}",
         log()
     );
 }
@@ -200,7 +247,68 @@ fn ros_tools_and_dvrk_clients_see_the_node_as_any_node() {
         moving.len()
     );
 
-    drop((move_jp, states, tf_static));
+    // dVRK's kinematics services (crtk_msgs, no Python wheel): forward kinematics at the
+    // arm's measured joints is its measured_cp (the arm rests after the moves above), and
+    // inverse kinematics of that pose from a reference nearby gives those joints back.
+    let qos = reliable();
+    let t = topic::<PoseStamped>(&mut peer, "/PSM1/measured_cp", &qos);
+    let measured_cp = peer
+        .create_subscription::<PoseStamped>(&t, Some(qos.clone()))
+        .unwrap();
+    let t = topic::<JointState>(&mut peer, "/PSM1/measured_js", &qos);
+    let measured_js = peer
+        .create_subscription::<JointState>(&t, Some(qos))
+        .unwrap();
+    let latest_of_both = gather(
+        "/PSM1/measured_cp and measured_js",
+        log,
+        || {
+            let cp = std::iter::from_fn(|| measured_cp.take().ok().flatten()).last();
+            let js = std::iter::from_fn(|| measured_js.take().ok().flatten()).last();
+            cp.zip(js).map(|((cp, _), (js, _))| (cp.pose, js.position))
+        },
+        |m| m.len() >= 2,
+    );
+    let (measured, joints) = latest_of_both[latest_of_both.len() - 1].clone();
+    let fk: ForwardKinematicsResponse = call(
+        &mut peer,
+        "forward_kinematics",
+        "QueryForwardKinematics",
+        ForwardKinematicsRequest {
+            jp: joints.clone(),
+            cp: Default::default(),
+        },
+        log,
+    );
+    let (p, q) = (fk.cp.position, measured.position);
+    let offset = ((p.x - q.x).powi(2) + (p.y - q.y).powi(2) + (p.z - q.z).powi(2)).sqrt();
+    assert!(
+        fk.result && offset < 1e-9,
+        "{fk:?} against {measured:?} at {joints:?}"
+    );
+    let ik: InverseKinematicsResponse = call(
+        &mut peer,
+        "inverse_kinematics",
+        "QueryInverseKinematics",
+        InverseKinematicsRequest {
+            cp: fk.cp,
+            jp: joints.iter().map(|q| q + 0.03).collect(),
+        },
+        log,
+    );
+    let worst = ik
+        .jp
+        .iter()
+        .zip(&joints)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(ik.result && worst < 1e-5, "{ik:?}");
+    println!(
+        "ok: forward_kinematics at measured_js is measured_cp ({offset:.1e} m); \
+         inverse_kinematics gives the joints back within {worst:.1e}"
+    );
+
+    drop((move_jp, states, tf_static, measured_cp, measured_js));
     drop(peer);
     let (status, log) = node.stop();
     assert!(

@@ -81,6 +81,11 @@ fn rclpy_teleop_follows_at_scale_and_holds_while_clutched() {
 }
 
 #[test]
+fn rclpy_bimanual_teleop_drives_each_psm_from_its_mtm_and_one_clutch_holds_both() {
+    rclpy_test("test_bimanual.py", "tests/scenes/bimanual.toml", 90);
+}
+
+#[test]
 fn rclpy_jaw_servo_and_effort_commands_follow_dvrk() {
     rclpy_test("test_jaw.py", "tests/scenes/gripper.toml", 20);
 }

@@ -287,11 +287,75 @@ tool = "probe"
     ] {
         assert!(keys.contains(&key), "{key} not reported: {keys:?}");
     }
+    let typed = arm.replace(
+        "tool = \"probe\"",
+        "tool = \"probe\"\ntool_type = \"MONOPOLAR_CURVED_SCISSORS:400179\"",
+    );
+    let scene = config::from_str(&format!("{GOOD}{typed}"), Path::new("typed.toml")).unwrap();
+    assert_eq!(
+        scene.arms[0].tool_type.as_deref(),
+        Some("MONOPOLAR_CURVED_SCISSORS:400179")
+    );
+    for bad in ["large needle driver", "LARGE_NEEDLE_DRIVER", "LND:40x"] {
+        let problems = problems_of(&format!(
+            "{GOOD}{}",
+            arm.replace(
+                "tool = \"probe\"",
+                &format!("tool = \"probe\"\ntool_type = \"{bad}\"")
+            )
+        ));
+        assert_single(&problems, "arm[0] (PSM1).tool_type", "NAME:model");
+    }
     let mirror = arm.replace("tool = \"probe\"", "tool = \"probe\"\nmirror_of = \"PSM1\"");
     let problems = problems_of(&format!("{GOOD}{mirror}"));
     assert!(problems
         .iter()
         .any(|p| p.key.ends_with("mirror_of") && p.allowed.contains("mode = \"mirror\"")));
+}
+
+/// Bimanual teleoperation: `[[teleop]]` once per MTM–PSM pair (a single `[teleop]` table
+/// still reads as one pair); two pairs driving one arm, reading one MTM, on two consoles, or
+/// naming a missing arm are refused with the pair's key.
+#[test]
+fn teleop_pairs_read_as_a_table_or_an_array_and_clashes_are_refused() {
+    let pairs = config::load(Path::new("tests/scenes/bimanual.toml")).unwrap();
+    let read: Vec<(&str, &str)> = pairs
+        .teleop
+        .iter()
+        .map(|t| (t.arm.as_str(), t.mtm.as_str()))
+        .collect();
+    assert_eq!(read, [("PSM1", "MTMR"), ("PSM2", "MTML")]);
+    let single = config::load(Path::new("tests/scenes/small.toml")).unwrap();
+    assert_eq!(single.teleop.len(), 1);
+    assert_eq!(single.teleop[0].mtm, "MTMR");
+
+    let text = std::fs::read_to_string("tests/scenes/bimanual.toml").unwrap();
+    let clash = text.replace(
+        "arm = \"PSM2\"\nmtm = \"MTML\"",
+        "arm = \"PSM1\"\nmtm = \"MTMR\"\nconsole = \"pedals\"",
+    );
+    let problems = problems_of(&clash);
+    let found: Vec<(&str, &str)> = problems
+        .iter()
+        .map(|p| (p.key.as_str(), p.allowed.as_str()))
+        .collect();
+    for (key, allowed) in [
+        ("teleop[1].arm", "an arm no other [[teleop]] pair drives"),
+        ("teleop[1].mtm", "an MTM no other [[teleop]] pair reads"),
+        (
+            "teleop[1].console",
+            "the console of the other [[teleop]] pairs",
+        ),
+    ] {
+        assert!(
+            found
+                .iter()
+                .any(|(k, a)| *k == key && a.starts_with(allowed)),
+            "{key}: {allowed} not reported: {found:?}"
+        );
+    }
+    let missing = problems_of(&text.replace("arm = \"PSM2\"\nmtm", "arm = \"PSM3\"\nmtm"));
+    assert_single(&missing, "teleop[1].arm", "the name of a PSM [[arm]]");
 }
 
 #[test]

@@ -91,7 +91,7 @@ pub fn scene(
         threads: Vec::new(),
         tools,
         arms: Vec::new(),
-        teleop: None,
+        teleop: Vec::new(),
         outputs: Default::default(),
         sleep: Default::default(),
         camera: None,

@@ -45,9 +45,14 @@ pub struct Scene {
     /// PSM arms driving tools (ROS node runs; headless runs ignore them).
     #[serde(default, rename = "arm")]
     pub arms: Vec<Arm>,
-    /// MTM → PSM teleoperation (optional).
-    #[serde(default)]
-    pub teleop: Option<TeleopSettings>,
+    /// MTM → PSM teleoperation: `[teleop]` for one pair, or `[[teleop]]` once per pair for
+    /// bimanual teleoperation (MTMR → PSM1 and MTML → PSM2 on one console).
+    #[serde(
+        default,
+        deserialize_with = "one_or_many",
+        skip_serializing_if = "Vec::is_empty"
+    )]
+    pub teleop: Vec<TeleopSettings>,
     /// What the ROS node publishes and how often.
     #[serde(default)]
     pub outputs: Outputs,
@@ -431,6 +436,12 @@ pub struct Arm {
     /// slicer's blade hangs along its own −z, so a PSM holding a scalpel uses [180, 0, 0].
     #[serde(default)]
     pub tool_rpy_deg: [f64; 3],
+    /// What `<arm>/tool_type` reports, as dVRK names its instruments (`NAME:model`, e.g.
+    /// `"LARGE_NEEDLE_DRIVER:400006"`); absent: dVRK's Large Needle Driver for a gripper
+    /// (whose default jaw gains and effort limit are that tool's), the tool's scene name
+    /// otherwise.
+    #[serde(default)]
+    pub tool_type: Option<String>,
     #[serde(default)]
     /// `simulated` (the node is the arm, the default) or `mirror` (follows a real arm).
     pub mode: ArmMode,
@@ -496,6 +507,30 @@ pub struct TeleopSettings {
     /// MTM force per tool contact force.
     #[serde(default = "default_force_scale")]
     pub force_feedback_scale: f64,
+}
+
+/// A table, or an array of tables, as a list: `[teleop]` and `[[teleop]]` both read, with
+/// the field-by-field errors of the table itself (an untagged enum would hide them).
+fn one_or_many<'de, D, T>(deserializer: D) -> Result<Vec<T>, D::Error>
+where
+    D: serde::Deserializer<'de>,
+    T: Deserialize<'de>,
+{
+    use serde::de::value::{MapAccessDeserializer, SeqAccessDeserializer};
+    struct OneOrMany<T>(std::marker::PhantomData<T>);
+    impl<'de, T: Deserialize<'de>> serde::de::Visitor<'de> for OneOrMany<T> {
+        type Value = Vec<T>;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("a table or an array of tables")
+        }
+        fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<Vec<T>, A::Error> {
+            T::deserialize(MapAccessDeserializer::new(map)).map(|one| vec![one])
+        }
+        fn visit_seq<A: serde::de::SeqAccess<'de>>(self, seq: A) -> Result<Vec<T>, A::Error> {
+            Vec::deserialize(SeqAccessDeserializer::new(seq))
+        }
+    }
+    deserializer.deserialize_any(OneOrMany(std::marker::PhantomData))
 }
 
 fn default_mtm() -> String {

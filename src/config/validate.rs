@@ -681,6 +681,15 @@ fn validate_arms(c: &mut Checker, scene: &Scene) {
             arm.base_rpy_deg,
             format!("angles of at most ±{MAX_DEGREES}°"),
         );
+        if let Some(tool_type) = &arm.tool_type {
+            c.require(
+                is_dvrk_tool_type(tool_type),
+                key("tool_type"),
+                tool_type,
+                "dVRK's NAME:model, e.g. LARGE_NEEDLE_DRIVER:400006 (capitals, digits and _, \
+                 then : and digits; at most 64 characters)",
+            );
+        }
         c.require(
             arm.tool_rpy_deg.iter().all(|v| v.abs() <= MAX_DEGREES),
             key("tool_rpy_deg"),
@@ -719,6 +728,14 @@ fn validate_arms(c: &mut Checker, scene: &Scene) {
             );
             if let Some(tool) = &arm.tool {
                 c.require(false, key("tool"), tool, "nothing: the ECM holds no tool");
+            }
+            if let Some(tool_type) = &arm.tool_type {
+                c.require(
+                    false,
+                    key("tool_type"),
+                    tool_type,
+                    "nothing: the ECM holds no tool",
+                );
             }
             c.require(
                 arm.tool_rpy_deg == [0.0; 3],
@@ -773,34 +790,60 @@ fn validate_arms(c: &mut Checker, scene: &Scene) {
             );
         }
     }
-    if let Some(t) = &scene.teleop {
+    let one = scene.teleop.len() == 1;
+    for (i, t) in scene.teleop.iter().enumerate() {
+        let key = |k: &str| match one {
+            true => format!("teleop.{k}"),
+            false => format!("teleop[{i}].{k}"),
+        };
         let arm = scene.arms.iter().find(|a| a.name == t.arm);
         c.require(
             arm.is_some_and(|a| a.mode == ArmMode::Simulated && a.kind == ArmKind::Psm),
-            "teleop.arm",
+            key("arm"),
             &t.arm,
             "the name of a PSM [[arm]] with mode = \"simulated\"",
         );
-        for (k, v) in [("teleop.mtm", &t.mtm), ("teleop.console", &t.console)] {
+        for (k, v) in [("mtm", &t.mtm), ("console", &t.console)] {
             c.require(
                 v.split('/').filter(|s| !s.is_empty()).all(is_ros_name) && !v.is_empty(),
-                k,
+                key(k),
                 v,
                 "a ROS namespace (letters, digits, _ and /)",
             );
         }
         c.positive_up_to(
-            "teleop.scale",
+            key("scale"),
             t.scale,
             10.0,
             "(PSM motion per MTM motion; dVRK's default is 0.2)",
         );
         c.within(
-            "teleop.force_feedback_scale",
+            key("force_feedback_scale"),
             t.force_feedback_scale,
             0.0,
             10.0,
             "(MTM force per PSM force)",
+        );
+        // Each pair is one MTM driving one PSM, and one console's pedals engage them all.
+        let earlier = &scene.teleop[..i];
+        c.require(
+            earlier.iter().all(|e| e.arm != t.arm),
+            key("arm"),
+            &t.arm,
+            "an arm no other [[teleop]] pair drives",
+        );
+        c.require(
+            earlier.iter().all(|e| e.mtm != t.mtm),
+            key("mtm"),
+            &t.mtm,
+            "an MTM no other [[teleop]] pair reads",
+        );
+        c.require(
+            earlier.iter().all(|e| e.console == t.console),
+            key("console"),
+            &t.console,
+            "the console of the other [[teleop]] pairs (one console's clutch and operator \
+             pedals engage every pair)",
         );
     }
 }
@@ -836,4 +879,18 @@ fn validate_outputs(c: &mut Checker, scene: &Scene) {
         1.0,
         "m (0: off, else a cube edge)",
     );
+}
+
+/// dVRK's instrument naming, `NAME:model` (`LARGE_NEEDLE_DRIVER:400006`).
+fn is_dvrk_tool_type(value: &str) -> bool {
+    let Some((name, model)) = value.split_once(':') else {
+        return false;
+    };
+    value.len() <= 64
+        && !name.is_empty()
+        && name
+            .chars()
+            .all(|c| c.is_ascii_uppercase() || c.is_ascii_digit() || c == '_')
+        && !model.is_empty()
+        && model.chars().all(|c| c.is_ascii_digit())
 }

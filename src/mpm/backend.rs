@@ -117,13 +117,8 @@ impl Backend {
                 } else {
                     1
                 };
-                let tools;
-                let steps = if pieces > 1 {
-                    tools = stiffening::pieced_tools(plan, pieces);
-                    stiffening::pieced(plan, pieces, &tools)
-                } else {
-                    *plan
-                };
+                let mut cut_tools = Vec::new();
+                let steps = stiffening::cut(plan, pieces, &mut cut_tools);
                 let mut out = FrameStats::default();
                 for s in 0..steps.substeps as usize {
                     let stats = c.solver.substep(&SubstepInput {

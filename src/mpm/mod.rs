@@ -43,7 +43,7 @@
 //!   about twice MLS-MPM's time per substep on the CPU, and more substeps where the jaws
 //!   squeeze the tissue (each substep is cut into ⌈1/σ_min(F)⌉ pieces, decided per frame,
 //!   see [`stiffening`]). It runs on the CPU and the GPU with the same math
-//!   (`tests/tlmpm_gpu.rs`), cuts nothing and does not tear.
+//!   (`tests/gpu_agreement.rs`), cuts nothing and does not tear.
 //! - **Tools and contact** ([`crate::tools`]): signed distance fields evaluated per grid node
 //!   inside each tool's bounding box, the nearest tool owning a node. Approaching nodes lose
 //!   the normal component of their velocity relative to the tool, Coulomb friction reduces the

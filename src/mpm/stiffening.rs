@@ -77,24 +77,30 @@ impl StiffeningBounds {
     }
 }
 
-/// The tools of `plan` with each substep's repeated `pieces` times: the tools of the plan
-/// cut into pieces (see [`pieced`]).
-pub fn pieced_tools(plan: &FramePlan, pieces: u32) -> Vec<ToolKinematics> {
-    (0..plan.substeps as usize)
-        .flat_map(|s| std::iter::repeat_n(plan.substep_tools(s), pieces as usize).flatten())
-        .cloned()
-        .collect()
-}
-
 /// `plan` with each substep cut into `pieces` equal steps, the tools of each piece those of
-/// its substep (`tools` from [`pieced_tools`]).
-pub fn pieced<'a>(plan: &FramePlan, pieces: u32, tools: &'a [ToolKinematics]) -> FramePlan<'a> {
+/// its substep; `plan` itself when one piece is enough. The pieces' tools are written into
+/// `buffer`, which a caller keeps from frame to frame so that cutting allocates only when a
+/// frame needs more pieces than any before it.
+pub fn cut<'a>(
+    plan: &FramePlan<'a>,
+    pieces: u32,
+    buffer: &'a mut Vec<ToolKinematics>,
+) -> FramePlan<'a> {
+    if pieces <= 1 {
+        return *plan;
+    }
+    buffer.clear();
+    buffer.extend(
+        (0..plan.substeps as usize)
+            .flat_map(|s| std::iter::repeat_n(plan.substep_tools(s), pieces as usize).flatten())
+            .cloned(),
+    );
     FramePlan {
         dt: plan.dt / pieces as f32,
         substeps: plan.substeps * pieces,
         gravity: plan.gravity,
         tool_count: plan.tool_count,
-        tools,
+        tools: buffer,
     }
 }
 
@@ -159,11 +165,13 @@ mod tests {
     }
 
     #[test]
-    fn a_pieced_plan_repeats_each_substeps_tools_at_a_fraction_of_its_step() {
+    fn a_cut_plan_repeats_each_substeps_tools_at_a_fraction_of_its_step() {
         let tools = [tool(0.25), tool(0.75)];
         let frame = plan(&tools, 2);
-        let cut_tools = pieced_tools(&frame, 3);
-        let cut = pieced(&frame, 3, &cut_tools);
+        let mut buffer = Vec::new();
+        assert_eq!(cut(&frame, 1, &mut buffer).substeps, 2);
+        assert!(buffer.is_empty(), "one piece needs no tools of its own");
+        let cut = cut(&frame, 3, &mut buffer);
         assert_eq!(cut.substeps, 6);
         assert!((cut.dt * 3.0 - frame.dt).abs() < 1e-6 * frame.dt);
         let grips: Vec<f32> = (0..6).map(|s| cut.substep_tools(s)[0].grip).collect();

@@ -13,6 +13,9 @@
 //!   was); when it publishes again the mapping re-anchors, so the PSM resumes without a jump
 //!   however far the MTM moved meanwhile.
 //!
+//! Bimanual teleoperation (MTMR → PSM1, MTML → PSM2, `[[teleop]]` once per pair) runs one
+//! mapping per pair; the console's clutch and operator pedals go to every mapping at once.
+//!
 //! MTM and PSM poses must be given in one common frame (dVRK: the camera frame); converting
 //! from each arm's base is the caller's job. dVRK's engage checks (orientation error ≤ 5°, a
 //! gripper wiggle) belong to the operator console and are not modelled here.

@@ -222,7 +222,8 @@ pub struct InputTopic {
     pub topic: String,
     /// What the topic is for (and so its message type).
     pub kind: InputKind,
-    /// The scene arm it drives (`None`: teleoperation inputs).
+    /// The scene arm it drives (an MTM's topics: the PSM it teleoperates; `None`: the
+    /// console's pedals).
     pub arm: Option<usize>,
 }
 
@@ -284,10 +285,23 @@ pub fn input_topics(scene: &Scene, namespace: &str) -> Vec<InputTopic> {
             }
         }
     }
-    if let Some(t) = &scene.teleop {
+    // Each MTM drives its PSM; the pedals of the one console (validation makes every pair
+    // name the same) engage them all.
+    for t in &scene.teleop {
+        let arm = scene.arms.iter().position(|a| a.name == t.arm);
         for (relative, kind) in [
             (format!("{}/measured_cp", t.mtm), MtmCp),
             (format!("{}/gripper/measured_js", t.mtm), MtmGripper),
+        ] {
+            out.push(InputTopic {
+                topic: name(&relative),
+                kind,
+                arm,
+            });
+        }
+    }
+    if let Some(t) = scene.teleop.first() {
+        for (relative, kind) in [
             (format!("{}/clutch", t.console), Clutch),
             (format!("{}/operator_present", t.console), OperatorPresent),
         ] {
@@ -431,11 +445,15 @@ impl InputTopic {
             (MtmCp, InputMessage::Pose(m)) => {
                 let (position, quaternion) = pose_parts(&m);
                 Ok(Some(SimInput::MtmPose {
+                    arm: self.arm.unwrap_or(0),
                     position,
                     quaternion,
                 }))
             }
-            (MtmGripper, InputMessage::Joints(m)) => Ok(Some(SimInput::MtmGripper(m.position))),
+            (MtmGripper, InputMessage::Joints(m)) => Ok(Some(SimInput::MtmGripper {
+                arm: self.arm.unwrap_or(0),
+                positions: m.position,
+            })),
             (Clutch, InputMessage::Joy(m)) => match m.buttons.first() {
                 Some(b) => Ok(Some(SimInput::Clutch(*b == 1))),
                 None => Err(InputError::JoyWithoutButtons),

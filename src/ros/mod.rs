@@ -28,7 +28,7 @@
 //! | `PSM1/local/measured_cp`, `local/setpoint_cp` | geometry_msgs/PoseStamped | as `measured_cp` (the base frame is the arm's own) |
 //! | `PSM1/body/measured_cf`, `spatial/measured_cf` | geometry_msgs/WrenchStamped | the held tool's contact wrench in the tool frame `PSM1`; the same about the tool in `PSM1_base`'s orientation |
 //! | `PSM1/body/jacobian`, `spatial/jacobian` | std_msgs/Float64MultiArray | 6 × 6 row-major (linear rows first): tool twist in the tool frame / in `PSM1_base` |
-//! | `PSM1/tool_type`, `trajectory_j/ratio` | std_msgs/String, Float64 | latched: the scene's tool name; the share of dVRK's `move_jp` speeds in use |
+//! | `PSM1/tool_type`, `trajectory_j/ratio` | std_msgs/String, Float64 | latched: dVRK's instrument (`LARGE_NEEDLE_DRIVER:400006` for a gripper, the arm's `tool_type` where set, else the tool's scene name); the share of dVRK's `move_jp` speeds in use |
 //! | `PSM1/operating_state` | crtk_msgs/OperatingState | latched; a new stamp on every change; busy around each `move_*` |
 //! | `PSM1/error`, `warning`, `status` | std_msgs/String | latched; every rejected command is reported on `error` |
 //! | `PSM1/servo_jp`, `move_jp`, `jaw/servo_jp`, `jaw/move_jp` | sensor_msgs/JointState (sub) | names optional (then canonical order) |
@@ -43,8 +43,9 @@
 //! | `PSM1/body/set_cf_orientation_absolute`, `emulate_tool_present` | std_msgs/Bool (sub) | accepted, no effect (no force control; the tool is always present) |
 //!
 //! These are the topics dVRK's Python client (`dvrk_python`'s `psm` on `crtk_python_client`)
-//! opens. Its `forward_kinematics` / `inverse_kinematics` services (cisst_msgs) are not
-//! served.
+//! opens, and its `forward_kinematics` / `inverse_kinematics` services (crtk_msgs'
+//! `QueryForwardKinematics` / `QueryInverseKinematics`, [`kinematics`]) on every simulated
+//! arm.
 //!
 //! An ECM (`kind = "ecm"`, e.g. `ECM`) has the same topics without the jaw, the tool and its
 //! contact wrench (no `jaw/...`, `tool_type`, `body/measured_cf`, `spatial/measured_cf`,
@@ -60,8 +61,8 @@
 //! | `threads/<name>/centreline`, `threads/<name>/tension` | Marker, PointCloud2 | a suture thread's LINE_STRIP and its axial force per point |
 //! | `/tf_static` | tf2_msgs/TFMessage | once, transient local: `world` → `PSM1_base`; with a camera, `ECM` → `ECM_left_optical_frame` and `ECM_right_optical_frame` (`world` → them for a camera without an arm) |
 //! | `/tf` | tf2_msgs/TFMessage | `PSM1_base` → every arm link (with `[outputs] tf_arm_links = false` only `PSM1` and `PSM1_tool_tip`, leaving the links to dVRK's robot_state_publisher); scripted tools |
-//! | `MTMR/measured_cp`, `MTMR/gripper/measured_js`, `console/clutch`, `console/operator_present` | (sub, with `[teleop]`) | Joy `buttons[0] = 1` pressed |
-//! | `MTMR/body/servo_cf` | geometry_msgs/WrenchStamped | with `force_feedback`: the tool's contact wrench × scale |
+//! | `<mtm>/measured_cp`, `<mtm>/gripper/measured_js` for each `[[teleop]]` pair (`MTMR`, `MTML`), `console/clutch`, `console/operator_present` | (sub, with `[[teleop]]`) | Joy `buttons[0] = 1` pressed; the one console's pedals engage every pair |
+//! | `<mtm>/body/servo_cf` | geometry_msgs/WrenchStamped | with a pair's `force_feedback`: its tool's contact wrench × scale |
 //! | `/clock` | rosgraph_msgs/Clock | simulated time, once per frame |
 //! | `/rosout` | rcl_interfaces/Log | WARN and ERROR log lines, the arms' `error` (ERROR), `warning` (WARN) and `status` (INFO) events, logger `<namespace>.<name>` ([`rosout`]) |
 //! | `/diagnostics` | diagnostic_msgs/DiagnosticArray | latched, once a second: real-time factor, substeps and frames per second, backend, adapter |
@@ -163,13 +164,14 @@
 //! | a URDF with 10⁵ links | checked in linear time (about a second), bounded memory | `tests/urdf_limits.rs` |
 //! | 2·10⁵ nested XML elements in a URDF | refused: nesting deeper than 32 levels, with the line | `tests/urdf_limits.rs` |
 //! | a second node with the same name and namespace in the domain | refused at start, naming the first; the first runs on | `tests/hostile_network.rs` |
-//! | `ROS_AUTOMATIC_DISCOVERY_RANGE`, `ROS_LOCALHOST_ONLY` | honoured as ROS 2 defines them (LOCALHOST: rclpy on this host finds the node; OFF: nobody does); an unknown range refused | `tests/hostile_network.rs`, unit test in [`participant`] |
+//! | `ROS_AUTOMATIC_DISCOVERY_RANGE`, `ROS_LOCALHOST_ONLY` | honoured as ROS 2 defines them (LOCALHOST: rclpy on this host finds the node, and every socket of the node is bound to 127.0.0.1 or the multicast group, none to every interface; OFF: nobody does); an unknown range refused | `tests/hostile_network.rs`, unit test in [`participant`] |
 //!
 //! Not defended: any participant that can reach the node's ports may still command the arms
 //! (DDS Security, SROS2, is not used).
 
 pub mod camera;
 pub mod inputs;
+pub mod kinematics;
 pub mod msgs;
 pub mod names;
 pub mod node;

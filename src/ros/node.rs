@@ -21,6 +21,7 @@ use ros2_client::{
 use crate::config::Scene;
 use crate::render::CameraImages;
 use crate::ros::inputs::{input_topics, InputKind, InputMessage, InputTopic};
+use crate::ros::kinematics::KinematicsServices;
 use crate::ros::msgs::*;
 use crate::ros::names::remap;
 use crate::ros::outputs::{self, ArmOutput, EventMessage, EventStamps, OutputLayout};
@@ -337,6 +338,15 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
     let rosout = Rosout::start(&node);
 
     let parameters = ParameterServices::start(&mut node, settings.parameters.clone())?;
+    let mut kinematics = Vec::new();
+    for arm in layout.arms.iter().filter(|a| a.simulated) {
+        kinematics.push(KinematicsServices::start(
+            &mut node,
+            &settings.namespace,
+            &arm.name,
+            arm.psm.clone(),
+        )?);
+    }
     let mut topics = Topics {
         node: &mut node,
         namespace: settings.namespace.clone(),
@@ -407,10 +417,10 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
             inputs.push(topics.input(topic)?);
         }
     }
-    let force = match &layout.force_feedback {
-        Some(f) => Some((topics.publisher(&f.topic, periodic_qos())?, f.scale, f.tool)),
-        None => None,
-    };
+    let mut force = Vec::new();
+    for f in &layout.force_feedback {
+        force.push((topics.publisher(&f.topic, periodic_qos())?, f.scale, f.tool));
+    }
     let points: Publisher<PointCloud2> = topics.publisher("tissue/points", periodic_qos())?;
     let surface: Publisher<Marker> = topics.publisher("tissue/surface", periodic_qos())?;
     let pieces: Publisher<UInt32> = topics.publisher(outputs::PIECES_TOPIC, periodic_qos())?;
@@ -514,6 +524,9 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
             }
             io.poll_inputs(&sim);
             parameters.serve();
+            for services in &kinematics {
+                services.serve();
+            }
             let frame = sim.frames.borrow().clone();
             io.publish_events(&sim, &rosout, Time::from_secs(frame.time));
             rosout.publish_logged(Time::from_secs(frame.time));
@@ -593,8 +606,9 @@ struct Io {
     /// Inputs go to the simulation with their messages, to be recorded.
     recording: bool,
     stamps: EventStamps,
-    /// MTM force feedback: publisher, scale, scene tool.
-    force: Option<(Publisher<WrenchStamped>, f64, usize)>,
+    /// MTM force feedback, per teleoperation pair that asks for it: publisher, scale,
+    /// scene tool.
+    force: Vec<(Publisher<WrenchStamped>, f64, usize)>,
     points: Publisher<PointCloud2>,
     surface: Publisher<Marker>,
     pieces: Publisher<UInt32>,
@@ -918,7 +932,7 @@ impl Io {
             let _ = p.setpoint_cp.publish(m.cp);
             let _ = p.measured_cv.publish(m.cv);
         }
-        if let Some((publisher, scale, tool)) = &self.force {
+        for (publisher, scale, tool) in &self.force {
             if let Some(tool) = frame.tools.get(*tool) {
                 let _ = publisher.publish(outputs::wrench_message(tool, *scale, stamp));
             }

@@ -31,7 +31,8 @@ pub struct ArmOutput {
     /// Index of the scene tool a PSM holds (its contact wrench is `measured_cf`); `None`
     /// for the ECM.
     pub tool: Option<usize>,
-    /// The held tool's scene name (`tool_type`); `None` for the ECM.
+    /// What `tool_type` reports (see [`crate::config::Arm::tool_type`]); `None` for the
+    /// ECM.
     pub tool_type: Option<String>,
 }
 
@@ -76,8 +77,8 @@ pub struct OutputLayout {
     pub tools: Vec<String>,
     /// Suture thread names, scene order.
     pub threads: Vec<String>,
-    /// MTM force feedback, when the scene's teleoperation asks for it.
-    pub force_feedback: Option<ForceFeedback>,
+    /// MTM force feedback, for each teleoperation pair that asks for it.
+    pub force_feedback: Vec<ForceFeedback>,
     /// How often each output is published.
     pub rates: OutputRates,
     /// Whether `/tf` carries every arm link ([`tf_message`]).
@@ -101,11 +102,14 @@ impl OutputLayout {
                 base: *sim.base(),
                 simulated: arm.mode == ArmMode::Simulated,
                 tool: setup.arm_tools.get(index).copied().flatten(),
-                tool_type: arm.tool.clone(),
+                tool_type: tool_type(scene, arm),
             })
             .collect();
-        let force_feedback = scene.teleop.as_ref().and_then(|t| {
-            t.force_feedback.then(|| {
+        let force_feedback = scene
+            .teleop
+            .iter()
+            .filter(|t| t.force_feedback)
+            .map(|t| {
                 let arm = scene.arms.iter().position(|a| a.name == t.arm).unwrap_or(0);
                 ForceFeedback {
                     topic: resolve(namespace, &format!("{}/body/servo_cf", t.mtm)),
@@ -113,7 +117,7 @@ impl OutputLayout {
                     tool: setup.arm_tools.get(arm).copied().flatten().unwrap_or(0),
                 }
             })
-        });
+            .collect();
         // The camera's optical frames: fixed under the ECM's tool frame where an ECM holds it.
         let camera_frames = setup
             .camera
@@ -210,12 +214,29 @@ impl OutputLayout {
         out.push((self.topic(PIECES_TOPIC), UInt32::type_name()));
         out.push(("/tf".to_owned(), TFMessage::type_name()));
         out.push(("/tf_static".to_owned(), TFMessage::type_name()));
-        if let Some(f) = &self.force_feedback {
+        for f in &self.force_feedback {
             out.push((f.topic.clone(), WrenchStamped::type_name()));
         }
         out
     }
 }
+
+/// `<arm>/tool_type`: the arm's `tool_type`, else dVRK's Large Needle Driver for a gripper,
+/// else the held tool's scene name.
+fn tool_type(scene: &Scene, arm: &crate::config::Arm) -> Option<String> {
+    let held = scene
+        .tools
+        .iter()
+        .find(|t| Some(&t.name) == arm.tool.as_ref())?;
+    Some(match (&arm.tool_type, held.shape) {
+        (Some(chosen), _) => chosen.clone(),
+        (None, crate::tools::Shape::Gripper { .. }) => LARGE_NEEDLE_DRIVER.to_owned(),
+        (None, _) => held.name.clone(),
+    })
+}
+
+/// dVRK's name for the Large Needle Driver, the gripper's default instrument.
+pub const LARGE_NEEDLE_DRIVER: &str = "LARGE_NEEDLE_DRIVER:400006";
 
 pub(crate) fn joint_state(
     stamp: Time,

@@ -11,8 +11,10 @@
 //!   build carries a patched copy, `patches/rustdds/`, with `set_fragment_assembly_limits`).
 //! - **Discovery range** as ROS 2 defines it: `ROS_AUTOMATIC_DISCOVERY_RANGE` = `SUBNET`
 //!   (the default; also `SYSTEM_DEFAULT` or unset), `LOCALHOST` (multicast on loopback
-//!   only, only loopback locators announced: peers on other hosts do not discover the node;
-//!   RustDDS still binds its ports on every interface), or `OFF` (no automatic discovery);
+//!   only, only loopback locators announced, and every socket bound to 127.0.0.1 or the
+//!   multicast group, so nothing another host sends reaches the node: the patched RustDDS
+//!   binds there when its networks are loopback alone; `tests/hostile_network.rs` reads the
+//!   node's sockets from `/proc`), or `OFF` (no automatic discovery);
 //!   `ROS_LOCALHOST_ONLY=1` (deprecated in ROS 2) means `LOCALHOST` whatever the range says.
 //!   Any other value is refused before the participant exists.
 //! - **One node per name**: before creating any topic the node listens to the domain's

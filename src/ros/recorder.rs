@@ -631,7 +631,7 @@ impl Bag {
                 self.write(&format!("{n}/setpoint_cp"), Qos::Periodic, end, &m.cp)?;
                 self.write(&format!("{n}/measured_cv"), Qos::Periodic, end, &m.cv)?;
             }
-            if let Some(f) = self.layout.force_feedback.clone() {
+            for f in self.layout.force_feedback.clone() {
                 if let Some(tool) = frame.tools.get(f.tool) {
                     let m = outputs::wrench_message(tool, f.scale, stamp);
                     self.write(&f.topic, Qos::Periodic, end, &m)?;

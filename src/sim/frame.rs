@@ -40,8 +40,8 @@ pub struct Frame {
     pub surface: Option<Arc<SurfaceTriangles>>,
     /// Every suture thread, scene order (a few dozen points each: always carried).
     pub threads: Vec<Arc<ThreadState>>,
-    /// The teleoperation state, when the scene teleoperates an arm.
-    pub teleop: Option<TeleopState>,
+    /// The teleoperation state of each `[[teleop]]` pair, scene order.
+    pub teleop: Vec<TeleopState>,
     /// Separate tissue pieces, in the frames where they were counted (`tissue/pieces`).
     pub pieces: Option<u32>,
     /// The camera's images, in the frames where a subscriber wanted one and it was due.

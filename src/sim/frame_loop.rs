@@ -74,9 +74,6 @@ pub struct FrameLoop {
     log: RateLimitedLog,
     /// Arm events for the network side; `None` where nobody publishes them.
     events: Option<SyncSender<(usize, ArmEvent)>>,
-    mtm_pose: Option<Isometry3<f64>>,
-    mtm_gripper: f64,
-    mtm_fresh: bool,
     /// This frame's applied inputs and events, while recording.
     recording: Option<FrameShare>,
     index: u64,
@@ -101,9 +98,6 @@ impl FrameLoop {
             setup,
             log: RateLimitedLog::default(),
             events,
-            mtm_pose: None,
-            mtm_gripper: 0.0,
-            mtm_fresh: false,
             recording: None,
             index: 0,
             pieces_next: 0.0,
@@ -381,74 +375,94 @@ impl FrameLoop {
                 }
             }
             SimInput::MtmPose {
+                arm,
                 position,
                 quaternion,
-            } => match isometry(&position, &quaternion) {
-                Ok(pose) => {
-                    self.mtm_pose = Some(pose);
-                    self.mtm_fresh = true;
+            } => {
+                let Some(binding) = self.setup.teleop.iter_mut().find(|b| b.arm == arm) else {
+                    return;
+                };
+                match isometry(&position, &quaternion) {
+                    Ok(pose) => {
+                        binding.mtm_pose = Some(pose);
+                        binding.mtm_fresh = true;
+                    }
+                    Err(reason) => {
+                        let topic = format!("{}/measured_cp", binding.mtm);
+                        self.reject(None, &topic, reason)
+                    }
                 }
-                Err(reason) => self.reject(None, "MTM measured_cp", reason),
-            },
-            SimInput::MtmGripper(positions) => match positions.first() {
-                Some(g) if g.is_finite() && positions.len() == 1 => {
-                    self.mtm_gripper = *g;
-                    self.mtm_fresh = true;
+            }
+            SimInput::MtmGripper { arm, positions } => {
+                let Some(binding) = self.setup.teleop.iter_mut().find(|b| b.arm == arm) else {
+                    return;
+                };
+                match positions.first() {
+                    Some(g) if g.is_finite() && positions.len() == 1 => {
+                        binding.mtm_gripper = *g;
+                        binding.mtm_fresh = true;
+                    }
+                    _ => {
+                        let topic = format!("{}/gripper/measured_js", binding.mtm);
+                        self.reject(
+                            None,
+                            &topic,
+                            format!("expected one finite position, got {positions:?}"),
+                        )
+                    }
                 }
-                _ => self.reject(
-                    None,
-                    "MTM gripper/measured_js",
-                    format!("expected one finite position, got {positions:?}"),
-                ),
-            },
+            }
             SimInput::Clutch(pressed) => {
-                if let Some(t) = &mut self.setup.teleop {
+                for t in &mut self.setup.teleop {
                     t.teleop.set_clutch(pressed);
                 }
             }
             SimInput::OperatorPresent(present) => {
-                if let Some(t) = &mut self.setup.teleop {
+                for t in &mut self.setup.teleop {
                     t.teleop.set_operator_present(present);
                 }
             }
         }
     }
 
+    /// Each MTM's pose and gripper mapped onto its PSM (see [`crate::robot::teleop`]).
     fn teleoperate(&mut self, dt: f64) {
-        let Some(binding) = &mut self.setup.teleop else {
-            return;
-        };
-        let arm = &mut self.setup.arms[binding.arm];
-        if arm.ready().is_err() {
-            return;
-        }
-        let _ = binding.teleop.update_psm_setpoint(arm.cp(), arm.jaw());
-        if let (Some(pose), true) = (self.mtm_pose, self.mtm_fresh) {
-            let was_gone = binding.teleop.mtm_gone();
-            let _ = binding.teleop.update_mtm(pose, self.mtm_gripper, dt);
-            self.mtm_fresh = false;
-            if was_gone {
-                tracing::info!(
-                    "teleop: the MTM publishes again; {} follows it from where it held",
+        let mut rejected = Vec::new();
+        for binding in &mut self.setup.teleop {
+            let arm = &mut self.setup.arms[binding.arm];
+            if arm.ready().is_err() {
+                continue;
+            }
+            let _ = binding.teleop.update_psm_setpoint(arm.cp(), arm.jaw());
+            if let (Some(pose), true) = (binding.mtm_pose, binding.mtm_fresh) {
+                let was_gone = binding.teleop.mtm_gone();
+                let _ = binding.teleop.update_mtm(pose, binding.mtm_gripper, dt);
+                binding.mtm_fresh = false;
+                if was_gone {
+                    tracing::info!(
+                        "teleop: the MTM {} publishes again; {} follows it from where it held",
+                        binding.mtm,
+                        arm.name()
+                    );
+                }
+            } else if binding.teleop.mtm_silent(dt) {
+                tracing::warn!(
+                    "teleop: no message from the MTM {} for {MTM_SILENCE_S} s; {} holds where \
+                     it is until the MTM publishes again",
+                    binding.mtm,
                     arm.name()
                 );
             }
-        } else if binding.teleop.mtm_silent(dt) {
-            tracing::warn!(
-                "teleop: no MTM message for {MTM_SILENCE_S} s; {} holds where it is until the \
-                 MTM publishes again",
-                arm.name()
-            );
+            let Some(target) = binding.teleop.target() else {
+                continue;
+            };
+            match arm.servo_cp(&target.pose, RcmPolicy::Clamp) {
+                Ok(()) => arm.servo_jaw_clamped(target.jaw),
+                Err(reason) => rejected.push((binding.arm, arm.name().to_owned(), reason)),
+            }
         }
-        let Some(target) = binding.teleop.target() else {
-            return;
-        };
-        if let Err(reason) = arm.servo_cp(&target.pose, RcmPolicy::Clamp) {
-            let name = arm.name().to_owned();
-            let index = binding.arm;
+        for (index, name, reason) in rejected {
             self.reject(Some((index, &name)), "teleop servo_cp", reason);
-        } else {
-            arm.servo_jaw_clamped(target.jaw);
         }
     }
 }
@@ -504,7 +518,7 @@ fn frame_of(setup: &SimSetup, report: Option<&FrameReport>) -> Frame {
             .iter()
             .map(|t| Arc::new(ThreadState::of(t)))
             .collect(),
-        teleop: setup.teleop.as_ref().map(|t| t.teleop.state()),
+        teleop: setup.teleop.iter().map(|t| t.teleop.state()).collect(),
         pieces: None,
         camera: None,
     }

@@ -19,13 +19,20 @@ pub enum SimInput {
     },
     /// MTM `measured_cp`: position (m), quaternion x, y, z, w.
     MtmPose {
+        /// Index of the scene arm the MTM drives.
+        arm: usize,
         /// MTM position in the common (camera) frame, m.
         position: [f64; 3],
         /// MTM orientation, quaternion x, y, z, w.
         quaternion: [f64; 4],
     },
     /// MTM `gripper/measured_js` positions (rad).
-    MtmGripper(Vec<f64>),
+    MtmGripper {
+        /// Index of the scene arm the MTM drives.
+        arm: usize,
+        /// The positions (one expected).
+        positions: Vec<f64>,
+    },
     /// The console's clutch pedal: true while pressed.
     Clutch(bool),
     /// The console's operator-present pedal: true while the operator is there.

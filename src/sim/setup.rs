@@ -58,12 +58,20 @@ pub enum SetupError {
     Surface(#[from] MeshError),
 }
 
-/// Teleoperation of one arm.
+/// Teleoperation of one arm by one MTM.
 pub struct TeleopBinding {
     /// Index of the scene arm the MTM drives.
     pub arm: usize,
+    /// The MTM's namespace (for log lines).
+    pub mtm: String,
     /// The MTM-to-PSM mapping.
     pub teleop: Teleop,
+    /// The MTM's latest pose, and its gripper.
+    pub mtm_pose: Option<Isometry3<f64>>,
+    /// The MTM gripper's latest angle (rad).
+    pub mtm_gripper: f64,
+    /// A pose or gripper arrived since the mapping last read them.
+    pub mtm_fresh: bool,
 }
 
 /// The simulation's side of the exchange, handed to the frame loop.
@@ -74,8 +82,8 @@ pub struct SimSetup {
     pub arms: Vec<ArmSim>,
     /// Scene tool index each arm drives (`None` for the ECM).
     pub arm_tools: Vec<Option<usize>>,
-    /// Teleoperation, when the scene has a `[teleop]` table.
-    pub teleop: Option<TeleopBinding>,
+    /// Teleoperation, one binding per `[[teleop]]` pair (none without).
+    pub teleop: Vec<TeleopBinding>,
     /// What the point cloud output carries.
     pub cloud: CloudOptions,
     /// `None` in a scripted run, which builds no surface.
@@ -103,7 +111,7 @@ impl SimSetup {
             world,
             arms: Vec::new(),
             arm_tools: Vec::new(),
-            teleop: None,
+            teleop: Vec::new(),
             cloud,
             surface: None,
             snapshots: None,
@@ -292,21 +300,26 @@ pub fn build_setup(scene: &Scene) -> Result<SimSetup, SetupError> {
         arms.push(sim);
         arm_tools.push(tool);
     }
-    let teleop = match &scene.teleop {
-        None => None,
-        Some(t) => {
-            let arm = scene
-                .arms
-                .iter()
-                .position(|a| a.name == t.arm)
-                .ok_or_else(|| SetupError::TeleopArm(t.arm.clone()))?;
-            let mut config = TeleopConfig::for_psm(arms[arm].psm());
-            config.scale = t.scale;
-            let mut teleop = Teleop::new(config)?;
-            teleop.set_operator_present(t.operator_present);
-            Some(TeleopBinding { arm, teleop })
-        }
-    };
+    let mut teleop = Vec::new();
+    for t in &scene.teleop {
+        let arm = scene
+            .arms
+            .iter()
+            .position(|a| a.name == t.arm)
+            .ok_or_else(|| SetupError::TeleopArm(t.arm.clone()))?;
+        let mut config = TeleopConfig::for_psm(arms[arm].psm());
+        config.scale = t.scale;
+        let mut mapping = Teleop::new(config)?;
+        mapping.set_operator_present(t.operator_present);
+        teleop.push(TeleopBinding {
+            arm,
+            mtm: t.mtm.clone(),
+            teleop: mapping,
+            mtm_pose: None,
+            mtm_gripper: 0.0,
+            mtm_fresh: false,
+        });
+    }
     let outputs = &scene.outputs;
     let surface = TissueSurface::new(
         surface_kind(scene),

@@ -89,19 +89,24 @@ class Recorder:
 
 
 class ScriptedMtm:
-    """An MTM played by a script, as dVRK's console sees one: `MTMR/measured_cp` at `position`
-    (MTMR_base, identity orientation), the gripper held open, and the clutch and operator
-    pedals. PSM1's `measured_cp` is recorded to see where the arm went."""
+    """An MTM played by a script, as dVRK's console sees one: `<mtm>/measured_cp` at `position`
+    (`<mtm>_base`, identity orientation), the gripper at `gripper` (open), and the console's
+    clutch and operator pedals. The teleoperated PSM's `measured_cp` is recorded to see where
+    the arm went."""
 
-    def __init__(self, rec, measured_cp_depth=10):
+    def __init__(self, rec, measured_cp_depth=10, mtm="MTMR", arm="PSM1"):
         self.rec = rec
+        self.mtm = mtm
+        self.arm = arm
         self.position = [0.0, -0.3, -0.1]
-        rec.subscribe(PoseStamped, "/PSM1/measured_cp", qos=measured_cp_depth)
-        self._mtm = rec.publisher(PoseStamped, "/MTMR/measured_cp")
-        self._gripper = rec.publisher(JointState, "/MTMR/gripper/measured_js")
+        self.gripper = 0.3
+        rec.subscribe(PoseStamped, f"/{arm}/measured_cp", qos=measured_cp_depth)
+        self._mtm = rec.publisher(PoseStamped, f"/{mtm}/measured_cp")
+        self._gripper = rec.publisher(JointState, f"/{mtm}/gripper/measured_js")
         self._clutch = rec.publisher(Joy, "/console/clutch")
         self._present = rec.publisher(Joy, "/console/operator_present")
-        rec.wait_for(lambda: rec.latest("/PSM1/measured_cp") is not None, 10.0, "measured_cp")
+        rec.wait_for(lambda: rec.latest(f"/{arm}/measured_cp") is not None, 10.0,
+                     f"{arm} measured_cp")
         for p in (self._mtm, self._gripper, self._clutch, self._present):
             rec.wait_subscribers(p)
 
@@ -109,11 +114,11 @@ class ScriptedMtm:
         """Publishes the MTM pose and gripper `repeat` times, 10 ms apart."""
         for _ in range(repeat):
             m = PoseStamped()
-            m.header.frame_id = "MTMR_base"
+            m.header.frame_id = f"{self.mtm}_base"
             m.pose.position.x, m.pose.position.y, m.pose.position.z = self.position
             m.pose.orientation.w = 1.0
             self._mtm.publish(m)
-            self._gripper.publish(JointState(name=["gripper"], position=[0.3]))
+            self._gripper.publish(JointState(name=["gripper"], position=[self.gripper]))
             self.rec.spin_for(0.01)
 
     def clutch(self, pressed):
@@ -135,8 +140,8 @@ class ScriptedMtm:
             self.rec.spin_for(rest)
 
     def psm(self):
-        """PSM1's latest measured position (m, in PSM1_base)."""
-        p = self.rec.latest("/PSM1/measured_cp").pose.position
+        """The PSM's latest measured position (m, in its base frame)."""
+        p = self.rec.latest(f"/{self.arm}/measured_cp").pose.position
         return [p.x, p.y, p.z]
 
 # ---- PSM forward kinematics from dVRK's modified DH table (independent of our URDF) ----

@@ -19,6 +19,7 @@ import struct
 import time
 
 import rclpy
+import rclpy.qos
 from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import CameraInfo, CompressedImage, Image, JointState
 
@@ -140,6 +141,18 @@ for topic, type_name in [
     ("/ECM/state_command", "crtk_msgs/msg/StringStamped"),
 ]:
     check(type_name in topics.get(topic, []), f"{topic} as {type_name}: {topics.get(topic)}")
+# /tf_static as tf2's static broadcaster offers it (latched: transient local, reliable, so a
+# late tf2 listener still gets the optical frames). tf2_msgs has no PyPI wheel to decode it
+# with here: tests/ros_contract.rs decodes /tf_static with a DDS peer of its own and
+# tests/camera.rs checks the optical frames it carries.
+check("tf2_msgs/msg/TFMessage" in topics.get("/tf_static", []), f"/tf_static: {topics.get('/tf_static')}")
+static = node.get_publishers_info_by_topic("/tf_static")
+check(len(static) >= 1, f"/tf_static publishers: {len(static)}")
+for info in static:
+    qos = info.qos_profile
+    check(qos.durability == rclpy.qos.DurabilityPolicy.TRANSIENT_LOCAL
+          and qos.reliability == rclpy.qos.ReliabilityPolicy.RELIABLE,
+          f"/tf_static latched and reliable: {qos.durability.name}, {qos.reliability.name}")
 ecm_jaw = [t for t in topics if t.startswith("/ECM/jaw") or t.endswith("measured_cf") and "ECM" in t]
 check(not ecm_jaw, f"no jaw or contact wrench for the ECM: {ecm_jaw}")
 

@@ -5,17 +5,22 @@ clamped to the limit; a bad effort is rejected; jaw/servo_jp takes the position 
 import math
 
 from sensor_msgs.msg import JointState
+from std_msgs.msg import String
 
-from common import Recorder, check
+from common import LATCHED, Recorder, check
 
 LIMIT = 0.16  # dVRK's Large Needle Driver jaw effort limit (N·m), the default
 
 rec = Recorder("jaw_probe")
+rec.subscribe(String, "/PSM1/tool_type", LATCHED)
 rec.subscribe(JointState, "/PSM1/jaw/measured_js")
 rec.subscribe(JointState, "/PSM1/jaw/setpoint_js")
 servo = rec.publisher(JointState, "/PSM1/jaw/servo_jp")
 effort = rec.publisher(JointState, "/PSM1/jaw/servo_jf")
 rec.wait_for(lambda: rec.latest("/PSM1/jaw/measured_js") is not None, 10.0, "jaw/measured_js")
+rec.wait_for(lambda: rec.latest("/PSM1/tool_type") is not None, 10.0, "tool_type")
+check(rec.latest("/PSM1/tool_type").data == "LARGE_NEEDLE_DRIVER:400006",
+      f"tool_type of a gripper is dVRK's Large Needle Driver: {rec.latest('/PSM1/tool_type').data}")
 rec.wait_subscribers(servo)
 rec.wait_subscribers(effort)
 

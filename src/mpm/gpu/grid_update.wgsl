@@ -82,18 +82,38 @@ fn update_block(wid: vec3<u32>, lid: u32, settled_by_solve: bool, total_lagrangi
         if (handled) {
             v = settled.xyz;
         }
-        // Total Lagrangian MPM's material grip: the gripper whose captured particles carry at
-        // least half the node's mass holds it wherever it is (captured.rs `holder`).
-        var holder = 0u;
+        // The gripper that holds the node, with the node's lever and jaw: in total Lagrangian
+        // MPM the gripper whose captured particles carry at least half the node's mass, wherever
+        // the node is (captured.rs `holder`); otherwise the first gripper whose grip region holds
+        // the node (cpu `hold_node`).
+        var grip_tool = NO_TOOL;
+        var lever = 0.0;
+        var jaw = 0u;
         if (total_lagrangian) {
-            holder = atomicLoad(&tl_nodes[node]);
+            let holder = atomicLoad(&tl_nodes[node]);
+            if (holder != 0u && acc_load_m(tl + 6u) >= 0.5 * m) {
+                grip_tool = holder - 1u;
+                let tool = tools[st.substep * sim.n_tools + grip_tool];
+                let local = transpose(tool.rot) * (x - tool.trans.xyz);
+                lever = sqrt(local.y * local.y + local.z * local.z);
+                jaw = select(2u, 1u, local.y >= 0.0);
+            }
+        } else if (!handled) {
+            for (var t = 0u; t < sim.n_tools && grip_tool == NO_TOOL; t++) {
+                let tool = tools[st.substep * sim.n_tools + t];
+                if (tool.shape.w < 0.0) {
+                    continue;
+                }
+                let region = grip_region(tool, x);
+                if (region.x >= 0.0) {
+                    grip_tool = t;
+                    lever = region.x;
+                    jaw = u32(region.y);
+                }
+            }
         }
-        if (holder != 0u && acc_load_m(tl + 6u) >= 0.5 * m) {
-            hit_tool = holder - 1u;
-            let tool = tools[st.substep * sim.n_tools + hit_tool];
-            let local = transpose(tool.rot) * (x - tool.trans.xyz);
-            let lever = sqrt(local.y * local.y + local.z * local.z);
-            let held = hold_at(tool, x, v, m, lever, select(2u, 1u, local.y >= 0.0));
+        if (grip_tool != NO_TOOL) {
+            let held = hold_at(tools[st.substep * sim.n_tools + grip_tool], x, v, m, lever, jaw);
             v = held.v;
             dp = held.dp;
             dl = held.dl;
@@ -101,28 +121,7 @@ fn update_block(wid: vec3<u32>, lid: u32, settled_by_solve: bool, total_lagrangi
             grip = held.required;
             grip_mass = m;
             grip_lever = held.mass_lever;
-            handled = true;
-            atomicAdd(&wg_contacts, 1u);
-        }
-        // The grip of the first gripper that holds the node (cpu `hold_node`).
-        for (var t = 0u; t < sim.n_tools && !handled && !total_lagrangian; t++) {
-            let tool = tools[st.substep * sim.n_tools + t];
-            if (tool.shape.w < 0.0) {
-                continue;
-            }
-            let region = grip_region(tool, x);
-            if (region.x < 0.0) {
-                continue;
-            }
-            let held = hold_at(tool, x, v, m, region.x, u32(region.y));
-            v = held.v;
-            dp = held.dp;
-            dl = held.dl;
-            jaw_opening = held.jaw_opening;
-            grip = held.required;
-            grip_mass = m;
-            grip_lever = held.mass_lever;
-            hit_tool = t;
+            hit_tool = grip_tool;
             handled = true;
             atomicAdd(&wg_contacts, 1u);
         }

@@ -108,8 +108,8 @@
 //!
 //! # Agreement with the CPU
 //!
-//! `tests/gpu_agreement.rs`, `tests/implicit_gpu.rs`, `tests/cutting_gpu.rs`,
-//! `tests/tlmpm_gpu.rs` and `tests/tearing.rs` compare both P2G variants with the CPU on
+//! `tests/gpu_agreement.rs` (total Lagrangian MPM included), `tests/implicit_gpu.rs`,
+//! `tests/cutting_gpu.rs` and `tests/tearing.rs` compare both P2G variants with the CPU on
 //! llvmpipe in CI (without any adapter they fail when `CI` is set and are skipped with the
 //! reason otherwise): a free block spinning, squeezed and falling within 1 µm (f32) and
 //! 5 µm (fixed point) of the CPU's positions, a grasp's forces within 2 % of the peak every
@@ -175,7 +175,7 @@ use super::frame_plan::{FramePlan, FrameStats};
 use super::grid::Node;
 use super::stiffening::{self, StiffeningBounds, MAX_PIECES};
 use super::{GridLayout, Method, Particles, PbMpmParams, SolveCounts, SolverSetup, MAX_TOOLS};
-use crate::tools::Shape;
+use crate::tools::{Shape, ToolKinematics};
 use adapter::GpuContext;
 use crack::CrackStage;
 use g2p::G2pStage;
@@ -241,6 +241,8 @@ struct TotalLagrangian {
     bounds_stale: bool,
     /// Pieces each substep of the frame in flight is cut into.
     pieces: u32,
+    /// The tools of a frame cut into pieces, kept from frame to frame.
+    cut_tools: Vec<ToolKinematics>,
 }
 
 /// Workgroup size of the per-particle and per-block stages.
@@ -410,6 +412,7 @@ impl GpuSolver {
             bounds: StiffeningBounds::default(),
             bounds_stale: true,
             pieces: 1,
+            cut_tools: Vec::new(),
         });
         Ok(GpuSolver {
             implicit,
@@ -600,9 +603,11 @@ impl GpuSolver {
             tl.bounds_stale = false;
         }
         tl.pieces = tl.bounds.pieces(plan);
-        let tools = stiffening::pieced_tools(plan, tl.pieces);
-        let steps = stiffening::pieced(plan, tl.pieces, &tools);
+        let mut cut_tools = std::mem::take(&mut tl.cut_tools);
+        let steps = stiffening::cut(plan, tl.pieces, &mut cut_tools);
+        let substeps = steps.substeps;
         self.res.write_frame_inputs(&self.ctx.queue, &steps, 1, 0.0);
+        tl.cut_tools = cut_tools;
         let mut encoder = self
             .ctx
             .device
@@ -618,7 +623,7 @@ impl GpuSolver {
                 timestamp_writes: None,
             });
             pass.set_bind_group(ARGS_GROUP, &self.res.args_group, &[]);
-            for step in 0..steps.substeps {
+            for step in 0..substeps {
                 self.res.bind_step(&mut pass, step);
                 self.sparse.record(&mut pass, &groups);
                 tl.stages.record_capture(&mut pass, &groups);

@@ -37,7 +37,7 @@ use crate::{
     discovery_db::DiscoveryDB,
     sedp_messages::{DiscoveredReaderData, DiscoveredTopicData, DiscoveredWriterData},
   },
-  network::{constant::*, udp_listener::UDPListener},
+  network::{constant::*, udp_listener::UDPListener, util::loopback_only},
   polling::{
     ready_channel, wake_channel, wake_channel_unbounded, LoopWaker, ReadySender, WakeReceiver,
     WakeSender, WakeUnboundedSender,
@@ -1243,11 +1243,16 @@ impl DomainParticipantInner {
     let _dummy = _qos_policies; // to make clippy happy
 
     let only_networks: Option<Arc<[IpAddr]>> = only_networks.map(|v| v.into());
+    // Restricted to loopback, listen on loopback alone: unicast listeners bind 127.0.0.1 and
+    // multicast ones the group address, so no datagram from another host reaches them.
+    let loopback_only = loopback_only(only_networks.as_deref());
+    let unicast_host = if loopback_only { "127.0.0.1" } else { "0.0.0.0" };
+    let multicast_host = if loopback_only { "239.255.0.1" } else { "0.0.0.0" };
 
     let mut listeners = HashMap::new();
 
     match UDPListener::new_multicast_with_buf_size(
-      "0.0.0.0",
+      multicast_host,
       spdp_well_known_multicast_port(domain_id),
       Ipv4Addr::new(239, 255, 0, 1),
       socket_receive_buffer_size,
@@ -1267,7 +1272,7 @@ impl DomainParticipantInner {
     // Numbers"
     while discovery_listener.is_none() && participant_id < 120 {
       discovery_listener = UDPListener::new_unicast_with_buf_size(
-        "0.0.0.0",
+        unicast_host,
         spdp_well_known_unicast_port(domain_id, participant_id),
         socket_receive_buffer_size,
       )
@@ -1289,7 +1294,7 @@ impl DomainParticipantInner {
     // Now the user traffic listeners
 
     match UDPListener::new_multicast_with_buf_size(
-      "0.0.0.0",
+      multicast_host,
       user_traffic_multicast_port(domain_id),
       Ipv4Addr::new(239, 255, 0, 1),
       socket_receive_buffer_size,
@@ -1302,7 +1307,7 @@ impl DomainParticipantInner {
     }
 
     let user_traffic_listener = UDPListener::new_unicast_with_buf_size(
-      "0.0.0.0",
+      unicast_host,
       user_traffic_unicast_port(domain_id, participant_id),
       socket_receive_buffer_size,
     )
@@ -1310,7 +1315,7 @@ impl DomainParticipantInner {
       if matches!(e.kind(), ErrorKind::AddrInUse) {
         // If we do not get the preferred listening port,
         // try again, with "any" port number.
-        UDPListener::new_unicast_with_buf_size("0.0.0.0", 0, socket_receive_buffer_size).or_else(
+        UDPListener::new_unicast_with_buf_size(unicast_host, 0, socket_receive_buffer_size).or_else(
           |e| {
             create_error_out_of_resources!(
               "Could not open unicast user traffic listener, any port number: {:?}",

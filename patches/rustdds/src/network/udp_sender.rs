@@ -2,10 +2,8 @@ use std::{
   cell::RefCell,
   collections::HashMap,
   io,
-  net::{IpAddr, SocketAddr, UdpSocket},
+  net::{IpAddr, Ipv4Addr, SocketAddr, UdpSocket},
 };
-#[cfg(test)]
-use std::net::Ipv4Addr;
 #[cfg(unix)]
 use std::os::unix::io::{AsRawFd, RawFd};
 
@@ -77,7 +75,14 @@ impl UDPSender {
     send_buffer_size: usize,
   ) -> io::Result<Self> {
     let unicast_socket = {
-      let saddr: SocketAddr = SocketAddr::new("0.0.0.0".parse().unwrap(), sender_port);
+      // Restricted to loopback, the socket is bound there too: nothing from another host
+      // queues on it.
+      let host = if crate::network::util::loopback_only(only_networks) {
+        Ipv4Addr::LOCALHOST
+      } else {
+        Ipv4Addr::UNSPECIFIED
+      };
+      let saddr: SocketAddr = SocketAddr::new(IpAddr::V4(host), sender_port);
       let raw_socket = Socket::new(Domain::IPV4, Type::DGRAM, Some(Protocol::UDP))?;
       Self::set_and_verify_send_buffer(&raw_socket, send_buffer_size);
       raw_socket.bind(&SockAddr::from(saddr))?;

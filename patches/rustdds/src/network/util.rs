@@ -220,6 +220,12 @@ fn get_local_unicast_locators_inner(
     .collect()
 }
 
+/// Whether `only_networks` restricts the participant to loopback addresses: its sockets
+/// then bind to loopback (or the multicast group) instead of every interface.
+pub fn loopback_only(only_networks: Option<&[IpAddr]>) -> bool {
+  only_networks.is_some_and(|nets| !nets.is_empty() && nets.iter().all(IpAddr::is_loopback))
+}
+
 /// Enumerates local interfaces that we may use for multicasting.
 ///
 /// The result of this function is used to set up senders and listeners.
