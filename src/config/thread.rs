@@ -8,6 +8,8 @@
 
 use super::validate::Problem;
 use super::Scene;
+use crate::mpm::backend::BackendChoice;
+use crate::mpm::Method;
 use crate::rod::solver::RodSolverSettings;
 use crate::rod::ThreadMaterial;
 use serde::{Deserialize, Serialize};
@@ -67,6 +69,13 @@ pub struct Thread {
     /// Coulomb friction coefficient of the thread on itself.
     #[serde(default = "default_self_friction")]
     pub self_friction: f64,
+    /// Coulomb friction coefficient of tissue sliding along the thread (see
+    /// [`crate::mpm::cpu::thread_contact`]).
+    #[serde(default = "default_tissue_friction")]
+    pub tissue_friction: f64,
+    /// Fraction of the tissue's slip along the thread removed per substep (seed 002's drag).
+    #[serde(default)]
+    pub tissue_drag: f64,
     /// Solver substeps per frame.
     #[serde(default = "default_substeps")]
     pub substeps: u32,
@@ -145,6 +154,9 @@ fn default_self_contact() -> bool {
 fn default_self_friction() -> f64 {
     0.2
 }
+fn default_tissue_friction() -> f64 {
+    0.2
+}
 fn default_substeps() -> u32 {
     RodSolverSettings::default().substeps
 }
@@ -171,6 +183,8 @@ impl Thread {
             friction: default_friction(),
             self_contact: default_self_contact(),
             self_friction: default_self_friction(),
+            tissue_friction: default_tissue_friction(),
+            tissue_drag: 0.0,
             substeps: default_substeps(),
             iterations: default_iterations(),
         }
@@ -293,6 +307,26 @@ pub(super) fn validate(
         }
     };
     let within = |v: f64, (lo, hi): (f64, f64)| v.is_finite() && v >= lo && v <= hi;
+    if !scene.threads.is_empty() && !scene.tissues.is_empty() {
+        // Threads in tissue are contact geometry on the explicit CPU grid update only
+        // (crate::mpm::cpu::thread_contact).
+        let method = scene.solver.method;
+        require(
+            matches!(method, Method::MlsMpm | Method::PicMpm),
+            "solver.method".into(),
+            format!("{method:?}"),
+            "mls_mpm or pic_mpm: a thread in tissue is contact geometry of the explicit \
+             update-Lagrangian grid update only"
+                .into(),
+        );
+        let backend = scene.solver.backend;
+        require(
+            backend != BackendChoice::Gpu,
+            "solver.backend".into(),
+            format!("{backend:?}"),
+            "cpu or auto: the GPU backend has no thread-in-tissue contact".into(),
+        );
+    }
     for (i, t) in scene.threads.iter().enumerate() {
         let key = |k: &str| format!("thread[{i}] ({}).{k}", t.name);
         if scene.threads[..i].iter().any(|o| o.name == t.name) {
@@ -365,7 +399,17 @@ pub(super) fn validate(
                 validate_polyline(t, polyline, inside, region, &key, &mut require)
             }
         }
-        for (k, v) in [("friction", t.friction), ("self_friction", t.self_friction)] {
+        require(
+            within(t.tissue_drag, (0.0, 1.0)),
+            key("tissue_drag"),
+            format!("{:?}", t.tissue_drag),
+            "0 ≤ value ≤ 1 (fraction of the slip removed per substep)".into(),
+        );
+        for (k, v) in [
+            ("friction", t.friction),
+            ("self_friction", t.self_friction),
+            ("tissue_friction", t.tissue_friction),
+        ] {
             require(
                 within(v, (0.0, 10.0)),
                 key(k),

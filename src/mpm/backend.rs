@@ -97,6 +97,15 @@ impl Backend {
         }
     }
 
+    /// The threads the grid touches (see [`super::cpu::thread_contact`]): the CPU backend's,
+    /// `None` on the GPU (which refuses a thread in tissue).
+    pub fn thread_contact_mut(&mut self) -> Option<&mut super::cpu::thread_contact::ThreadContact> {
+        match self {
+            Backend::Cpu(c) => Some(&mut c.solver.thread_contact),
+            Backend::Gpu(_) => None,
+        }
+    }
+
     /// Completes the frame `begin_frame` started (the same plan is passed to both).
     pub fn finish_frame(&mut self, plan: &FramePlan) -> FrameStats {
         match self {

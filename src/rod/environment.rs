@@ -14,6 +14,11 @@
 //!   attached again.
 //! - `walls`: an axis-aligned box (lower and upper corner) the centreline points stay
 //!   inside, such as a scene's domain less its wall cells and the thread radius.
+//! - `point_forces`: a force on each point (N, one per point; empty for none) held constant
+//!   over the frame and added to the rod's own `external_forces` in every substep's
+//!   prediction: the tissue's reaction to the thread (see
+//!   [`crate::mpm::cpu::thread_contact`]), the momentum the grid gave the thread over the
+//!   frame divided by the frame's length.
 //! - `self_collision`: segment–segment contact of the thread with itself (see
 //!   [`super::self_contact`]), with friction `self_friction`.
 //!
@@ -78,6 +83,8 @@ pub struct RodEnvironment<'a> {
     pub attachments: &'a [RodAttachment],
     /// Lower and upper corner of the box the centreline stays inside, m (`None`: unbounded).
     pub walls: Option<(Vec3, Vec3)>,
+    /// A force on each point over the whole frame, N (empty: none; else one per point).
+    pub point_forces: &'a [Vec3],
     /// Whether the thread collides with itself.
     pub self_collision: bool,
     /// Coulomb coefficient of thread on thread.

@@ -172,7 +172,7 @@ impl RodSolver {
                     .iter()
                     .map(|c| PlacedCollider::new(c, s0, s1, rod.material.radius)),
             );
-            self.predict(rod, h);
+            self.predict(rod, h, env.point_forces);
             for a in env.attachments.iter().filter(|a| a.point < count) {
                 rod.points[a.point] = a.from.lerp(&a.to, s1 as f32);
             }
@@ -382,13 +382,17 @@ impl RodSolver {
         }
     }
 
-    fn predict(&mut self, rod: &mut Rod, h: f32) {
+    /// Moves the points by their velocities after gravity, the rod's `external_forces` and
+    /// the frame's `point_forces` (empty: none) act over `h`.
+    fn predict(&mut self, rod: &mut Rod, h: f32, point_forces: &[Vec3]) {
         self.prev_points.clone_from(&rod.points);
         self.prev_frames.clone_from(&rod.frames);
         for i in 0..rod.points.len() {
             let w = rod.inv_mass[i];
             if w > 0.0 {
-                rod.velocities[i] += (self.gravity + rod.external_forces[i] * w) * h;
+                let force =
+                    rod.external_forces[i] + point_forces.get(i).copied().unwrap_or_default();
+                rod.velocities[i] += (self.gravity + force * w) * h;
                 rod.points[i] += rod.velocities[i] * h;
             }
         }

@@ -202,7 +202,12 @@ impl World {
             split,
         };
         // A scene of threads alone has no tissue to step: its (empty) grid stays on the CPU.
+        // Threads in tissue are contact geometry on the CPU's grid only (`check` refuses
+        // `backend = "gpu"` with them; `auto` takes the CPU).
         let gpu_context = if setup.particles.is_empty() {
+            None
+        } else if !scene.threads.is_empty() && scene.solver.backend == BackendChoice::Auto {
+            tracing::info!("backend: cpu (auto: the GPU backend has no thread-in-tissue contact)");
             None
         } else {
             match gpu::adapter::select(scene.solver.backend)? {
@@ -282,6 +287,12 @@ impl World {
     /// The suture threads, scene order.
     pub fn threads(&self) -> &[ThreadBody] {
         &self.threads
+    }
+
+    /// The suture threads, mutably (to move their held ends, see
+    /// [`ThreadBody::move_anchor`]).
+    pub fn threads_mut(&mut self) -> &mut [ThreadBody] {
+        &mut self.threads
     }
 
     /// The solver backend stepping the tissue.
@@ -477,6 +488,7 @@ impl World {
             return;
         }
         let planned = self.plan_frame(t_start, frame_dt);
+        self.load_thread_proxies();
         let plan = planned.plan(self.params.gravity, self.tools.len(), &self.kinematics);
         self.backend.begin_frame(&plan);
         self.in_flight = Some(InFlight::Stepped(planned));
@@ -501,10 +513,47 @@ impl World {
             // grows in heap blocks (an allocation every few dozen calls from outside the pool).
             InFlight::Stepped(planned) => rayon::scope(|_| self.finish_stepped(planned)),
         };
-        if report.is_ok() {
+        if let Ok(r) = &report {
+            let stepped = r.substeps > 0 && r.tissue_reset.is_none();
+            self.hand_tissue_impulses(stepped);
             self.step_threads(self.frame_start, self.time);
         }
         report
+    }
+
+    /// Loads the threads into the grid's contact (see [`crate::mpm::cpu::thread_contact`])
+    /// as they start the frame.
+    fn load_thread_proxies(&mut self) {
+        if self.threads.is_empty() {
+            return;
+        }
+        let Some(contact) = self.backend.thread_contact_mut() else {
+            return;
+        };
+        contact
+            .threads
+            .resize_with(self.threads.len(), Default::default);
+        for (thread, proxy) in self.threads.iter().zip(&mut contact.threads) {
+            thread.load_proxy(proxy);
+        }
+        contact.grid_loss = Vector3::zeros();
+        contact.contacts = 0;
+    }
+
+    /// Gives each thread the momentum the grid gave it over the frame (`stepped`: the tissue
+    /// stepped it; otherwise none), as a force over its frame solve.
+    fn hand_tissue_impulses(&mut self, stepped: bool) {
+        let elapsed = self.time - self.frame_start;
+        let contact = if stepped && elapsed > 0.0 {
+            self.backend.thread_contact_mut()
+        } else {
+            None
+        };
+        let proxies = contact.map_or(&[][..], |c| &c.threads[..]);
+        for (i, thread) in self.threads.iter_mut().enumerate() {
+            let impulse = proxies.get(i).map(|p| &p.impulse[..]);
+            thread.receive_tissue_impulse(impulse, elapsed.max(1e-12));
+        }
     }
 
     /// Advances every thread over [t_start, t_end] with the grippers as they move then.
@@ -536,6 +585,11 @@ impl World {
     /// The report of a frame skipped because the tissue sleeps and no tool can reach it,
     /// or `None` (waking the tissue) when one can.
     fn skip_sleeping_frame(&mut self, t_start: f64, t_end: f64) -> Option<FrameReport> {
+        if !self.threads.is_empty() {
+            // A thread may rest on or pass through the tissue: it holds it awake.
+            self.sleep.wake();
+            return None;
+        }
         let tissue = self.sleep.tissue_box()?;
         let dx = self.params.dx as f32;
         if self

@@ -58,6 +58,12 @@ impl Binning {
         self.order.resize(particles, 0);
     }
 
+    /// Whether block `b` is among this substep's `touched` blocks (its nodes hold this
+    /// substep's P2G; other blocks hold stale values).
+    pub fn is_touched(&self, b: usize) -> bool {
+        self.touched_stamp[b] == self.generation
+    }
+
     /// Groups particles by `key` (already filled by the caller) and lists touched blocks.
     pub fn rebuild(&mut self, layout: &GridLayout) {
         self.generation = self.generation.wrapping_add(1);

@@ -25,6 +25,7 @@ pub mod captured;
 pub mod implicit;
 mod node_contact;
 pub mod pbmpm;
+pub mod thread_contact;
 pub mod tlmpm;
 
 use super::grid::{Boundary, GridLayout, Node, NODES_PER_BLOCK};
@@ -83,6 +84,9 @@ pub struct CpuSolver {
     captured: captured::Captured,
     /// Total Lagrangian MPM's rest configuration, built on its first substep.
     total_lagrangian: tlmpm::TotalLagrangian,
+    /// Suture threads in the tissue (see [`thread_contact`]); the world loads them each
+    /// frame and reads their impulses back.
+    pub thread_contact: thread_contact::ThreadContact,
 }
 
 /// A raw pointer shared across rayon tasks that write provably disjoint elements.
@@ -230,6 +234,7 @@ impl CpuSolver {
             implicit_work: implicit::Workspace::default(),
             captured: captured::Captured::default(),
             total_lagrangian: tlmpm::TotalLagrangian::default(),
+            thread_contact: thread_contact::ThreadContact::default(),
         }
     }
 
@@ -288,6 +293,15 @@ impl CpuSolver {
         let stress_scale = -input.dt * 4.0 * self.layout.inv_dx * self.layout.inv_dx;
         self.particle_to_grid(Some(stress_scale), self.method.affine_transfer());
         let tool_impulses = self.update_grid(input);
+        if !self.thread_contact.is_empty() {
+            self.thread_contact.apply(
+                &self.layout,
+                &self.boundary,
+                &mut self.grid,
+                &self.bins,
+                input.dt,
+            );
+        }
         let (max_speed, clamped_particles, guard) = self.grid_to_particle(input.dt, true);
         SubstepStats {
             tool_impulses,

@@ -14,6 +14,13 @@
 //!   at the frame's start and end; friction from its `contact`, 1.0 for `sticky`), the grasped
 //!   and pinned points as attachments, and self-contact. The thread is stepped also while the
 //!   tissue sleeps, and a scene without tissue skips the grid and runs on the CPU.
+//! - **Tissue** ([`crate::mpm::cpu::thread_contact`]): in a scene with tissue every segment is
+//!   contact geometry on the MPM grid, two-way. Over the tissue's substeps the grid sees the
+//!   thread as it was at the frame's start, moving with its velocity and its last frame's
+//!   acceleration; nodes near a segment keep, relative to it, only their velocity along it
+//!   (Coulomb `tissue_friction`, `tissue_drag`), and the momentum they lose comes to the
+//!   rod's points as a force over its frame solve. The tissue does not sleep while a scene
+//!   has threads. Explicit MLS-MPM or PIC on the CPU only (`check` refuses the others).
 //! - **Grasping** ([`grasp`]): a gripper whose jaw servo presses the jaws shut (as for the
 //!   tissue grip) with the tips no further apart than the thread's diameter catches every
 //!   thread point inside the closed jaws' volume; each frame those points are attachments
@@ -82,6 +89,7 @@ pub mod grasp;
 use crate::config::thread::RestShape;
 use crate::config::{Scene, Thread};
 use crate::math::Vec3;
+use crate::mpm::cpu::thread_contact::ThreadProxy;
 use crate::mpm::grid::WALL_NODES;
 use crate::rod::{Rod, RodAttachment, RodCollider, RodEnvironment, RodSolver};
 use crate::tools::ContactModel;
@@ -118,8 +126,8 @@ pub struct ThreadBody {
     solver: RodSolver,
     /// Points the scene holds where they start.
     pinned: Vec<bool>,
-    /// The scene's held points and where they are held.
-    anchors: Vec<(usize, Vec3)>,
+    /// The scene's held points, where they are held, and where they are held next.
+    anchors: Vec<(usize, Vec3, Vec3)>,
     /// Height of the table (m) and the Coulomb coefficient against it.
     table: Option<(f32, f32)>,
     /// The box the centreline stays inside: the domain less its wall cells and the radius.
@@ -132,6 +140,18 @@ pub struct ThreadBody {
     /// This frame's colliders: every tool, a holding gripper sparing the points it holds;
     /// reused.
     colliders: Vec<RodCollider>,
+    /// Coulomb coefficient and drag of tissue sliding along the thread.
+    tissue_friction: f32,
+    tissue_drag: f32,
+    /// The tissue's force on each point over the coming frame solve, N.
+    tissue_force: Vec<Vec3>,
+    /// Each point's acceleration over the last frame less the tissue's force, m/s² (the
+    /// proxy's drive, see [`crate::mpm::cpu::thread_contact`]).
+    drive: Vec<Vec3>,
+    /// Points held (grasped or pinned) in the last frame.
+    held: Vec<bool>,
+    /// Velocities at the start of the frame being solved; reused.
+    start_velocities: Vec<Vec3>,
 }
 
 impl ThreadBody {
@@ -155,7 +175,7 @@ impl ThreadBody {
         for (i, held) in [(0, config.pinned.start()), (last, config.pinned.end())] {
             if held {
                 pinned[i] = true;
-                anchors.push((i, rod.points[i]));
+                anchors.push((i, rod.points[i], rod.points[i]));
             }
         }
         let d = &scene.domain;
@@ -169,7 +189,6 @@ impl ThreadBody {
             name: config.name.clone(),
             rod,
             solver,
-            pinned,
             anchors,
             table: scene
                 .table
@@ -181,6 +200,13 @@ impl ThreadBody {
             grasps: Grasps::default(),
             attachments: Vec::new(),
             colliders: Vec::new(),
+            tissue_friction: config.tissue_friction as f32,
+            tissue_drag: config.tissue_drag as f32,
+            tissue_force: vec![Vec3::zeros(); pinned.len()],
+            drive: vec![gravity; pinned.len()],
+            held: pinned.clone(),
+            start_velocities: Vec::new(),
+            pinned,
         }
     }
 
@@ -196,11 +222,14 @@ impl ThreadBody {
         self.attachments.clear();
         self.grasps.attachments(grippers, &mut self.attachments);
         self.attachments
-            .extend(self.anchors.iter().map(|&(point, at)| RodAttachment {
+            .extend(self.anchors.iter().map(|&(point, at, next)| RodAttachment {
                 point,
                 from: at,
-                to: at,
+                to: next,
             }));
+        for (_, at, next) in &mut self.anchors {
+            *at = *next;
+        }
         // A gripper holding the thread holds the points between its jaws: those and their
         // neighbours (pressed against the jaws' sides and faces, within a jaw thickness along
         // the thread) move with it and are spared its collision, which would push them out
@@ -225,10 +254,85 @@ impl ThreadBody {
             colliders: &self.colliders,
             attachments: &self.attachments,
             walls: Some(self.walls),
+            point_forces: &self.tissue_force,
             self_collision: self.self_contact,
             self_friction: self.self_friction,
         };
+        self.start_velocities.clone_from(&self.rod.velocities);
         self.solver.step_frame_in(&mut self.rod, dt as f32, &env);
+        let inv_dt = 1.0 / dt as f32;
+        let rod = &self.rod;
+        for (i, drive) in self.drive.iter_mut().enumerate() {
+            *drive = (rod.velocities[i] - self.start_velocities[i]) * inv_dt
+                - self.tissue_force[i] * rod.inv_mass[i];
+        }
+        self.held.copy_from_slice(&self.pinned);
+        for a in &self.attachments {
+            if let Some(h) = self.held.get_mut(a.point) {
+                *h = true;
+            }
+        }
+    }
+
+    /// Loads `proxy` with the thread as the grid sees it over the coming frame (see
+    /// [`crate::mpm::cpu::thread_contact`]): its points and velocities now, its last frame's
+    /// acceleration less the tissue's share, the points held in the last frame as infinitely
+    /// heavy, and no impulse yet.
+    pub fn load_proxy(&self, proxy: &mut ThreadProxy) {
+        let rod = &self.rod;
+        proxy.points.clone_from(&rod.points);
+        proxy.velocities.clone_from(&rod.velocities);
+        proxy.drive.clone_from(&self.drive);
+        proxy.inv_mass.clear();
+        proxy.inv_mass.extend(
+            rod.inv_mass
+                .iter()
+                .zip(&self.held)
+                .map(|(&w, &held)| if held { 0.0 } else { w }),
+        );
+        proxy.radius = rod.material.radius;
+        proxy.friction = self.tissue_friction;
+        proxy.drag = self.tissue_drag;
+        proxy.impulse.clear();
+        proxy
+            .impulse
+            .resize(rod.points.len(), nalgebra::Vector3::zeros());
+    }
+
+    /// The momentum each point received from the tissue over the last `elapsed` seconds, N·s
+    /// (`None`: the tissue did not step): applied as a constant force over the next frame
+    /// solve.
+    pub fn receive_tissue_impulse(
+        &mut self,
+        impulse: Option<&[nalgebra::Vector3<f64>]>,
+        elapsed: f64,
+    ) {
+        self.tissue_force.fill(Vec3::zeros());
+        for (f, j) in self
+            .tissue_force
+            .iter_mut()
+            .zip(impulse.unwrap_or_default())
+        {
+            *f = (j / elapsed).cast::<f32>();
+        }
+    }
+
+    /// The tissue's force on each point over the latest frame solve (or the coming one,
+    /// between [`ThreadBody::receive_tissue_impulse`] and the solve), N.
+    pub fn tissue_force(&self) -> &[Vec3] {
+        &self.tissue_force
+    }
+
+    /// Moves pinned point `point` linearly to `to` over the next frame (it stays there
+    /// afterwards); false when the point is not pinned.
+    pub fn move_anchor(&mut self, point: usize, to: Vec3) -> bool {
+        match self.anchors.iter_mut().find(|a| a.0 == point) {
+            Some(anchor) => {
+                anchor.2 = to;
+                true
+            }
+            None => false,
+        }
     }
 
     /// How many neighbours on each side of a grasp are spared its gripper's collision: the

@@ -1,0 +1,280 @@
+//! A suture thread as two-way contact geometry on the MPM grid (`mpm::cpu::thread_contact`):
+//! a thread lying on tissue rests on it; a thread through a block pulled sideways drags the
+//! tissue and its tension rises, pulled along itself it slides through; the momentum the grid
+//! loses is what the rod receives. Small scenes (dx 4 mm, a 6–7 cm thread), seconds each.
+//! `cargo test --release --test thread_tissue -- --nocapture` prints the figures.
+
+use dvrk_tissue_sim::config;
+use dvrk_tissue_sim::world::World;
+use nalgebra::Vector3;
+use std::path::Path;
+
+/// Top of the tissue block in both scenes, m.
+const TISSUE_TOP: f64 = 0.03;
+const DX: f64 = 0.004;
+
+fn scene(thread: &str, tissue_size: [f64; 3]) -> config::Scene {
+    let text = format!(
+        r#"
+name = "thread-tissue"
+frame_rate_hz = 60
+[domain]
+origin = [-0.048, -0.04, 0.0]
+size = [0.096, 0.08, 0.06]
+dx = {DX}
+[solver]
+method = "mls_mpm"
+backend = "cpu"
+max_substeps_per_frame = 200
+[table]
+height = 0.01
+hold = "bonded"
+[[tissue]]
+center = [0.0, 0.0, 0.02]
+size = [{}, {}, {}]
+particles_per_axis = 2
+[tissue.material]
+youngs_modulus = 3000.0
+poisson_ratio = 0.3
+density = 1000.0
+damping = 5.0
+[[thread]]
+{thread}
+"#,
+        tissue_size[0], tissue_size[1], tissue_size[2]
+    );
+    config::from_str(&text, Path::new("thread_tissue.toml")).expect("valid scene")
+}
+
+fn tissue_centre(world: &World) -> Vector3<f64> {
+    let x = &world.particles().x;
+    x.iter().map(|p| p.cast::<f64>()).sum::<Vector3<f64>>() / x.len() as f64
+}
+
+fn finite_thread(world: &World) -> bool {
+    world.threads()[0]
+        .rod
+        .points
+        .iter()
+        .all(|p| p.iter().all(|c| c.is_finite()))
+}
+
+#[test]
+fn thread_laid_on_tissue_rests_on_it() {
+    // 6 cm of 3-0 nylon 4 mm above the top of a 5 × 5 × 2 cm block; without contact it would
+    // fall through to the table 2 cm lower.
+    let scene = scene(
+        "start = [-0.03, 0.0, 0.034]\nlength = 0.06\nsegments = 30",
+        [0.05, 0.05, 0.02],
+    );
+    let mut world = World::new(&scene);
+    let radius = world.threads()[0].rod.material.radius as f64;
+    let mut lowest = f64::MAX;
+    for _ in 0..60 {
+        world.step_frame().expect("frame");
+        assert!(finite_thread(&world), "the thread stays finite");
+        let z = world.threads()[0]
+            .rod
+            .points
+            .iter()
+            .map(|p| p.z as f64)
+            .fold(f64::MAX, f64::min);
+        lowest = lowest.min(z);
+    }
+    let points = &world.threads()[0].rod.points;
+    let mean_z = points.iter().map(|p| p.z as f64).sum::<f64>() / points.len() as f64;
+    let band = (TISSUE_TOP - DX, TISSUE_TOP + DX + radius);
+    println!(
+        "thread on tissue after 1 s: mean height {:.2} mm, lowest over the run {:.2} mm, \
+         band {:.2}–{:.2} mm (tissue top {:.1} mm)",
+        mean_z * 1e3,
+        lowest * 1e3,
+        band.0 * 1e3,
+        band.1 * 1e3,
+        TISSUE_TOP * 1e3
+    );
+    assert!(
+        lowest >= band.0 && mean_z <= band.1,
+        "the thread rests on the tissue: mean height {:.2} mm, lowest {:.2} mm, outside \
+         {:.2}–{:.2} mm",
+        mean_z * 1e3,
+        lowest * 1e3,
+        band.0 * 1e3,
+        band.1 * 1e3
+    );
+}
+
+/// What pulling both pinned ends of a thread through the block by `pull` over 0.5 s did:
+/// the tissue centre's displacement (m), the largest tension (N), the largest total force
+/// of the tissue on the thread (N), and the thread's motion (m).
+struct Pull {
+    tissue_moved: Vector3<f64>,
+    peak_tension: f64,
+    peak_force: f64,
+}
+
+fn pull_through(pull: Vector3<f32>) -> Pull {
+    // 7 cm along x through the middle of a 4 × 3 × 2 cm block, both ends 15 mm outside it.
+    let scene = scene(
+        "start = [-0.035, 0.0, 0.02]\nlength = 0.07\nsegments = 35\npinned = \"both\"",
+        [0.04, 0.03, 0.02],
+    );
+    let mut world = World::new(&scene);
+    // Settle under gravity first, then pull over 30 frames.
+    for _ in 0..10 {
+        world.step_frame().expect("frame");
+    }
+    let start = tissue_centre(&world);
+    let last = world.threads()[0].rod.points.len() - 1;
+    let ends = [
+        world.threads()[0].rod.points[0],
+        world.threads()[0].rod.points[last],
+    ];
+    let (mut peak_tension, mut peak_force) = (0.0f64, 0.0f64);
+    for frame in 1..=30 {
+        let s = frame as f32 / 30.0;
+        let thread = &mut world.threads_mut()[0];
+        assert!(thread.move_anchor(0, ends[0] + pull * s));
+        assert!(thread.move_anchor(last, ends[1] + pull * s));
+        world.step_frame().expect("frame");
+        assert!(finite_thread(&world), "the thread stays finite");
+        let thread = &world.threads()[0];
+        peak_tension = thread
+            .rod
+            .tension
+            .iter()
+            .map(|&t| t as f64)
+            .fold(peak_tension, f64::max);
+        let force: Vector3<f64> = thread.tissue_force().iter().map(|f| f.cast()).sum();
+        peak_force = peak_force.max(force.norm());
+    }
+    Pull {
+        tissue_moved: tissue_centre(&world) - start,
+        peak_tension,
+        peak_force,
+    }
+}
+
+#[test]
+fn thread_pulled_along_itself_slides_through_and_moves_the_tissue_little() {
+    let along = pull_through(Vector3::new(0.01, 0.0, 0.0));
+    let sideways = pull_through(Vector3::new(0.0, 0.01, 0.0));
+    let report = |what: &str, p: &Pull| {
+        format!(
+            "{what}: tissue centre moved ({:.3}, {:.3}, {:.3}) mm, peak tissue force on the \
+             thread {:.3} mN, peak tension {:.2} mN",
+            p.tissue_moved.x * 1e3,
+            p.tissue_moved.y * 1e3,
+            p.tissue_moved.z * 1e3,
+            p.peak_force * 1e3,
+            p.peak_tension * 1e3
+        )
+    };
+    let (a, b) = (
+        report("along 10 mm", &along),
+        report("sideways 10 mm", &sideways),
+    );
+    println!("{a}\n{b}");
+    // Along its axis the thread slides through: the tissue moves along it by less than a
+    // tenth of a millimetre (its settling under gravity, 0.3 mm down, is the same either way).
+    assert!(
+        along.tissue_moved.x.abs() < 1e-4 && along.peak_force < 1e-3,
+        "pulled along itself, the thread slides through the tissue: {a}"
+    );
+    assert!(
+        sideways.peak_force.is_finite() && sideways.peak_tension.is_finite(),
+        "pulled sideways, the coupling stays finite: {b}"
+    );
+}
+
+#[test]
+fn momentum_the_grid_loses_is_what_the_rod_receives() {
+    let scene = scene(
+        "start = [-0.035, 0.0, 0.02]\nlength = 0.07\nsegments = 35\npinned = \"both\"",
+        [0.04, 0.03, 0.02],
+    );
+    let mut world = World::new(&scene);
+    let last = world.threads()[0].rod.points.len() - 1;
+    let ends = [
+        world.threads()[0].rod.points[0],
+        world.threads()[0].rod.points[last],
+    ];
+    let mut worst: f64 = 0.0;
+    for frame in 1..=10 {
+        let to = Vector3::new(0.0, 0.001 * frame as f32, 0.0);
+        let thread = &mut world.threads_mut()[0];
+        thread.move_anchor(0, ends[0] + to);
+        thread.move_anchor(last, ends[1] + to);
+        let t0 = world.time();
+        world.step_frame().expect("frame");
+        let elapsed = world.time() - t0;
+        let contact = world
+            .backend_mut()
+            .thread_contact_mut()
+            .expect("CPU backend");
+        let lost = contact.grid_loss;
+        let contacts = contact.contacts;
+        let impulses: Vector3<f64> = contact.threads[0].impulse.iter().sum();
+        let received: Vector3<f64> = world.threads()[0]
+            .tissue_force()
+            .iter()
+            .map(|f| f.cast::<f64>() * elapsed)
+            .sum();
+        assert!(contacts > 0, "frame {frame}: the thread touches the tissue");
+        assert!(lost.norm() > 0.0, "frame {frame}: the grid loses momentum");
+        let split = (impulses - lost).norm() / lost.norm();
+        let applied = (received - lost).norm() / lost.norm();
+        assert!(
+            split < 1e-9 && applied < 1e-5,
+            "frame {frame}: grid lost {lost:?} N·s, the points' impulses add to {impulses:?} \
+             (relative {split:.1e}), the rod received {received:?} (relative {applied:.1e})"
+        );
+        worst = worst.max(applied);
+    }
+    println!("momentum: the rod received what the grid lost to a relative {worst:.1e}");
+}
+
+#[test]
+fn check_refuses_a_thread_in_tissue_on_other_methods_and_the_gpu() {
+    let base = |solver: &str| {
+        format!(
+            r#"
+[domain]
+origin = [-0.048, -0.04, 0.0]
+size = [0.096, 0.08, 0.06]
+dx = 0.004
+[solver]
+{solver}
+[[tissue]]
+center = [0.0, 0.0, 0.02]
+size = [0.04, 0.03, 0.02]
+particles_per_axis = 2
+[tissue.material]
+youngs_modulus = 3000.0
+poisson_ratio = 0.3
+density = 1000.0
+damping = 5.0
+[[thread]]
+start = [-0.035, 0.0, 0.02]
+length = 0.07
+"#
+        )
+    };
+    for (solver, key) in [
+        ("method = \"pb_mpm\"", "solver.method"),
+        ("method = \"tl_mpm\"", "solver.method"),
+        ("method = \"implicit\"", "solver.method"),
+        ("backend = \"gpu\"", "solver.backend"),
+    ] {
+        let err = config::from_str(&base(solver), Path::new("t.toml"))
+            .err()
+            .unwrap_or_else(|| panic!("{solver} with a thread in tissue is refused"));
+        let text = err.to_string();
+        assert!(
+            text.contains(key) && text.contains("thread"),
+            "{solver}: the refusal names {key} and the thread: {text}"
+        );
+    }
+    config::from_str(&base("method = \"pic_mpm\""), Path::new("t.toml"))
+        .expect("pic_mpm takes a thread in tissue");
+}
