@@ -10,6 +10,7 @@ use dvrk_tissue_sim::math::{Mat3, Vec3};
 use dvrk_tissue_sim::mpm::backend::{BackendChoice, P2gAtomics};
 use dvrk_tissue_sim::mpm::gpu::adapter;
 use dvrk_tissue_sim::mpm::guard::GuardPolicy;
+use dvrk_tissue_sim::mpm::Method;
 use dvrk_tissue_sim::output::strain::StrainMeasure;
 use dvrk_tissue_sim::output::{CloudOptions, TissueCloud};
 use dvrk_tissue_sim::validation::analytic;
@@ -473,32 +474,33 @@ fn frame_in_flight_keeps_the_previous_frame_gpu() {
     }
 }
 
-fn pb_mpm(mut scene: Scene) -> Scene {
-    scene.solver.method = dvrk_tissue_sim::mpm::Method::PbMpm;
+/// `scene` solved with `method`.
+fn with_method(mut scene: Scene, method: Method) -> Scene {
+    scene.solver.method = method;
     scene
 }
 
-/// PB-MPM: the free block (gravity, translation, spin, squeeze) at the default 1/240 s
-/// substep, 5 iterations each.
-fn pb_free_block_agrees(p2g: P2gAtomics, tolerance: f32) {
+/// The free block (gravity, translation, spin, squeeze) with `method`, six frames (PB-MPM at
+/// its default 1/240 s substep, 5 iterations each).
+fn method_free_block_agrees(method: Method, p2g: P2gAtomics, tolerance: f32) {
     if !support::gpu::ready(p2g) {
         return;
     }
-    let (_, _, diff) = free_block_on_both(&pb_mpm(free_block_scene()), p2g);
-    println!("PB-MPM {p2g:?}: largest position difference after 6 frames {diff:e} m");
+    let (_, _, diff) = free_block_on_both(&with_method(free_block_scene(), method), p2g);
+    println!("{method:?} {p2g:?}: largest position difference after 6 frames {diff:e} m");
     assert!(diff < tolerance, "positions differ by {diff} m");
 }
 
 #[test]
 fn gpu_pb_mpm_free_block_agrees_with_cpu_f32_atomics() {
     // Measured 4.5e-8 m on llvmpipe.
-    pb_free_block_agrees(P2gAtomics::Float, 1e-6);
+    method_free_block_agrees(Method::PbMpm, P2gAtomics::Float, 1e-6);
 }
 
 #[test]
 fn gpu_pb_mpm_free_block_agrees_with_cpu_fixed_point() {
     // Measured 9.1e-7 m on llvmpipe.
-    pb_free_block_agrees(P2gAtomics::Fixed, 1e-5);
+    method_free_block_agrees(Method::PbMpm, P2gAtomics::Fixed, 1e-5);
 }
 
 /// PB-MPM: a block resting on a slab tool; the tool's wrench (impulses summed over the
@@ -507,33 +509,36 @@ fn pb_slab_agrees(p2g: P2gAtomics, position_tolerance: f32, force_tolerance: f64
     if !support::gpu::ready(p2g) {
         return;
     }
-    let scene = pb_mpm(scene(
-        "pb-slab",
-        60.0,
-        domain(
-            [-0.016, -0.016, 0.0],
-            [0.032, 0.032, 0.024],
-            0.001,
-            [0.0, 0.0, -9.81],
+    let scene = with_method(
+        scene(
+            "pb-slab",
+            60.0,
+            domain(
+                [-0.016, -0.016, 0.0],
+                [0.032, 0.032, 0.024],
+                0.001,
+                [0.0, 0.0, -9.81],
+            ),
+            None,
+            vec![tissue(
+                [0.0, 0.0, 0.005],
+                [0.010, 0.008, 0.006],
+                material(5000.0, 0.45, 1000.0, 2.0),
+            )],
+            vec![tool(
+                "slab",
+                dvrk_tissue_sim::tools::Shape::Box {
+                    half_extents: [0.012, 0.012, 0.002],
+                },
+                dvrk_tissue_sim::tools::ContactModel::Coulomb {
+                    friction: 0.5,
+                    drag: 0.0,
+                },
+                vec![key(0.0, [0.0, 0.0, 0.0], [0.0; 3], 0.0)],
+            )],
         ),
-        None,
-        vec![tissue(
-            [0.0, 0.0, 0.005],
-            [0.010, 0.008, 0.006],
-            material(5000.0, 0.45, 1000.0, 2.0),
-        )],
-        vec![tool(
-            "slab",
-            dvrk_tissue_sim::tools::Shape::Box {
-                half_extents: [0.012, 0.012, 0.002],
-            },
-            dvrk_tissue_sim::tools::ContactModel::Coulomb {
-                friction: 0.5,
-                drag: 0.0,
-            },
-            vec![key(0.0, [0.0, 0.0, 0.0], [0.0; 3], 0.0)],
-        )],
-    ));
+        Method::PbMpm,
+    );
     let mut cpu = on(&scene, BackendChoice::Cpu, p2g);
     let mut gpu = on(&scene, BackendChoice::Gpu, p2g);
     let mut worst_force: f64 = 0.0;
@@ -576,54 +581,28 @@ fn gpu_pb_mpm_slab_wrench_agrees_with_cpu_fixed_point() {
 }
 
 /// The PIC reference: the free block as above with PIC velocity transfer.
-fn pic_free_block_agrees(p2g: P2gAtomics, tolerance: f32) {
-    if !support::gpu::ready(p2g) {
-        return;
-    }
-    let mut scene = free_block_scene();
-    scene.solver.method = dvrk_tissue_sim::mpm::Method::PicMpm;
-    let (_, _, diff) = free_block_on_both(&scene, p2g);
-    println!("PIC {p2g:?}: largest position difference after 6 frames {diff:e} m");
-    assert!(diff < tolerance, "positions differ by {diff} m");
-}
-
 #[test]
 fn gpu_pic_free_block_agrees_with_cpu_f32_atomics() {
     // Measured 8.3e-8 m on llvmpipe.
-    pic_free_block_agrees(P2gAtomics::Float, 1e-6);
+    method_free_block_agrees(Method::PicMpm, P2gAtomics::Float, 1e-6);
 }
 
 #[test]
 fn gpu_pic_free_block_agrees_with_cpu_fixed_point() {
     // Measured 1.76e-6 m on llvmpipe.
-    pic_free_block_agrees(P2gAtomics::Fixed, 5e-6);
+    method_free_block_agrees(Method::PicMpm, P2gAtomics::Fixed, 5e-6);
 }
 
-/// Total Lagrangian MPM: `scene` with `method = "tl_mpm"`.
-fn tl_mpm(mut scene: Scene) -> Scene {
-    scene.solver.method = dvrk_tissue_sim::mpm::Method::TlMpm;
-    scene
-}
-
-/// Total Lagrangian MPM: the free block (gravity, translation, spin, squeeze), six frames.
-fn tl_free_block_agrees(p2g: P2gAtomics, tolerance: f32) {
-    if !support::gpu::ready(p2g) {
-        return;
-    }
-    let (_, _, diff) = free_block_on_both(&tl_mpm(free_block_scene()), p2g);
-    println!("TL {p2g:?}: largest position difference after 6 frames {diff:e} m");
-    assert!(diff < tolerance, "positions differ by {diff} m");
-}
-
+/// Total Lagrangian MPM: the free block.
 #[test]
 fn tl_free_block_agrees_with_cpu_f32_atomics() {
     // Measured on llvmpipe: 0.27 µm (f32), 0.45 µm (fixed point).
-    tl_free_block_agrees(P2gAtomics::Float, 1e-6);
+    method_free_block_agrees(Method::TlMpm, P2gAtomics::Float, 1e-6);
 }
 
 #[test]
 fn tl_free_block_agrees_with_cpu_fixed_point() {
-    tl_free_block_agrees(P2gAtomics::Fixed, 2e-6);
+    method_free_block_agrees(Method::TlMpm, P2gAtomics::Fixed, 2e-6);
 }
 
 /// The material grip, at dx = 2 mm to keep it short: jaws pressed closed on a block (they
@@ -634,9 +613,10 @@ fn tl_grip_lift_release_agrees(p2g: P2gAtomics, position_tolerance: f32) {
     if !support::gpu::ready(p2g) {
         return;
     }
-    let mut scene = tl_mpm(dvrk_tissue_sim::config::builders::grasp_scene(
-        0.05, 0.35, 0.65, 0.01,
-    ));
+    let mut scene = with_method(
+        dvrk_tissue_sim::config::builders::grasp_scene(0.05, 0.35, 0.65, 0.01),
+        Method::TlMpm,
+    );
     scene.domain.dx = 0.002;
     let (raised, rpy) = {
         let last = scene.tools[0].keyframes.last().unwrap();
