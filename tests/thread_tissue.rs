@@ -1,7 +1,8 @@
 //! A suture thread as two-way contact geometry on the MPM grid (`mpm::cpu::thread_contact`):
-//! a thread lying on tissue rests on it; a thread through a block pulled sideways drags the
-//! tissue and its tension rises, pulled along itself it slides through; the momentum the grid
-//! loses is what the rod receives. Small scenes (dx 4 mm, a 6–7 cm thread), seconds each.
+//! a thread lying on tissue rests on it; a thread through a block pulled along itself slides
+//! through and moves the tissue little, and pulled sideways the coupling stays finite (it
+//! does not drag the tissue yet: the limit `thread_contact`'s doc states); the momentum the
+//! grid loses is what the rod receives. Small scenes (dx 4 mm, a 6–7 cm thread), seconds each.
 //! `cargo test --release --test thread_tissue -- --nocapture` prints the figures.
 
 use dvrk_tissue_sim::config;
