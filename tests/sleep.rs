@@ -137,3 +137,68 @@ fn a_larger_domain_adds_no_grid_work() {
     );
     assert_eq!(small_blocks, large_blocks);
 }
+
+/// A thread hanging well above resting tissue lets it sleep; lowered onto it, the thread
+/// wakes the tissue before it can touch it, and every frame in which it could touch is
+/// stepped.
+#[test]
+fn a_thread_wakes_sleeping_tissue_before_it_touches() {
+    const TISSUE_TOP: f32 = 0.012;
+    const HANG: f32 = 0.026;
+    let mut scene = resting_then_probed(true);
+    scene.tools.clear();
+    let mut thread = dvrk_tissue_sim::config::Thread::nylon_3_0([-0.012, 0.0, HANG as f64]);
+    thread.length = 0.024;
+    thread.segments = 12;
+    thread.pinned = dvrk_tissue_sim::config::PinnedEnds::Both;
+    scene.threads.push(thread);
+    let mut world = World::new(&scene);
+    let mut asleep_hanging = 0;
+    for _ in 0..90 {
+        asleep_hanging += world.step_frame().unwrap().asleep as usize;
+    }
+    assert!(
+        asleep_hanging >= 20,
+        "a thread far above the tissue kept it awake: {asleep_hanging} of 90 frames asleep"
+    );
+
+    // Lower both held ends at 30 mm/s until the thread is 2 mm into the tissue.
+    let last = world.threads()[0].rod.points.len() - 1;
+    let ends = [
+        world.threads()[0].rod.points[0],
+        world.threads()[0].rod.points[last],
+    ];
+    let frame_dt = 1.0 / 60.0;
+    let step = 0.0005;
+    let (dx, radius) = (0.002, world.threads()[0].rod.material.radius);
+    let mut stepped_near = 0;
+    for frame in 1..=32 {
+        let lowest = world.threads()[0]
+            .rod
+            .points
+            .iter()
+            .map(|p| p.z)
+            .fold(f32::MAX, f32::min);
+        let down = nalgebra::Vector3::new(0.0, 0.0, -step * frame as f32);
+        let thread = &mut world.threads_mut()[0];
+        assert!(thread.move_anchor(0, ends[0] + down));
+        assert!(thread.move_anchor(last, ends[1] + down));
+        let report = world.step_frame().unwrap();
+        // Within reach of the tissue during this frame: its contact capsule (radius + dx)
+        // plus what the thread travels in the frame (30 mm/s, and its sag settling).
+        if lowest - TISSUE_TOP <= radius + dx + 2.0 * 0.03 * frame_dt {
+            assert!(
+                !report.asleep,
+                "frame {frame} skipped with the thread {:.2} mm above the tissue",
+                (lowest - TISSUE_TOP) * 1e3
+            );
+            stepped_near += 1;
+        }
+    }
+    assert!(stepped_near >= 5, "the thread never neared the tissue");
+    assert!(world.threads()[0]
+        .rod
+        .points
+        .iter()
+        .all(|p| p.iter().all(|c| c.is_finite())));
+}

@@ -585,17 +585,22 @@ impl World {
     /// The report of a frame skipped because the tissue sleeps and no tool can reach it,
     /// or `None` (waking the tissue) when one can.
     fn skip_sleeping_frame(&mut self, t_start: f64, t_end: f64) -> Option<FrameReport> {
-        if !self.threads.is_empty() {
-            // A thread may rest on or pass through the tissue: it holds it awake.
-            self.sleep.wake();
-            return None;
-        }
         let tissue = self.sleep.tissue_box()?;
         let dx = self.params.dx as f32;
+        let frame_dt = (t_end - t_start) as f32;
+        let gravity = self.params.gravity.norm();
+        // A thread reaches the grid within its contact capsule (`thread_contact`): one
+        // cell beyond its radius.
+        let thread_margin = crate::mpm::cpu::thread_contact::REACH_CELLS * dx;
         if self
             .tools
             .iter()
             .any(|t| t.reach_between(t_start, t_end, dx).intersects(&tissue))
+            || self.threads.iter().any(|thread| {
+                thread
+                    .reach_over(frame_dt, gravity, thread_margin)
+                    .intersects(&tissue)
+            })
         {
             self.sleep.wake();
             return None;

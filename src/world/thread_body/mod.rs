@@ -361,6 +361,27 @@ impl ThreadBody {
         crate::rod::knot::knot_determinant(&points)
     }
 
+    /// Box that every point of the thread's surface can reach over a frame of `dt` seconds
+    /// under `gravity`: its points and its scene anchors' targets, grown by the radius,
+    /// `margin`, and twice the distance its fastest point would cover (the factor covers a
+    /// pull that speeds the thread up within the frame; a point held by a gripper moves
+    /// with it, and the gripper's own reach is tested beside this one).
+    pub fn reach_over(&self, dt: f32, gravity: f32, margin: f32) -> crate::sleep::Aabb {
+        let points = crate::sleep::Aabb::of_points(&self.rod.points);
+        let reach = self
+            .anchors
+            .iter()
+            .fold(points, |b, (_, _, next)| b.including(next));
+        let speed = self
+            .rod
+            .velocities
+            .iter()
+            .map(|v| v.norm())
+            .fold(0.0, f32::max);
+        let travel = 2.0 * (speed + gravity * dt) * dt;
+        reach.grown(self.rod.material.radius + margin + travel)
+    }
+
     /// Points held by grippers now.
     pub fn grasped_points(&self) -> usize {
         self.grasps.held_points()
