@@ -7,7 +7,7 @@
 use super::meter::Meter;
 use crate::config::builders::*;
 use crate::config::Scene;
-use crate::mpm::Lame;
+use crate::mpm::{Lame, Method};
 use crate::tools::{ContactModel, Shape};
 use crate::world::World;
 
@@ -475,10 +475,11 @@ pub fn stretch_scene_with(cells_across: u32, stretch: f64, loading: Loading) -> 
     (scene, free, duration)
 }
 
-/// Stretches to `stretch`, lets the block settle, and compares the fixed grip's reaction
-/// force with the analytic uniaxial Neo-Hookean force P(s)·A₀.
-pub fn large_stretch(cells_across: u32, stretch: f64) -> StretchResult {
-    let (scene, _, _) = stretch_scene(cells_across, stretch);
+/// Stretches to `stretch` with `method`, lets the block settle, and compares the fixed
+/// grip's reaction force with the analytic uniaxial Neo-Hookean force P(s)·A₀.
+pub fn large_stretch(method: Method, cells_across: u32, stretch: f64) -> StretchResult {
+    let (mut scene, _, _) = stretch_scene(cells_across, stretch);
+    scene.solver.method = method;
     stretch_run(cells_across, stretch, &scene, &mut Meter::default())
 }
 

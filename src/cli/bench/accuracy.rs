@@ -1,8 +1,10 @@
-//! `bench accuracy`: the error of the scenes with analytic answers at two resolutions each.
+//! `bench accuracy`: the error of the scenes with analytic answers at two resolutions each,
+//! and the stretch past a cell per particle (2× and 3×) with both formulations.
 
+use dvrk_tissue_sim::mpm::Method;
 use dvrk_tissue_sim::validation::analytic::{hertz, large_stretch, vibrating_bar};
 
-/// Markdown table of all three scenes at two resolutions.
+/// Markdown table of all three scenes at two resolutions, then the large stretches.
 pub fn table() -> String {
     let mut out = String::from("| scene | resolution | particles / samples | simulated | analytic | relative error |\n|---|---|---|---|---|---|\n");
     for cells in [4.0, 6.0] {
@@ -26,10 +28,20 @@ pub fn table() -> String {
             100.0 * b.relative_error()
         );
     }
-    for cells in [4, 8] {
-        let s = large_stretch(cells, 1.3);
+    let stretches = [(1.3, Method::MlsMpm, 4), (1.3, Method::MlsMpm, 8)]
+        .into_iter()
+        .chain([2.0, 3.0].into_iter().flat_map(|stretch| {
+            [
+                (stretch, Method::MlsMpm, 4),
+                (stretch, Method::TlMpm, 4),
+                (stretch, Method::TlMpm, 8),
+            ]
+        }));
+    for (stretch, method, cells) in stretches {
+        let s = large_stretch(method, cells, stretch);
         out += &format!(
-            "| Neo-Hookean stretch 1.3× | h = {cells} dx | — | F = {:.5} N | {:.5} N | {:+.1}% |\n",
+            "| Neo-Hookean stretch {stretch}× ({}) | h = {cells} dx | — | F = {:.5} N | {:.5} N | {:+.1}% |\n",
+            method.key(),
             s.force,
             s.analytic,
             100.0 * s.relative_error()

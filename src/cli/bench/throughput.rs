@@ -30,10 +30,7 @@ impl ThroughputResult {
              |---|---|---|---|---|---|---|---|---|---|---|\n\
              | {} | {} | {} | {} | {}×{}×{} | {} | {} | {:.3} | {:.3} | {:.2} | {:.2} |\n",
             self.backend,
-            serde_json::to_value(self.method)
-                .ok()
-                .and_then(|v| v.as_str().map(str::to_owned))
-                .unwrap_or_default(),
+            self.method.key(),
             self.threads,
             self.particles,
             self.grid[0],
