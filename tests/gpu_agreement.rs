@@ -684,3 +684,33 @@ fn tl_grip_lift_release_agrees_with_cpu_f32_atomics() {
 fn tl_grip_lift_release_agrees_with_cpu_fixed_point() {
     tl_grip_lift_release_agrees(P2gAtomics::Fixed, 1e-5);
 }
+
+/// An explicit MLS-MPM or PIC substep records five compute dispatches (clear, P2G, grid
+/// update, G2P, and the impulse reduction fused with the next block list), counted as the
+/// frame records them; the frame adds its first block list and its end.
+#[test]
+fn gpu_explicit_substep_records_five_dispatches() {
+    if !support::gpu::ready(P2gAtomics::Auto) {
+        return;
+    }
+    for method in [Method::MlsMpm, Method::PicMpm] {
+        let mut world = on(
+            &with_method(free_block_scene(), method),
+            BackendChoice::Gpu,
+            P2gAtomics::Auto,
+        );
+        let report = world.step_frame().expect("free block steps");
+        let dvrk_tissue_sim::mpm::backend::Backend::Gpu(gpu) = world.backend() else {
+            unreachable!("asked for the GPU");
+        };
+        let count = gpu.dispatch_count();
+        println!("{method:?}: {count:?}");
+        assert_eq!(count.substeps, report.substeps);
+        assert_eq!(
+            count.in_substeps,
+            5 * count.substeps,
+            "{method:?}: {count:?}"
+        );
+        assert_eq!(count.frame, count.in_substeps + 4, "{method:?}: {count:?}");
+    }
+}

@@ -6,7 +6,8 @@
 
 use super::scaling::variants;
 use dvrk_tissue_sim::config::builders::seed000_scene;
-use dvrk_tissue_sim::mpm::backend::{BackendChoice, P2gAtomics};
+use dvrk_tissue_sim::mpm::backend::{Backend, BackendChoice, P2gAtomics};
+use dvrk_tissue_sim::mpm::gpu::DispatchCount;
 use dvrk_tissue_sim::output::{CloudOptions, TissueCloud};
 use dvrk_tissue_sim::world::World;
 use std::time::Instant;
@@ -23,6 +24,8 @@ pub struct Row {
     pub cloud_ms: f64,
     /// Pipelined: mean wall time of a frame plus the previous frame's cloud (ms).
     pub pipelined_ms: f64,
+    /// The GPU's compute dispatches of the last frame, as recorded (none on the CPU).
+    pub dispatches: Option<DispatchCount>,
 }
 
 fn world_on(variant: (BackendChoice, P2gAtomics)) -> Option<World> {
@@ -82,6 +85,10 @@ pub fn run(frames: u32) -> Vec<Row> {
             serial_ms: per_frame(serial_s),
             cloud_ms: per_frame(cloud_s),
             pipelined_ms: per_frame(pipelined_s),
+            dispatches: match serial.backend() {
+                Backend::Gpu(gpu) => Some(gpu.dispatch_count()),
+                Backend::Cpu(_) => None,
+            },
         };
         eprintln!(
             "{}: serial {:.2} ms/frame, pipelined {:.2} ms/frame",
@@ -94,11 +101,11 @@ pub fn run(frames: u32) -> Vec<Row> {
 
 pub fn table(rows: &[Row], adapter: &str) -> String {
     let mut out = format!(
-        "GPU adapter: {adapter}\n\n| backend | particles | frames | substeps/frame | serial ms/frame | of which cloud | pipelined ms/frame | saved |\n|---|---|---|---|---|---|---|---|\n"
+        "GPU adapter: {adapter}\n\n| backend | particles | frames | substeps/frame | serial ms/frame | of which cloud | pipelined ms/frame | saved | dispatches/substep | dispatches/frame |\n|---|---|---|---|---|---|---|---|---|---|\n"
     );
     for r in rows {
         out += &format!(
-            "| {} | {} | {} | {:.1} | {:.2} | {:.2} | {:.2} | {:+.1}% |\n",
+            "| {} | {} | {} | {:.1} | {:.2} | {:.2} | {:.2} | {:+.1}% | {} | {} |\n",
             r.backend,
             r.particles,
             r.frames,
@@ -107,6 +114,10 @@ pub fn table(rows: &[Row], adapter: &str) -> String {
             r.cloud_ms,
             r.pipelined_ms,
             100.0 * (r.serial_ms - r.pipelined_ms) / r.serial_ms,
+            r.dispatches
+                .map_or("—".to_string(), |d| format!("{:.1}", d.per_substep())),
+            r.dispatches
+                .map_or("—".to_string(), |d| d.frame.to_string()),
         );
     }
     out

@@ -233,6 +233,23 @@ fn grid_pos(x: vec3<f32>) -> vec3<f32> {
     return (x - sim.origin_dx.xyz) * sim.inv_dx;
 }
 
+// Flags the (up to 8) blocks the 3×3×3 stencil of a particle at grid position g covers,
+// for the next block list (sparse.wgsl's `compact`).
+fn mark_stencil_blocks(g: vec3<f32>) {
+    let s = make_stencil(g);
+    let hi_node = vec3<i32>(sim.nodes.xyz) - vec3<i32>(3);
+    let base = vec3<u32>(clamp(s.base, vec3<i32>(0), hi_node));
+    let lo = base / BLOCK;
+    let hi = (base + vec3<u32>(2u)) / BLOCK;
+    for (var bx = lo.x; bx <= hi.x; bx++) {
+        for (var by = lo.y; by <= hi.y; by++) {
+            for (var bz = lo.z; bz <= hi.z; bz++) {
+                atomicStore(&block_flags[block_index(vec3<u32>(bx, by, bz))], 1u);
+            }
+        }
+    }
+}
+
 // Velocity and affine velocity C gathered from the grid at grid position g (the first half
 // of cpu `grid_to_particle`); a cut particle reads its own velocity `own_v` at the nodes
 // across its crack (CPIC's ghost velocity).
@@ -643,4 +660,19 @@ fn grip_region(t: Tool, x: vec3<f32>) -> vec2<f32> {
         return vec2<f32>(sqrt(p.y * p.y + p.z * p.z), select(2.0, 1.0, p.y >= 0.0));
     }
     return outside;
+}
+
+// Word `word` of every tool's impulse: this substep's per-block contact sums (grid_update.wgsl)
+// added to the frame's; nothing once the guard tripped.
+fn reduce_impulse_word(word: u32) {
+    if (guard_tripped()) {
+        return;
+    }
+    let n = atomicLoad(&stats[S_CONTACT_BLOCKS]);
+    var sum = 0.0;
+    for (var i = 0u; i < n; i++) {
+        sum += partials[i * MAX_TOOLS * IMPULSE_WORDS + word];
+    }
+    let w = S_IMPULSE + word;
+    atomicStore(&stats[w], bitcast<u32>(bitcast<f32>(atomicLoad(&stats[w])) + sum));
 }

@@ -3,6 +3,7 @@
 //! [`crate::mpm::crack`]). A scene without one builds no pipeline and records nothing; its
 //! P2G and G2P see `CUTTING` false and skip the side tests.
 
+use super::pass::CountingPass;
 use super::prelude::StageBuilder;
 use super::Groups;
 
@@ -24,7 +25,7 @@ impl CrackStage {
 
     /// Records the marking of the particles the slicers' edges pass this substep (before
     /// its P2G), when the scene cuts.
-    pub fn record(&self, pass: &mut wgpu::ComputePass, groups: &Groups) {
+    pub fn record(&self, pass: &mut CountingPass, groups: &Groups) {
         if let Some(mark) = &self.mark {
             pass.set_pipeline(mark);
             pass.dispatch_workgroups(groups.particles, 1, 1);

@@ -1,6 +1,7 @@
 //! Host side of `g2p.wgsl`: the integrating G2P with the guard, and the end-of-frame
 //! stages (the guard event's details, the extract the readback copies).
 
+use super::pass::CountingPass;
 use super::prelude::StageBuilder;
 use super::Groups;
 
@@ -28,19 +29,19 @@ impl G2pStage {
         }
     }
 
-    pub fn record(&self, pass: &mut wgpu::ComputePass, groups: &Groups) {
+    pub fn record(&self, pass: &mut CountingPass, groups: &Groups) {
         pass.set_pipeline(&self.g2p);
         pass.dispatch_workgroups(groups.particles, 1, 1);
     }
 
     /// Records total Lagrangian MPM's G2P (a solver built for it).
-    pub fn record_tl(&self, pass: &mut wgpu::ComputePass, groups: &Groups) {
+    pub fn record_tl(&self, pass: &mut CountingPass, groups: &Groups) {
         pass.set_pipeline(self.g2p_tl.as_ref().expect("a total Lagrangian solver"));
         pass.dispatch_workgroups(groups.particles, 1, 1);
     }
 
     /// Records the end of a frame: the guard event's details, then the extract.
-    pub fn record_frame_end(&self, pass: &mut wgpu::ComputePass, groups: &Groups) {
+    pub fn record_frame_end(&self, pass: &mut CountingPass, groups: &Groups) {
         pass.set_pipeline(&self.finalize);
         pass.dispatch_workgroups(1, 1, 1);
         pass.set_pipeline(&self.extract);

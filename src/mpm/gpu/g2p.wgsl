@@ -1,6 +1,6 @@
 // G2P (cpu `grid_to_particle`): velocity and affine velocity from the grid, advection with
-// clamping to the domain, deformation-gradient update, damping, the guard, and a cut
-// particle's crack carried with the material.
+// clamping to the domain, deformation-gradient update, damping, the guard, a cut
+// particle's crack carried with the material, and the blocks its next stencil covers.
 
 var<workgroup> wg_max: atomic<u32>;
 var<workgroup> wg_clamped: atomic<u32>;
@@ -68,6 +68,8 @@ fn g2p_particle(p: u32) {
         return;
     }
     store_particle(p, g_new, v, c_new, f_new, speed);
+    // The next substep's block list (sparse.wgsl's `end_substep`) starts from these flags.
+    mark_stencil_blocks(g_new);
     if (is_cracked(crack)) {
         cracks[p] = vec4<f32>(advect_crack(crack, c_new, dt), 0.0);
     }

@@ -1,6 +1,7 @@
 //! Host side of `grid_update.wgsl`: the grid update over the active blocks (one workgroup
 //! a block) and the reduction of the blocks' contact sums into per-tool impulses.
 
+use super::pass::CountingPass;
 use super::prelude::StageBuilder;
 use super::{Groups, WG};
 use crate::mpm::grid::NODES_PER_BLOCK;
@@ -43,13 +44,13 @@ impl GridUpdateStage {
         }
     }
 
-    pub fn record(&self, pass: &mut wgpu::ComputePass, groups: &Groups) {
+    pub fn record(&self, pass: &mut CountingPass, groups: &Groups) {
         pass.set_pipeline(&self.grid_update);
         pass.dispatch_workgroups_indirect(groups.active_blocks, 0);
     }
 
     /// Records total Lagrangian MPM's grid update (a solver built for it).
-    pub fn record_tl(&self, pass: &mut wgpu::ComputePass, groups: &Groups) {
+    pub fn record_tl(&self, pass: &mut CountingPass, groups: &Groups) {
         pass.set_pipeline(
             self.grid_update_tl
                 .as_ref()
@@ -59,14 +60,14 @@ impl GridUpdateStage {
     }
 
     /// Records the grid update that follows `implicit.wgsl`'s `im_finish`.
-    pub fn record_implicit(&self, pass: &mut wgpu::ComputePass, groups: &Groups) {
+    pub fn record_implicit(&self, pass: &mut CountingPass, groups: &Groups) {
         pass.set_pipeline(&self.grid_update_implicit);
         pass.dispatch_workgroups_indirect(groups.active_blocks, 0);
     }
 
     /// Records the impulse reduction; after G2P, so that a substep the guard rejects
     /// contributes nothing.
-    pub fn record_reduce(&self, pass: &mut wgpu::ComputePass) {
+    pub fn record_reduce(&self, pass: &mut CountingPass) {
         pass.set_pipeline(&self.reduce);
         pass.dispatch_workgroups(1, 1, 1);
     }

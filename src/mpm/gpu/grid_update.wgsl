@@ -213,14 +213,5 @@ fn update_block(wid: vec3<u32>, lid: u32, settled_by_solve: bool, total_lagrangi
 // Runs after G2P so that a substep the guard rejects contributes nothing, as on the CPU.
 @compute @workgroup_size(MAX_TOOLS * IMPULSE_WORDS)
 fn reduce_impulses(@builtin(local_invocation_index) lid: u32) {
-    if (guard_tripped()) {
-        return;
-    }
-    let n = atomicLoad(&stats[S_CONTACT_BLOCKS]);
-    var sum = 0.0;
-    for (var i = 0u; i < n; i++) {
-        sum += partials[i * MAX_TOOLS * IMPULSE_WORDS + lid];
-    }
-    let w = S_IMPULSE + lid;
-    atomicStore(&stats[w], bitcast<u32>(bitcast<f32>(atomicLoad(&stats[w])) + sum));
+    reduce_impulse_word(lid);
 }

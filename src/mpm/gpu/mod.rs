@@ -69,10 +69,17 @@
 //! Particle and grid buffers live on the device for the solver's lifetime. A frame is one
 //! submission: a device-side copy of the frame-start state (what the guard's `stop` restores;
 //! `reset_tissue` copies a device-side rest state), then every substep recorded into one
-//! compute pass (begin, mark touched blocks, compact them into a list whose atomic counter is
-//! also the x of the indirect dispatch, clear those blocks, P2G, grid update, G2P, impulse
-//! reduction) with each substep's dt and gravity picked by a dynamic uniform offset and every
-//! substep's tool kinematics written once per frame. Clearing and the grid update run only on
+//! compute pass with each substep's dt and gravity picked by a dynamic uniform offset and every
+//! substep's tool kinematics written once per frame. An MLS-MPM or PIC substep is five
+//! dispatches, counted as they are recorded ([`DispatchCount`], printed by `bench frame`):
+//! clear the active blocks, P2G, grid update, G2P (which flags the blocks the particle's next
+//! stencil covers), and one workgroup that reduces the substep's contact impulses and
+//! compacts the flags into the next substep's block list (a list whose count is also the x
+//! of the indirect dispatches); the frame adds a mark and a compaction before its first
+//! substep and the guard's report and the readback's extraction after its last. Eight
+//! dispatches a substep before the fusion (`bench frame --frames 2`, seed 000's 105-substep
+//! frame: 842 dispatches a frame, 529 after; on llvmpipe 2.48–3.54 s a frame before and
+//! 2.57–2.81 s after, within that adapter's noise). Clearing and the grid update run only on
 //! touched blocks; tool SDFs only on nodes inside each tool's bounding box. Contact impulses
 //! are summed per block in workgroup memory, then per substep by one workgroup: no float
 //! atomics, deterministic. The only readback is per frame: the frame statistics (per-tool
@@ -163,6 +170,7 @@ mod grid_update;
 mod implicit;
 mod p2g;
 mod pack;
+mod pass;
 mod pbmpm;
 mod prelude;
 mod readback;
@@ -184,6 +192,7 @@ use implicit::ImplicitStages;
 use p2g::P2gStage;
 pub use p2g::FIXED_SCALE;
 use pack::GpuParticle;
+use pass::CountingPass;
 use pbmpm::PbMpmStages;
 use prelude::StageBuilder;
 use readback::Readback;
@@ -255,6 +264,23 @@ struct Groups<'a> {
     active_blocks: &'a wgpu::Buffer,
 }
 
+/// The compute dispatches of one frame, counted as they were recorded.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DispatchCount {
+    /// Every dispatch of the frame's pass.
+    pub frame: u32,
+    /// The frame's substeps (total Lagrangian MPM: its pieces).
+    pub substeps: u32,
+    /// The dispatches recorded by the substeps themselves (the rest open or close the frame).
+    pub in_substeps: u32,
+}
+
+impl DispatchCount {
+    /// Dispatches per substep.
+    pub fn per_substep(&self) -> f64 {
+        self.in_substeps as f64 / self.substeps.max(1) as f64
+    }
+}
 /// The wgpu compute solver: particles and the sparse block grid on the GPU, with a host copy of the
 /// particles read back each frame.
 pub struct GpuSolver {
@@ -281,6 +307,8 @@ pub struct GpuSolver {
     total_lagrangian: Option<TotalLagrangian>,
     /// Newton and CG iterations of the frame in flight.
     frame_solve: SolveCounts,
+    /// Dispatches the last explicit frame recorded (see [`DispatchCount`]).
+    dispatches: DispatchCount,
     readback: Readback,
     /// Whether frames read back the deformation gradients as well as the positions.
     read_deformation: bool,
@@ -418,6 +446,7 @@ impl GpuSolver {
             implicit,
             total_lagrangian,
             frame_solve: SolveCounts::default(),
+            dispatches: DispatchCount::default(),
             sparse: SparseStage::new(&builder),
             crack: CrackStage::new(&builder),
             p2g: P2gStage::new(&builder),
@@ -546,13 +575,20 @@ impl GpuSolver {
         if self.cutting {
             encoder.copy_buffer_to_buffer(&self.res.cracks, 0, &self.res.crack_snapshot, 0, None);
         }
+        let dispatches;
         {
             let groups = self.groups();
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("substeps"),
-                timestamp_writes: None,
-            });
+            let mut pass =
+                CountingPass::new(encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("substeps"),
+                    timestamp_writes: None,
+                }));
             pass.set_bind_group(ARGS_GROUP, &self.res.args_group, &[]);
+            if matches!(self.method, Method::MlsMpm | Method::PicMpm) {
+                self.res.bind_step(&mut pass, 0);
+                self.sparse.record_first_blocks(&mut pass, &groups);
+            }
+            let before = pass.dispatches();
             for s in 0..plan.substeps {
                 match self.method {
                     Method::MlsMpm | Method::PicMpm => self.record_substep(&mut pass, s, &groups),
@@ -561,10 +597,22 @@ impl GpuSolver {
                     Method::TlMpm => unreachable!("total Lagrangian frames: submit_tl_frame"),
                 }
             }
+            let in_substeps = pass.dispatches() - before;
             self.res.bind_step(&mut pass, 0);
             self.g2p.record_frame_end(&mut pass, &groups);
+            dispatches = DispatchCount {
+                frame: pass.dispatches(),
+                substeps: plan.substeps,
+                in_substeps,
+            };
         }
+        self.dispatches = dispatches;
         self.submit_with_readback(encoder);
+    }
+
+    /// The dispatches the last explicit frame recorded, counted as they were recorded.
+    pub fn dispatch_count(&self) -> DispatchCount {
+        self.dispatches
     }
 
     /// Waits for the frame in flight, copies its positions (and deformation gradients while
@@ -615,14 +663,17 @@ impl GpuSolver {
                 label: Some("total Lagrangian frame"),
             });
         encoder.copy_buffer_to_buffer(&self.res.particles, 0, &self.res.snapshot, 0, None);
+        let dispatches;
         {
             let groups = self.groups();
             let tl = self.total_lagrangian.as_ref().expect("checked above");
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("steps"),
-                timestamp_writes: None,
-            });
+            let mut pass =
+                CountingPass::new(encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("steps"),
+                    timestamp_writes: None,
+                }));
             pass.set_bind_group(ARGS_GROUP, &self.res.args_group, &[]);
+            let before = pass.dispatches();
             for step in 0..substeps {
                 self.res.bind_step(&mut pass, step);
                 self.sparse.record(&mut pass, &groups);
@@ -632,10 +683,17 @@ impl GpuSolver {
                 self.g2p.record_tl(&mut pass, &groups);
                 self.grid_update.record_reduce(&mut pass);
             }
+            let in_substeps = pass.dispatches() - before;
             self.res.bind_step(&mut pass, 0);
             tl.stages.record_bound(&mut pass, &groups);
             self.g2p.record_frame_end(&mut pass, &groups);
+            dispatches = DispatchCount {
+                frame: pass.dispatches(),
+                substeps,
+                in_substeps,
+            };
         }
+        self.dispatches = dispatches;
         self.submit_with_readback(encoder);
     }
 
@@ -647,29 +705,25 @@ impl GpuSolver {
         }
     }
 
-    /// Records one MLS-MPM (or PIC) substep: cracks (with a slicer) → block list and clear
-    /// → P2G → grid update → G2P → impulse reduction.
-    fn record_substep(&self, pass: &mut wgpu::ComputePass, s: u32, groups: &Groups) {
+    /// Records one MLS-MPM (or PIC) substep: cracks (with a slicer) → clear of the block
+    /// list → P2G → grid update → G2P (flagging the next substep's blocks) → impulse
+    /// reduction fused with the next block list. The frame's first list comes from
+    /// [`SparseStage::record_first_blocks`].
+    fn record_substep(&self, pass: &mut CountingPass, s: u32, groups: &Groups) {
         self.res.bind_step(pass, s);
         self.crack.record(pass, groups);
-        self.sparse.record(pass, groups);
+        self.sparse.record_clear(pass, groups);
         self.p2g.record(pass, groups);
         self.grid_update.record(pass, groups);
         self.g2p.record(pass, groups);
-        self.grid_update.record_reduce(pass);
+        self.sparse.record_end_substep(pass);
     }
 
     /// Records one PB-MPM substep (cpu `pb_substep`): cracks (with a slicer) and the block
     /// list once, then per
     /// iteration constraint → clear → P2G → grid update → G2P (integrating in the last) →
     /// impulse reduction, each iteration with its own Step entry.
-    fn record_pb_substep(
-        &self,
-        pass: &mut wgpu::ComputePass,
-        s: u32,
-        iterations: u32,
-        groups: &Groups,
-    ) {
+    fn record_pb_substep(&self, pass: &mut CountingPass, s: u32, iterations: u32, groups: &Groups) {
         for k in 0..iterations {
             self.res.bind_step(pass, s * iterations + k);
             if k == 0 {

@@ -1,6 +1,7 @@
 //! Host side of `p2g.wgsl`: the fused APIC + MLS force scatter, with f32 atomics or i32
 //! fixed-point atomics (`acc_float.wgsl` / `acc_fixed.wgsl`).
 
+use super::pass::CountingPass;
 use super::prelude::StageBuilder;
 use super::Groups;
 
@@ -29,13 +30,13 @@ impl P2gStage {
         }
     }
 
-    pub fn record(&self, pass: &mut wgpu::ComputePass, groups: &Groups) {
+    pub fn record(&self, pass: &mut CountingPass, groups: &Groups) {
         pass.set_pipeline(&self.p2g);
         pass.dispatch_workgroups(groups.particles, 1, 1);
     }
 
     /// Records total Lagrangian MPM's P2G (a solver built for it).
-    pub fn record_tl(&self, pass: &mut wgpu::ComputePass, groups: &Groups) {
+    pub fn record_tl(&self, pass: &mut CountingPass, groups: &Groups) {
         pass.set_pipeline(self.p2g_tl.as_ref().expect("a total Lagrangian solver"));
         pass.dispatch_workgroups(groups.particles, 1, 1);
     }

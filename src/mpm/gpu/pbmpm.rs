@@ -2,6 +2,7 @@
 //! inner iterations' G2P and the reset between iterations. The rest of a PB-MPM substep is
 //! MLS-MPM's stages (see `GpuSolver::record_pb_substep`).
 
+use super::pass::CountingPass;
 use super::prelude::StageBuilder;
 use super::Groups;
 
@@ -27,7 +28,7 @@ impl PbMpmStages {
     }
 
     /// Records the constraint on C and the momentum-only P2G of an iteration.
-    pub fn record_p2g(&self, pass: &mut wgpu::ComputePass, groups: &Groups) {
+    pub fn record_p2g(&self, pass: &mut CountingPass, groups: &Groups) {
         pass.set_pipeline(&self.constrain);
         pass.dispatch_workgroups(groups.particles, 1, 1);
         pass.set_pipeline(&self.p2g);
@@ -35,13 +36,13 @@ impl PbMpmStages {
     }
 
     /// Records the G2P of an inner (not the last) iteration: v and C only.
-    pub fn record_g2p(&self, pass: &mut wgpu::ComputePass, groups: &Groups) {
+    pub fn record_g2p(&self, pass: &mut CountingPass, groups: &Groups) {
         pass.set_pipeline(&self.g2p);
         pass.dispatch_workgroups(groups.particles, 1, 1);
     }
 
     /// Records the reset between iterations.
-    pub fn record_next_iteration(&self, pass: &mut wgpu::ComputePass) {
+    pub fn record_next_iteration(&self, pass: &mut CountingPass) {
         pass.set_pipeline(&self.next_iteration);
         pass.dispatch_workgroups(1, 1, 1);
     }

@@ -8,6 +8,7 @@ use super::blade;
 use super::grid_update::IMPULSE_WORDS;
 use super::p2g::FIXED_SCALE;
 use super::pack::{self, GpuMaterial, GpuParticle, GpuTool, SimUniform, StepUniform};
+use super::pass::CountingPass;
 use super::readback::{self, extract_bytes_per_particle, CRACK_BYTES, STATS_BYTES};
 use super::tlmpm::TL_WORDS;
 use crate::mpm::frame_plan::FramePlan;
@@ -536,7 +537,7 @@ impl Resources {
     }
 
     /// Binds group 0 with Step entry `entry` (a substep, or a PB-MPM iteration).
-    pub fn bind_step(&self, pass: &mut wgpu::ComputePass, entry: u32) {
+    pub fn bind_step(&self, pass: &mut CountingPass, entry: u32) {
         let offset = (entry as u64 * self.step_stride) as u32;
         pass.set_bind_group(0, &self.bind_group, &[offset]);
     }

@@ -1,21 +1,29 @@
 // Sparse grid bookkeeping: which BLOCK³-node blocks the particles' stencils touch, compacted
 // into a list that sizes the indirect dispatches of the clear and grid-update stages.
 
-// One invocation: resets the substep's counters.
+// One invocation: resets the substep's counters (PB-MPM, total Lagrangian and implicit
+// substeps; MLS-MPM and PIC reset them in `first_blocks` and `end_substep`).
 @compute @workgroup_size(1)
 fn begin() {
+    reset_counters();
+    if (!guard_tripped()) {
+        atomicAdd(&stats[S_SUBSTEPS], 1u);
+    }
+}
+
+// The indirect dispatch's count and the per-substep contact-block counter.
+fn reset_counters() {
     atomicStore(&args[0], 0u);
     atomicStore(&args[1], 1u);
     atomicStore(&args[2], 1u);
-    if (guard_tripped()) {
-        return;
+    if (!guard_tripped()) {
+        atomicStore(&stats[S_CONTACT_BLOCKS], 0u);
     }
-    atomicStore(&stats[S_CONTACT_BLOCKS], 0u);
-    atomicAdd(&stats[S_SUBSTEPS], 1u);
 }
 
-// One invocation per particle: flags the (up to 8) blocks its 3×3×3 stencil covers (on the
-// rest configuration with total Lagrangian MPM).
+// One invocation per particle: flags the blocks its stencil covers (on the rest
+// configuration with total Lagrangian MPM). MLS-MPM's and PIC's G2P flag them for the next
+// substep as they move the particle, so these substeps need no pass of their own for it.
 @compute @workgroup_size(WG)
 fn mark(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = gid.x;
@@ -26,18 +34,7 @@ fn mark(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (TOTAL_LAGRANGIAN) {
         x = tl_rest[p].xyz;
     }
-    let s = make_stencil(grid_pos(x));
-    let hi_node = vec3<i32>(sim.nodes.xyz) - vec3<i32>(3);
-    let base = vec3<u32>(clamp(s.base, vec3<i32>(0), hi_node));
-    let lo = base / BLOCK;
-    let hi = (base + vec3<u32>(2u)) / BLOCK;
-    for (var bx = lo.x; bx <= hi.x; bx++) {
-        for (var by = lo.y; by <= hi.y; by++) {
-            for (var bz = lo.z; bz <= hi.z; bz++) {
-                atomicStore(&block_flags[block_index(vec3<u32>(bx, by, bz))], 1u);
-            }
-        }
-    }
+    mark_stencil_blocks(grid_pos(x));
 }
 
 // Invocations of `compact`'s single workgroup.
@@ -51,6 +48,41 @@ var<workgroup> wg_scan: array<u32, COMPACT_WG>;
 // atomic append would order the blocks as the workgroups happened to run.
 @compute @workgroup_size(COMPACT_WG)
 fn compact(@builtin(local_invocation_index) lid: u32) {
+    compact_blocks(lid);
+}
+
+// One workgroup before an MLS-MPM or PIC frame's first substep: the counters reset, then
+// the block list of the blocks `mark` flagged.
+@compute @workgroup_size(COMPACT_WG)
+fn first_blocks(@builtin(local_invocation_index) lid: u32) {
+    if (lid == 0u) {
+        reset_counters();
+    }
+    storageBarrier();
+    compact_blocks(lid);
+}
+
+// One workgroup at the end of an MLS-MPM or PIC substep, two single-workgroup passes in one:
+// this substep's contact impulses reduced (grid_update.wgsl's `reduce_impulses`), then the
+// counters reset and the next substep's block list made from the blocks G2P flagged.
+@compute @workgroup_size(COMPACT_WG)
+fn end_substep(@builtin(local_invocation_index) lid: u32) {
+    if (lid < MAX_TOOLS * IMPULSE_WORDS) {
+        reduce_impulse_word(lid);
+    }
+    storageBarrier();
+    if (lid == 0u) {
+        if (!guard_tripped()) {
+            atomicAdd(&stats[S_SUBSTEPS], 1u);
+        }
+        reset_counters();
+    }
+    storageBarrier();
+    compact_blocks(lid);
+}
+
+// The exclusive scan of `compact` by the workgroup's invocation `lid`.
+fn compact_blocks(lid: u32) {
     let n = sim.nodes.w;
     let run = (n + COMPACT_WG - 1u) / COMPACT_WG;
     let start = min(lid * run, n);

@@ -16,6 +16,7 @@
 //! particle a rest position whose w is its gripper. What the device gives back each frame
 //! is what every method's frame gives back.
 
+use super::pass::CountingPass;
 use super::prelude::StageBuilder;
 use super::Groups;
 
@@ -42,7 +43,7 @@ impl TlStages {
     }
 
     /// Records the grip's capture and the holding flags of a step.
-    pub fn record_capture(&self, pass: &mut wgpu::ComputePass, groups: &Groups) {
+    pub fn record_capture(&self, pass: &mut CountingPass, groups: &Groups) {
         pass.set_pipeline(&self.capture);
         pass.dispatch_workgroups(groups.particles, 1, 1);
         pass.set_pipeline(&self.commit);
@@ -50,7 +51,7 @@ impl TlStages {
     }
 
     /// Records the stiffening bounds at a frame's end.
-    pub fn record_bound(&self, pass: &mut wgpu::ComputePass, groups: &Groups) {
+    pub fn record_bound(&self, pass: &mut CountingPass, groups: &Groups) {
         pass.set_pipeline(&self.bound);
         pass.dispatch_workgroups(groups.particles, 1, 1);
     }

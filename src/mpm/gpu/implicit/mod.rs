@@ -77,6 +77,7 @@
 mod layout;
 mod solve;
 
+use super::pass::CountingPass;
 use super::resources::Resources;
 use super::Groups;
 use crate::mpm::{ImplicitParams, Preconditioner};
@@ -331,24 +332,24 @@ impl ImplicitStages {
 
 /// One-invocation dispatch, node dispatch (one workgroup per active block), particle
 /// dispatch.
-fn single(pass: &mut wgpu::ComputePass, p: &wgpu::ComputePipeline) {
+fn single(pass: &mut CountingPass, p: &wgpu::ComputePipeline) {
     pass.set_pipeline(p);
     pass.dispatch_workgroups(1, 1, 1);
 }
 
-fn nodes(pass: &mut wgpu::ComputePass, p: &wgpu::ComputePipeline, g: &Groups) {
+fn nodes(pass: &mut CountingPass, p: &wgpu::ComputePipeline, g: &Groups) {
     pass.set_pipeline(p);
     pass.dispatch_workgroups_indirect(g.active_blocks, 0);
 }
 
-fn particles(pass: &mut wgpu::ComputePass, p: &wgpu::ComputePipeline, g: &Groups) {
+fn particles(pass: &mut CountingPass, p: &wgpu::ComputePipeline, g: &Groups) {
     pass.set_pipeline(p);
     pass.dispatch_workgroups(g.particles, 1, 1);
 }
 
 impl ImplicitStages {
     /// Φ (elastic + kinetic) at v (`trial` false) or the trial velocities.
-    fn record_energy(&self, pass: &mut wgpu::ComputePass, trial: bool, g: &Groups) {
+    fn record_energy(&self, pass: &mut CountingPass, trial: bool, g: &Groups) {
         let p = &self.pipelines;
         particles(pass, &p.energy[trial as usize], g);
         single(pass, &p.sum_elastic);
@@ -357,7 +358,7 @@ impl ImplicitStages {
     }
 
     /// Φ, ∇Φ and, with `hessian`, the stiffness and preconditioner at v.
-    fn record_evaluate(&self, pass: &mut wgpu::ComputePass, hessian: bool, g: &Groups) {
+    fn record_evaluate(&self, pass: &mut CountingPass, hessian: bool, g: &Groups) {
         let p = &self.pipelines;
         nodes(pass, &p.eval_clear, g);
         particles(pass, &p.eval[hessian as usize], g);
@@ -367,7 +368,7 @@ impl ImplicitStages {
         single(pass, &p.sum_kinetic);
     }
 
-    fn record_cg_iteration(&self, pass: &mut wgpu::ComputePass, g: &Groups) {
+    fn record_cg_iteration(&self, pass: &mut CountingPass, g: &Groups) {
         let p = &self.pipelines;
         nodes(pass, &p.product_clear, g);
         particles(pass, &p.product, g);

@@ -6,6 +6,7 @@
 use super::layout::{scalar, GROUP};
 use super::{nodes, particles, single, ImplicitStages, CG_CHUNK};
 use crate::mpm::frame_plan::FramePlan;
+use crate::mpm::gpu::pass::CountingPass;
 use crate::mpm::gpu::resources::ARGS_GROUP;
 use crate::mpm::gpu::{GpuSolver, Groups};
 use crate::mpm::implicit_params::{
@@ -41,7 +42,7 @@ impl GpuSolver {
         &self,
         s: u32,
         read: bool,
-        f: impl FnOnce(&mut wgpu::ComputePass, &ImplicitStages, &Groups),
+        f: impl FnOnce(&mut CountingPass, &ImplicitStages, &Groups),
     ) -> Option<Scalars> {
         let im = self.implicit.as_ref().expect("implicit stages");
         let device = &self.ctx.device;
@@ -50,10 +51,11 @@ impl GpuSolver {
         });
         {
             let groups = self.groups();
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("implicit"),
-                timestamp_writes: None,
-            });
+            let mut pass =
+                CountingPass::new(encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("implicit"),
+                    timestamp_writes: None,
+                }));
             self.res.bind_step(&mut pass, s);
             pass.set_bind_group(GROUP, &im.bind_group, &[]);
             f(&mut pass, im, &groups);
@@ -327,10 +329,11 @@ impl GpuSolver {
             });
         {
             let groups = self.groups();
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("frame end"),
-                timestamp_writes: None,
-            });
+            let mut pass =
+                CountingPass::new(encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("frame end"),
+                    timestamp_writes: None,
+                }));
             self.res.bind_step(&mut pass, 0);
             self.g2p.record_frame_end(&mut pass, &groups);
         }
