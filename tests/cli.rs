@@ -204,6 +204,53 @@ fn bench_frame_prints_a_row_per_backend_with_both_timings_and_writes_them() {
     assert_eq!(in_csv, printed_cells, "{csv}");
 }
 
+/// `bench throughput --threads` runs the seed-000 scene in a pool of each size and reports
+/// speed-up and efficiency against the first; a pool of no threads is refused.
+#[test]
+fn bench_throughput_sweeps_thread_counts() {
+    let dir = std::env::temp_dir().join(format!("dts-bench-threads-{}", std::process::id()));
+    let stdout = support::stdout_of_success(
+        support::binary()
+            .args([
+                "bench",
+                "throughput",
+                "--frames",
+                "1",
+                "--threads",
+                "1,2",
+                "--out",
+            ])
+            .arg(&dir),
+    );
+    std::fs::remove_dir_all(&dir).ok();
+    let rows: Vec<Vec<&str>> = stdout
+        .lines()
+        .filter(|l| l.starts_with("| 1 |") || l.starts_with("| 2 |"))
+        .map(|l| l.trim_matches('|').split('|').map(str::trim).collect())
+        .collect();
+    assert_eq!(rows.len(), 2, "{stdout}");
+    assert_eq!((rows[0][0], rows[1][0]), ("1", "2"), "{stdout}");
+    assert_eq!(
+        rows[0][5], "1.00",
+        "the first size is the reference: {stdout}"
+    );
+    for r in &rows {
+        assert_eq!(r[1], "24000");
+        let rate: f64 = r[4].parse().unwrap();
+        let speed_up: f64 = r[5].parse().unwrap();
+        let efficiency: f64 = r[6].parse().unwrap();
+        assert!(rate > 0.0 && speed_up > 0.0, "{r:?}");
+        let threads: f64 = r[0].parse().unwrap();
+        assert!((efficiency - speed_up / threads).abs() < 0.011, "{r:?}");
+    }
+    let refused = support::binary()
+        .args(["bench", "throughput", "--threads", "0"])
+        .output()
+        .unwrap();
+    assert!(!refused.status.success());
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("--threads"));
+}
+
 /// `config/knot.toml` ties its knot by its last keyframe: a headless run without `--seconds`
 /// must get there.
 #[test]

@@ -55,6 +55,11 @@ pub enum BenchCommand {
         /// MPM formulation to time (`mls_mpm`, `tl_mpm`, `pic_mpm`, `pb_mpm` or `implicit`).
         #[arg(long, default_value = "mls_mpm", value_parser = scene_value::<Method>)]
         method: Method,
+        /// Thread counts to sweep, comma-separated (e.g. `1,2,4,8,16`): the run in a pool of
+        /// each size, with speed-up and efficiency per thread. Without it, one run on all
+        /// cores.
+        #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u16).range(1..))]
+        threads: Option<Vec<u16>>,
     },
     /// Error of the scenes with analytic answers at a few resolutions.
     Accuracy,
@@ -184,7 +189,20 @@ pub fn run(args: BenchArgs) -> Result<()> {
             }
             Ok(())
         }
-        BenchCommand::Throughput { frames, method } => {
+        BenchCommand::Throughput {
+            frames,
+            method,
+            threads: Some(threads),
+        } => {
+            let threads: Vec<usize> = threads.into_iter().map(usize::from).collect();
+            let table = throughput::sweep_threads(frames, method, &threads)?;
+            print_and_write("throughput-threads", &table, None)
+        }
+        BenchCommand::Throughput {
+            frames,
+            method,
+            threads: None,
+        } => {
             let result = throughput::run_seed000(frames, method)?;
             print_and_write("throughput", &result.table(), None)
         }

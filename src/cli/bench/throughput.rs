@@ -1,5 +1,7 @@
 //! Throughput on the seed-000 scene size: ≈24,000 particles, a 64³ grid over the domain,
-//! dt from CFL, a gripper retracting the tissue (SurRoL's benchmark setting).
+//! dt from CFL, a gripper retracting the tissue (SurRoL's benchmark setting); with
+//! `--threads 1,2,4,...` the same run in a pool of each size, with the speed-up over the
+//! first and the efficiency per thread.
 
 use anyhow::{bail, Result};
 use dvrk_tissue_sim::config::builders::*;
@@ -46,8 +48,50 @@ impl ThroughputResult {
     }
 }
 
+/// [`run_seed000`] in a pool of each of `threads` sizes, in that order, and the table of
+/// them: M particle-substeps/s, the speed-up over the first size, and that speed-up per
+/// thread added over the first size's count (1.0: perfect scaling).
+pub fn sweep_threads(frames: u32, method: Method, threads: &[usize]) -> Result<String> {
+    let mut results = Vec::new();
+    for &n in threads {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(n).build()?;
+        let result = pool.install(|| run_seed000(frames, method))?;
+        eprintln!(
+            "{n} threads: {:.2} M particle-substeps/s",
+            result.particle_substeps_per_s() / 1e6
+        );
+        results.push(result);
+    }
+    let Some(first) = results.first() else {
+        bail!("--threads lists no pool size");
+    };
+    let base = first.particle_substeps_per_s();
+    let mut out = format!(
+        "{} cores available; the seed-000 scene, method {}, {} frames a size\n\n\
+         | threads | particles | substeps | wall (s) | M particle-substeps/s | speed-up | efficiency |\n\
+         |---|---|---|---|---|---|---|\n",
+        std::thread::available_parallelism().map_or(0, |n| n.get()),
+        method.key(),
+        frames
+    );
+    for r in &results {
+        let speed_up = r.particle_substeps_per_s() / base;
+        out += &format!(
+            "| {} | {} | {} | {:.3} | {:.2} | {:.2} | {:.2} |\n",
+            r.threads,
+            r.particles,
+            r.substeps,
+            r.wall_s,
+            r.particle_substeps_per_s() / 1e6,
+            speed_up,
+            speed_up * first.threads as f64 / r.threads as f64
+        );
+    }
+    Ok(out)
+}
+
 /// Times `frames` frames of the seed-000 scene stepped by `method` on the CPU backend after
-/// one warm-up frame.
+/// one warm-up frame, in the current rayon pool.
 pub fn run_seed000(frames: u32, method: Method) -> Result<ThroughputResult> {
     let mut scene = seed000_scene();
     scene.solver.method = method;
