@@ -12,7 +12,16 @@
 //!   off `P_base_link`: the chain then starts at `P_base_link` and is re-expressed in the
 //!   RCM frame.
 //! - **Tool frame** (the scope's tip, the camera): `tool_link`, else the link `<name>`, else
-//!   dvrk_model's `<name>_end_link`.
+//!   dvrk_model's `<name>_end_link` (older layouts) or `<name>_tip_link` (the current one,
+//!   the straight scope's tip).
+//!
+//! dvrk_model's current classic ECM (`tests/urdf/ECM_current_layout.urdf`, its kinematic
+//! structure: the RCM link as the root, the parallelogram as mimic joints, roll about −z)
+//! loads by these rules and is a remote-centre arm to its file's rounding (the tip within
+//! 0.12 mm of the RCM's view line over 500 random poses, `tests/robot_kinematics.rs`). Its
+//! frames are its own, not dVRK's DH table's, which `urdf/ecm.urdf` follows: its tip is 10.1 mm
+//! further back along the view, and its RCM frame is turned (yaw moves the tip along its y,
+//! the DH table's along x). A scene that loads it reports `measured_cp` in its frames.
 //! - **Joints**: the four on the path, named `outer_yaw, outer_pitch, insertion, outer_roll`
 //!   (dvrk_model's `yaw, pitch, insertion, roll` are taken for them, and published under
 //!   dVRK's ECM names); insertion prismatic; finite limits from the file.
@@ -57,7 +66,11 @@ impl Psm {
         name: &str,
         roles: &UrdfRoles,
     ) -> Result<Psm, PsmError> {
-        let tool_frames = [(name.to_owned(), None), (format!("{name}_end_link"), None)];
+        let tool_frames = [
+            (name.to_owned(), None),
+            (format!("{name}_end_link"), None),
+            (format!("{name}_tip_link"), None),
+        ];
         let (base_link, tool_link, _) = locate_roles(&mut robot, name, roles, &tool_frames)?;
         // dvrk_model's classic ECM hangs its RCM link off the mounting, beside the arm.
         let beside = format!("{name}_remote_center_link");
