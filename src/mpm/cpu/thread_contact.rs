@@ -117,6 +117,15 @@ impl ThreadContact {
         self.threads.is_empty()
     }
 
+    /// Keeps `count` proxies for the caller to load for the coming frame and forgets the
+    /// last frame's momentum and contacts.
+    pub fn load(&mut self, count: usize) -> &mut [ThreadProxy] {
+        self.threads.resize_with(count, Default::default);
+        self.grid_loss = Vector3::zeros();
+        self.contacts = 0;
+        &mut self.threads
+    }
+
     /// One substep of `dt` after the grid update: the proxies accelerate by their drive, the
     /// nodes near their segments take the contact (module doc), the proxies take the
     /// momentum and move.
