@@ -48,8 +48,13 @@
 //! **Limit**: within the tissue's frame only the drive carries the rod's tension, so a
 //! thread whose held ends are pulled sideways slides through the tissue instead of dragging
 //! it (measured: 10 mm sideways through a 3 kPa block moved its centre 0.001 mm, the tissue's
-//! force on the thread peaked at 0.09 mN). Dragging needs the rod's stiffness inside the
-//! frame (held points as kinematic segments along the thread, or an implicit coupling).
+//! force on the thread peaked at 0.09 mN). Holding the proxy's segments to their rest
+//! lengths within the frame does not change that (measured: the same 0.001 mm): the proxy
+//! restarts from the rod every frame, so it lags the held ends by at most one frame's pull
+//! (0.33 mm there), whose stretch is second order in the lag, and the rod's frame solve,
+//! which sees the tissue only as the constant force J/T, then carries the thread through.
+//! Dragging needs the tissue inside the rod's solve (the rod's constraint solve stepped
+//! within the tissue's substeps, or an implicit coupling).
 //!
 //! # Cost
 //!
