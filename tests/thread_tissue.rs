@@ -52,12 +52,17 @@ fn tissue_centre(world: &World) -> Vector3<f64> {
     x.iter().map(|p| p.cast::<f64>()).sum::<Vector3<f64>>() / x.len() as f64
 }
 
-fn finite_thread(world: &World) -> bool {
-    world.threads()[0]
-        .rod
-        .points
-        .iter()
-        .all(|p| p.iter().all(|c| c.is_finite()))
+/// Steps `world` one frame and checks that the thread stayed finite.
+fn step_checked(world: &mut World) {
+    world.step_frame().expect("frame");
+    assert!(
+        world.threads()[0]
+            .rod
+            .points
+            .iter()
+            .all(|p| p.iter().all(|c| c.is_finite())),
+        "the thread stays finite"
+    );
 }
 
 #[test]
@@ -72,8 +77,7 @@ fn thread_laid_on_tissue_rests_on_it() {
     let radius = world.threads()[0].rod.material.radius as f64;
     let mut lowest = f64::MAX;
     for _ in 0..60 {
-        world.step_frame().expect("frame");
-        assert!(finite_thread(&world), "the thread stays finite");
+        step_checked(&mut world);
         let z = world.threads()[0]
             .rod
             .points
@@ -137,8 +141,7 @@ fn pull_through(pull: Vector3<f32>) -> Pull {
         let thread = &mut world.threads_mut()[0];
         assert!(thread.move_anchor(0, ends[0] + pull * s));
         assert!(thread.move_anchor(last, ends[1] + pull * s));
-        world.step_frame().expect("frame");
-        assert!(finite_thread(&world), "the thread stays finite");
+        step_checked(&mut world);
         let thread = &world.threads()[0];
         peak_tension = thread
             .rod
@@ -209,13 +212,13 @@ fn momentum_the_grid_loses_is_what_the_rod_receives() {
         let t0 = world.time();
         world.step_frame().expect("frame");
         let elapsed = world.time() - t0;
-        let contact = world
-            .backend_mut()
-            .thread_contact_mut()
-            .expect("CPU backend");
-        let lost = contact.grid_loss;
-        let contacts = contact.contacts;
-        let impulses: Vector3<f64> = contact.threads[0].impulse.iter().sum();
+        let backend = world.backend();
+        let (lost, contacts) = backend.thread_grid_loss().expect("CPU backend");
+        let impulses: Vector3<f64> = backend
+            .thread_impulses(0)
+            .expect("thread 0 loaded")
+            .iter()
+            .sum();
         let received: Vector3<f64> = world.threads()[0]
             .tissue_force()
             .iter()

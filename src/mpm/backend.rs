@@ -5,11 +5,13 @@
 //! statistics. The CPU backend loops its `substep`; the GPU backend records every substep
 //! into one submission and reads back only what the frame's outputs need.
 
+use super::cpu::thread_contact::ThreadProxy;
 use super::cpu::{CpuSolver, SubstepInput};
 use super::frame_plan::{FramePlan, FrameStats};
 use super::gpu::GpuSolver;
 use super::stiffening;
 use super::{GridLayout, Particles};
+use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 /// Which backend a scene asks for.
@@ -97,11 +99,38 @@ impl Backend {
         }
     }
 
-    /// The threads the grid touches (see [`super::cpu::thread_contact`]): the CPU backend's,
-    /// `None` on the GPU (which refuses a thread in tissue).
-    pub fn thread_contact_mut(&mut self) -> Option<&mut super::cpu::thread_contact::ThreadContact> {
+    /// The proxies of `count` threads for the grid to touch over the coming frame (see
+    /// [`super::cpu::thread_contact`]), for the caller to load, with no impulse yet; `None`
+    /// on the GPU (which refuses a thread in tissue).
+    pub fn load_threads(&mut self, count: usize) -> Option<&mut [ThreadProxy]> {
         match self {
-            Backend::Cpu(c) => Some(&mut c.solver.thread_contact),
+            Backend::Cpu(c) => Some(c.solver.thread_contact.load(count)),
+            Backend::Gpu(_) => None,
+        }
+    }
+
+    /// The momentum each point of thread `thread` received from the grid since the frame
+    /// began, N·s; `None` on the GPU or for a thread not loaded.
+    pub fn thread_impulses(&self, thread: usize) -> Option<&[Vector3<f64>]> {
+        match self {
+            Backend::Cpu(c) => c
+                .solver
+                .thread_contact
+                .threads
+                .get(thread)
+                .map(|p| &p.impulse[..]),
+            Backend::Gpu(_) => None,
+        }
+    }
+
+    /// The momentum the grid's nodes lost to the threads since the frame began, N·s, summed
+    /// node by node, and how many node contacts gave it; `None` on the GPU.
+    pub fn thread_grid_loss(&self) -> Option<(Vector3<f64>, u64)> {
+        match self {
+            Backend::Cpu(c) => Some((
+                c.solver.thread_contact.grid_loss,
+                c.solver.thread_contact.contacts,
+            )),
             Backend::Gpu(_) => None,
         }
     }

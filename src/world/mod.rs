@@ -527,31 +527,23 @@ impl World {
         if self.threads.is_empty() {
             return;
         }
-        let Some(contact) = self.backend.thread_contact_mut() else {
+        let Some(proxies) = self.backend.load_threads(self.threads.len()) else {
             return;
         };
-        contact
-            .threads
-            .resize_with(self.threads.len(), Default::default);
-        for (thread, proxy) in self.threads.iter().zip(&mut contact.threads) {
+        for (thread, proxy) in self.threads.iter().zip(proxies) {
             thread.load_proxy(proxy);
         }
-        contact.grid_loss = Vector3::zeros();
-        contact.contacts = 0;
     }
 
     /// Gives each thread the momentum the grid gave it over the frame (`stepped`: the tissue
     /// stepped it; otherwise none), as a force over its frame solve.
     fn hand_tissue_impulses(&mut self, stepped: bool) {
         let elapsed = self.time - self.frame_start;
-        let contact = if stepped && elapsed > 0.0 {
-            self.backend.thread_contact_mut()
-        } else {
-            None
-        };
-        let proxies = contact.map_or(&[][..], |c| &c.threads[..]);
+        let backend = &self.backend;
         for (i, thread) in self.threads.iter_mut().enumerate() {
-            let impulse = proxies.get(i).map(|p| &p.impulse[..]);
+            let impulse = (stepped && elapsed > 0.0)
+                .then(|| backend.thread_impulses(i))
+                .flatten();
             thread.receive_tissue_impulse(impulse, elapsed.max(1e-12));
         }
     }

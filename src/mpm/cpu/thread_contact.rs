@@ -48,8 +48,13 @@
 //! **Limit**: within the tissue's frame only the drive carries the rod's tension, so a
 //! thread whose held ends are pulled sideways slides through the tissue instead of dragging
 //! it (measured: 10 mm sideways through a 3 kPa block moved its centre 0.001 mm, the tissue's
-//! force on the thread peaked at 0.09 mN). Dragging needs the rod's stiffness inside the
-//! frame (held points as kinematic segments along the thread, or an implicit coupling).
+//! force on the thread peaked at 0.09 mN). Holding the proxy's segments to their rest
+//! lengths within the frame does not change that (measured: the same 0.001 mm): the proxy
+//! restarts from the rod every frame, so it lags the held ends by at most one frame's pull
+//! (0.33 mm there), whose stretch is second order in the lag, and the rod's frame solve,
+//! which sees the tissue only as the constant force J/T, then carries the thread through.
+//! Dragging needs the tissue inside the rod's solve (the rod's constraint solve stepped
+//! within the tissue's substeps, or an implicit coupling).
 //!
 //! # Cost
 //!
@@ -115,6 +120,15 @@ impl ThreadContact {
     /// Whether there is a thread to touch.
     pub fn is_empty(&self) -> bool {
         self.threads.is_empty()
+    }
+
+    /// Keeps `count` proxies for the caller to load for the coming frame and forgets the
+    /// last frame's momentum and contacts.
+    pub fn load(&mut self, count: usize) -> &mut [ThreadProxy] {
+        self.threads.resize_with(count, Default::default);
+        self.grid_loss = Vector3::zeros();
+        self.contacts = 0;
+        &mut self.threads
     }
 
     /// One substep of `dt` after the grid update: the proxies accelerate by their drive, the
