@@ -105,3 +105,27 @@ fn deep_xml_nesting_is_refused_with_the_limit_and_line() {
         "{text}"
     );
 }
+
+/// Home joints outside the URDF's limits are refused by `check` with the arm, the key, the
+/// joint and its limits, as building the arm would refuse them; the shipped camera scene's
+/// ECM at yaw −3 rad (its limit is −1.595 rad) is the case.
+#[test]
+fn home_joints_outside_the_urdf_limits_are_refused_by_check() {
+    let text = std::fs::read_to_string(root().join("tests/scenes/camera.toml")).unwrap();
+    let bad = text.replace(
+        "home_joints = [0.0, 0.0, 0.05, 0.0]",
+        "home_joints = [-3.0, 0.0, 0.05, 0.0]",
+    );
+    assert_ne!(bad, text, "the ECM's home_joints line moved");
+    let dir = std::env::temp_dir().join(format!("dvrk-home-limits-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("scene.toml");
+    std::fs::write(&scene, bad).unwrap();
+    let (code, out, _, _) = check(&scene);
+    std::fs::remove_dir_all(&dir).ok();
+    assert_ne!(code, Some(0), "{out}");
+    assert!(
+        out.contains("(ECM).home_joints") && out.contains("outer_yaw") && out.contains("-1.595183"),
+        "{out}"
+    );
+}

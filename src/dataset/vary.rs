@@ -30,8 +30,10 @@
 //! | `redraws` | (top level) how many times an episode's parameters are drawn before the episode is refused, when a combination of draws fails the scene's validation (keyframe times out of order, a tissue leaving the domain) |
 //!
 //! Integer keys (`particles_per_axis`, `max_substeps_per_frame`) take the draw rounded to
-//! the nearest integer. Every sampled scene is checked by the scene file's own validation
-//! ([`crate::config::from_str`]): an invalid draw is never simulated.
+//! the nearest integer. Every sampled scene is checked as `check` checks a scene file (its
+//! keys by [`crate::config::from_str`], its arms against their URDFs' joint limits by
+//! [`crate::sim::check_arm_urdfs`]): an invalid draw is never simulated. The endoscope's
+//! view varies through the ECM's `home_joints` (the camera rides at its tip).
 //!
 //! The file is refused on load, naming the entry, its key, the value and the reason, when an
 //! entry has an unknown field or distribution, a key the scene does not have, an empty range
@@ -433,11 +435,23 @@ fn distribution(e: &EntryFile) -> Result<Distribution, String> {
     Ok(dist)
 }
 
-/// Validates a scene given as TOML the way a scene file is validated.
+/// Validates a scene given as TOML the way `check` validates a scene file: its keys, then
+/// its arms against their URDFs (home joints inside the joint limits).
 fn check(value: &Value, scene_path: &Path) -> Result<(Scene, String), String> {
     let text = toml::to_string(value).map_err(|e| format!("not writable as TOML: {e}"))?;
     match config::from_str(&text, scene_path) {
-        Ok(scene) => Ok((scene, text)),
+        Ok(scene) => {
+            let problems = crate::sim::check_arm_urdfs(&scene);
+            if problems.is_empty() {
+                Ok((scene, text))
+            } else {
+                Err(problems
+                    .iter()
+                    .map(|p| p.to_string())
+                    .collect::<Vec<_>>()
+                    .join("; "))
+            }
+        }
         Err(config::SceneError::Invalid { problems, .. }) => Err(problems
             .iter()
             .map(|p| p.to_string())
@@ -687,5 +701,43 @@ mod tests {
             Err(e) => e,
         };
         assert!(e.contains("keyframe"), "{e}");
+    }
+
+    /// The endoscope's view varies through the ECM's joints (the camera rides at its tip):
+    /// every drawn scene is valid and the poses differ; a bound past the URDF's joint limit
+    /// is refused when the file loads.
+    #[test]
+    fn the_camera_pose_varies_through_the_ecm_joints() {
+        let path = Path::new("tests/scenes/camera.toml");
+        let text = include_str!("../../tests/scenes/camera.toml");
+        let scene = config::from_str(text, path).unwrap();
+        let ecm = scene.arms.iter().position(|a| a.name == "ECM").unwrap();
+        let vary = |min: f64, max: f64| {
+            format!(
+                "[[vary]]\nkey = \"arm.{ecm}.home_joints.0\"\ndist = \"uniform\"\nadd = true\n\
+                 min = {min}\nmax = {max}\n\
+                 [[vary]]\nkey = \"arm.{ecm}.home_joints.1\"\ndist = \"normal\"\nadd = true\n\
+                 mean = 0.0\nstd = 0.05\nmin = -0.1\nmax = 0.1\n"
+            )
+        };
+        let v =
+            Variation::from_str(&vary(-0.2, 0.2), Path::new("vary.toml"), &scene, path).unwrap();
+        let mut rng = crate::dataset::episode_rng(3, 0);
+        let home = scene.arms[ecm].home_joints.clone();
+        let mut seen = Vec::new();
+        for _ in 0..20 {
+            let s = v.sample(&mut rng).unwrap();
+            let q = &s.scene.arms[ecm].home_joints;
+            assert!((q[0] - home[0]).abs() <= 0.2 && (q[1] - home[1]).abs() <= 0.1);
+            assert_eq!(q[2..], home[2..]);
+            seen.push(q[0]);
+        }
+        seen.sort_by(f64::total_cmp);
+        seen.dedup();
+        assert_eq!(seen.len(), 20, "every episode draws its own yaw");
+        // The classic ECM's yaw stops at ±1.58 rad: a bound past it is refused on load.
+        let e = Variation::from_str(&vary(-3.0, 0.2), Path::new("vary.toml"), &scene, path)
+            .unwrap_err();
+        assert!(e.contains("home_joints"), "{e}");
     }
 }

@@ -141,7 +141,8 @@ pub struct ArmUrdfProblem {
     pub index: usize,
     /// The arm's name.
     pub arm: String,
-    /// `urdf`, `base_link`, `tool_link` or `joint_speeds`.
+    /// `urdf`, `base_link`, `tool_link`, `joint_speeds`, or `home_joints` / `home_jaw_deg`
+    /// outside the URDF's limits.
     pub key: &'static str,
     /// The `urdf` value.
     pub file: String,
@@ -220,8 +221,39 @@ pub fn check_arm_urdfs(scene: &Scene) -> Vec<ArmUrdfProblem> {
         .arms
         .iter()
         .enumerate()
-        .filter_map(|(index, arm)| load_psm(index, arm).err().map(|p| *p))
+        .filter_map(|(index, arm)| match load_psm(index, arm) {
+            Err(problem) => Some(*problem),
+            Ok(psm) => home_outside_limits(index, arm, &psm),
+        })
         .collect()
+}
+
+/// The arm's home joints (and a PSM's home jaw) checked against its URDF's limits, as
+/// building the arm checks them, so that `check` refuses what the node would.
+fn home_outside_limits(
+    index: usize,
+    arm: &crate::config::Arm,
+    psm: &Psm,
+) -> Option<ArmUrdfProblem> {
+    let joints = psm.joints().validate::<&str>(&[], &arm.home_joints, None);
+    let jaw = if psm.jaw().is_empty() {
+        Ok(Vec::new())
+    } else {
+        psm.jaw()
+            .validate::<&str>(&[], &[arm.home_jaw_deg.to_radians()], None)
+    };
+    let (key, error) = match (joints, jaw) {
+        (Err(e), _) => ("home_joints", e),
+        (Ok(_), Err(e)) => ("home_jaw_deg", e),
+        (Ok(_), Ok(_)) => return None,
+    };
+    Some(ArmUrdfProblem {
+        index,
+        arm: arm.name.clone(),
+        key,
+        file: arm.urdf_path().to_owned(),
+        source: PsmError::Joint(error),
+    })
 }
 
 /// The surface a scene's outputs get: the constant-topology mesh cannot follow a cut, so a
