@@ -342,13 +342,7 @@ fn si_layout_gives_the_si_dh_tool_frame() {
                 "{name}: no {jaw} frame"
             );
         }
-        let limits: Vec<(f64, f64)> = psm
-            .joints()
-            .joints()
-            .iter()
-            .chain(psm.jaw().joints())
-            .map(|j| (j.lower, j.upper))
-            .collect();
+        let limits = [psm.joints().limits(), psm.jaw().limits()].concat();
         assert_eq!(
             limits,
             [
@@ -426,14 +420,8 @@ fn ecm_at_joint_zero_points_the_scope_down_through_the_rcm() {
     assert!((tip.translation.vector - Vector3::new(0.0, 0.0, -depth)).norm() < 1e-12);
     let z = tip.rotation * Vector3::z();
     assert!((z - Vector3::new(0.0, 0.0, -1.0)).norm() < 1e-12, "z = {z}");
-    let limits: Vec<(f64, f64)> = ecm
-        .joints()
-        .joints()
-        .iter()
-        .map(|j| (j.lower, j.upper))
-        .collect();
     assert_eq!(
-        limits,
+        ecm.joints().limits(),
         [
             (-1.595183, 1.581733),
             (-0.78371, 1.157657),
@@ -505,14 +493,8 @@ fn dvrk_model_current_ecm_layout_loads_by_role_as_a_remote_centre_arm() {
     assert_eq!(ecm.base_frame(), "ECM_base");
     assert_eq!(ecm.chain().tip_link(), "ECM_tip_link");
     assert_eq!(ecm.joints().names(), ECM_JOINT_NAMES);
-    let limits: Vec<(f64, f64)> = ecm
-        .joints()
-        .joints()
-        .iter()
-        .map(|j| (j.lower, j.upper))
-        .collect();
     assert_eq!(
-        limits,
+        ecm.joints().limits(),
         [
             (-1.595183, 1.581733),
             (-0.783710, 1.157657),

@@ -138,6 +138,11 @@ impl JointGroup {
         self.joints.iter().map(|j| j.name.as_str()).collect()
     }
 
+    /// The (lower, upper) position limits (rad or m), in canonical order.
+    pub fn limits(&self) -> Vec<(f64, f64)> {
+        self.joints.iter().map(|j| (j.lower, j.upper)).collect()
+    }
+
     /// Speed limits (rad/s or m/s), in canonical order.
     pub fn max_velocities(&self) -> Vec<f64> {
         self.joints.iter().map(|j| j.max_velocity).collect()

@@ -819,14 +819,8 @@ mod tests {
         assert_eq!(psm.jaw().names(), [JAW_JOINT_NAME]);
         assert_eq!(psm.base_frame(), "PSM2_base");
         assert_eq!(psm.chain().tip_link(), "PSM2");
-        let limits: Vec<(f64, f64)> = psm
-            .joints()
-            .joints()
-            .iter()
-            .map(|j| (j.lower, j.upper))
-            .collect();
         assert_eq!(
-            limits,
+            psm.joints().limits(),
             [
                 (-1.588, 1.588),
                 (-0.925, 0.925),
