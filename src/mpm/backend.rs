@@ -113,12 +113,7 @@ impl Backend {
     /// began, N·s; `None` on the GPU or for a thread not loaded.
     pub fn thread_impulses(&self, thread: usize) -> Option<&[Vector3<f64>]> {
         match self {
-            Backend::Cpu(c) => c
-                .solver
-                .thread_contact
-                .threads
-                .get(thread)
-                .map(|p| &p.impulse[..]),
+            Backend::Cpu(c) => c.solver.thread_contact.impulses(thread),
             Backend::Gpu(_) => None,
         }
     }
@@ -127,10 +122,7 @@ impl Backend {
     /// node by node, and how many node contacts gave it; `None` on the GPU.
     pub fn thread_grid_loss(&self) -> Option<(Vector3<f64>, u64)> {
         match self {
-            Backend::Cpu(c) => Some((
-                c.solver.thread_contact.grid_loss,
-                c.solver.thread_contact.contacts,
-            )),
+            Backend::Cpu(c) => Some(c.solver.thread_contact.grid_loss()),
             Backend::Gpu(_) => None,
         }
     }

@@ -107,12 +107,12 @@ struct Claim {
 #[derive(Debug, Default)]
 pub struct ThreadContact {
     /// The threads, scene order; empty when the scene has none.
-    pub threads: Vec<ThreadProxy>,
+    threads: Vec<ThreadProxy>,
     /// Momentum the grid's nodes lost to the threads since the frame began, N·s, summed node
     /// by node (what the threads' `impulse`s add up to).
-    pub grid_loss: Vector3<f64>,
+    grid_loss: Vector3<f64>,
     /// Node contacts since the frame began, summed over substeps.
-    pub contacts: u64,
+    contacts: u64,
     claims: Vec<Claim>,
 }
 
@@ -129,6 +129,18 @@ impl ThreadContact {
         self.grid_loss = Vector3::zeros();
         self.contacts = 0;
         &mut self.threads
+    }
+
+    /// The momentum each point of thread `thread` received from the grid since the frame
+    /// began, N·s; `None` for a thread not loaded.
+    pub fn impulses(&self, thread: usize) -> Option<&[Vector3<f64>]> {
+        self.threads.get(thread).map(|p| &p.impulse[..])
+    }
+
+    /// The momentum the grid's nodes lost to the threads since the frame began, N·s, summed
+    /// node by node, and how many node contacts gave it.
+    pub fn grid_loss(&self) -> (Vector3<f64>, u64) {
+        (self.grid_loss, self.contacts)
     }
 
     /// One substep of `dt` after the grid update: the proxies accelerate by their drive, the
