@@ -8,8 +8,9 @@
 //! box grown by the two cells a particle's stencil reaches. Both boxes contain everything
 //! that could meet, so a contact is never missed: the first frame in which one could happen
 //! is stepped in full. A suture thread is tested the same way: its points and its held
-//! ends' targets, grown by its radius, one cell (its contact reach on the grid) and twice
-//! the distance its fastest point covers in the frame
+//! ends' targets, grown by its radius, one cell (its contact reach on the grid), the
+//! farthest its holders (grippers or scene anchors) travel in the frame and twice the
+//! distance its fastest point covers on its own
 //! ([`crate::world::thread_body::ThreadBody::reach_over`]). Editing particles or resetting
 //! the tissue wakes it too. `tests/sleep.rs` compares a run with sleep on and off frame by
 //! frame, and lowers a thread onto sleeping tissue.

@@ -162,6 +162,16 @@ fn a_thread_wakes_sleeping_tissue_before_it_touches() {
         "a thread far above the tissue kept it awake: {asleep_hanging} of 90 frames asleep"
     );
 
+    // A gripper pulling the thread drags its points as far as the gripper travels: the
+    // thread's reach over the frame grows by that travel on every side.
+    let (frame_dt, gravity, reach_cell) = (1.0 / 60.0, 9.81, 0.002);
+    let still = world.threads()[0].reach_over(frame_dt, gravity, reach_cell, 0.0);
+    let pulled = world.threads()[0].reach_over(frame_dt, gravity, reach_cell, 0.01);
+    for axis in 0..3 {
+        assert!((still.min[axis] - pulled.min[axis] - 0.01).abs() < 1e-6);
+        assert!((pulled.max[axis] - still.max[axis] - 0.01).abs() < 1e-6);
+    }
+
     // Lower both held ends at 30 mm/s until the thread is 2 mm into the tissue.
     let last = world.threads()[0].rod.points.len() - 1;
     let ends = [

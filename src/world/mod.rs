@@ -589,8 +589,15 @@ impl World {
             .iter()
             .any(|t| t.reach_between(t_start, t_end, dx).intersects(&tissue))
             || self.threads.iter().any(|thread| {
+                let held_travel = self
+                    .tools
+                    .iter()
+                    .enumerate()
+                    .filter(|(i, _)| thread.held_by(*i))
+                    .map(|(_, t)| t.travel_between(t_start, t_end) as f32)
+                    .fold(0.0, f32::max);
                 thread
-                    .reach_over(frame_dt, gravity, thread_margin)
+                    .reach_over(frame_dt, gravity, thread_margin, held_travel)
                     .intersects(&tissue)
             })
         {

@@ -171,6 +171,20 @@ impl WorldTool {
         reach
     }
 
+    /// How far the tool frame's origin travels between `t0` and `t1`: the length of its
+    /// path through the keyframes between them, along which it moves linearly.
+    pub fn travel_between(&self, t0: f64, t1: f64) -> f64 {
+        let mut times = vec![t0];
+        if let ToolDriver::Scripted(trajectory) = &self.driver {
+            times.extend(trajectory.key_times_between(t0, t1));
+        }
+        times.push(t1);
+        times
+            .windows(2)
+            .map(|w| (self.pose_at(w[1]).position - self.pose_at(w[0]).position).norm())
+            .sum()
+    }
+
     /// The tool's pose at `t`; a gripper's jaw is the opening its jaws reach, not their
     /// setpoint.
     pub fn pose_at(&self, t: f64) -> ToolPose {

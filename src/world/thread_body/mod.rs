@@ -362,23 +362,37 @@ impl ThreadBody {
     }
 
     /// Box that every point of the thread's surface can reach over a frame of `dt` seconds
-    /// under `gravity`: its points and its scene anchors' targets, grown by the radius,
-    /// `margin`, and twice the distance its fastest point would cover (the factor covers a
-    /// pull that speeds the thread up within the frame; a point held by a gripper moves
-    /// with it, and the gripper's own reach is tested beside this one).
-    pub fn reach_over(&self, dt: f32, gravity: f32, margin: f32) -> crate::sleep::Aabb {
+    /// under `gravity`, when the grippers holding it travel at most `held_travel` in the
+    /// frame: its points and its scene anchors' targets, grown by the radius, `margin`, the
+    /// farthest any holder (gripper or anchor) travels, and twice the distance its fastest
+    /// point would cover on its own. A thread cannot stretch, so a pull drags its points no
+    /// farther than the holder moves (they trail behind it); what they move beyond that
+    /// comes from their own speed and gravity, where the factor 2 covers the constraint
+    /// solve speeding a slack stretch up within the frame.
+    pub fn reach_over(
+        &self,
+        dt: f32,
+        gravity: f32,
+        margin: f32,
+        held_travel: f32,
+    ) -> crate::sleep::Aabb {
         let points = crate::sleep::Aabb::of_points(&self.rod.points);
         let reach = self
             .anchors
             .iter()
             .fold(points, |b, (_, _, next)| b.including(next));
+        let pull = self
+            .anchors
+            .iter()
+            .map(|(_, at, next)| (next - at).norm())
+            .fold(held_travel, f32::max);
         let speed = self
             .rod
             .velocities
             .iter()
             .map(|v| v.norm())
             .fold(0.0, f32::max);
-        let travel = 2.0 * (speed + gravity * dt) * dt;
+        let travel = pull + 2.0 * (speed + gravity * dt) * dt;
         reach.grown(self.rod.material.radius + margin + travel)
     }
 
