@@ -161,20 +161,18 @@ fn bench_frame_prints_a_row_per_backend_with_both_timings_and_writes_them() {
             .args(["bench", "frame", "--frames", "2", "--out"])
             .arg(&dir),
     );
-    let rows: Vec<Vec<&str>> = stdout
-        .lines()
-        .filter(|l| l.starts_with("| cpu") || l.starts_with("| gpu"))
-        .map(|l| l.split('|').map(str::trim).collect())
-        .collect();
+    let rows = table_rows(&stdout, |backend| {
+        backend == "cpu" || backend.starts_with("gpu-")
+    });
     assert!(
-        rows.iter().any(|r| r[1] == "cpu"),
+        rows.iter().any(|r| r[0] == "cpu"),
         "no CPU row in\n{stdout}"
     );
     for r in &rows {
-        assert_eq!(r[2], "24000", "seed-000 particle count: {r:?}");
-        let serial: f64 = r[5].parse().unwrap();
-        let cloud: f64 = r[6].parse().unwrap();
-        let pipelined: f64 = r[7].parse().unwrap();
+        assert_eq!(r[1], "24000", "seed-000 particle count: {r:?}");
+        let serial: f64 = r[4].parse().unwrap();
+        let cloud: f64 = r[5].parse().unwrap();
+        let pipelined: f64 = r[6].parse().unwrap();
         assert!(serial > 0.0 && pipelined > 0.0, "{r:?}");
         assert!(cloud > 0.0 && cloud < serial, "{r:?}");
     }
@@ -199,9 +197,27 @@ fn bench_frame_prints_a_row_per_backend_with_both_timings_and_writes_them() {
     let printed_cells: Vec<Vec<&str>> = printed
         .iter()
         .filter(|l| !l.starts_with("|---"))
-        .map(|l| l.trim_matches('|').split('|').map(str::trim).collect())
+        .map(|l| table_cells(l))
         .collect();
     assert_eq!(in_csv, printed_cells, "{csv}");
+}
+
+/// The cells of a Markdown table row, trimmed.
+fn table_cells(row: &str) -> Vec<&str> {
+    row.trim()
+        .trim_matches('|')
+        .split('|')
+        .map(str::trim)
+        .collect()
+}
+
+/// The rows of the Markdown tables in `text` whose first cell `keep` accepts.
+fn table_rows(text: &str, keep: impl Fn(&str) -> bool) -> Vec<Vec<&str>> {
+    text.lines()
+        .filter(|l| l.starts_with('|'))
+        .map(table_cells)
+        .filter(|cells| keep(cells[0]))
+        .collect()
 }
 
 /// `bench throughput --threads` runs the seed-000 scene in a pool of each size and reports
@@ -223,11 +239,7 @@ fn bench_throughput_sweeps_thread_counts() {
             .arg(&dir),
     );
     std::fs::remove_dir_all(&dir).ok();
-    let rows: Vec<Vec<&str>> = stdout
-        .lines()
-        .filter(|l| l.starts_with("| 1 |") || l.starts_with("| 2 |"))
-        .map(|l| l.trim_matches('|').split('|').map(str::trim).collect())
-        .collect();
+    let rows = table_rows(&stdout, |threads| threads == "1" || threads == "2");
     assert_eq!(rows.len(), 2, "{stdout}");
     assert_eq!((rows[0][0], rows[1][0]), ("1", "2"), "{stdout}");
     assert_eq!(
