@@ -223,6 +223,68 @@ fn a_killed_worker_rerun_completes_without_duplicates_or_truncated_bags() {
     }
 }
 
+/// Episodes of a scene with a camera keep its pictures in their bags, as a node's bag does
+/// (tests/scenes/camera.toml: the ECM's 2 × 160 × 120 stereo camera at 30 Hz, JPEG by
+/// default), drawn from where each episode's drawn ECM joints put the scope: two episodes
+/// with different yaws see different pictures from their first frame on.
+#[test]
+fn episodes_of_a_scene_with_a_camera_keep_the_pictures_of_their_drawn_view() {
+    const CAMERA: &str = "tests/scenes/camera.toml";
+    let dir = std::env::temp_dir().join(format!("dts-dataset-camera-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dvrk_tissue_sim::config::load(&support::root().join(CAMERA)).unwrap();
+    let ecm = scene.arms.iter().position(|a| a.name == "ECM").unwrap();
+    let vary = write_vary(
+        &dir,
+        &format!(
+            "[[vary]]\nkey = \"arm.{ecm}.home_joints.0\"\ndist = \"uniform\"\nadd = true\n\
+             min = -0.2\nmax = 0.2\n"
+        ),
+    );
+    let out = dir.join("out");
+    let mut command = binary();
+    command
+        .args(["dataset", "--scene", CAMERA, "--backend", "cpu", "--vary"])
+        .arg(&vary)
+        .args([
+            "--episodes",
+            "2",
+            "--seed",
+            "5",
+            "--seconds",
+            "0.2",
+            "--out",
+        ])
+        .arg(&out)
+        .env_remove("SLURM_ARRAY_TASK_ID")
+        .env_remove("JOB_COMPLETION_INDEX");
+    output_of_success(&mut command);
+    let bags = finished_files(&out, ".mcap");
+    assert_eq!(bags.len(), 2, "{:?}", bags.keys());
+    let mut first_pictures = Vec::new();
+    for (name, bytes) in &bags {
+        messages_in_complete_bag(bytes);
+        let mut pictures = Vec::new();
+        let mut infos = 0;
+        for message in mcap::MessageStream::new(bytes).unwrap() {
+            let message = message.unwrap();
+            match message.channel.topic.as_str() {
+                "/ECM/image_raw/compressed" => pictures.push(message.data.into_owned()),
+                "/ECM/left/camera_info" | "/ECM/right/camera_info" => infos += 1,
+                _ => {}
+            }
+        }
+        // 12 frames of 1/60 s, a picture every other one from the first.
+        assert_eq!((pictures.len(), infos), (6, 12), "{name}");
+        first_pictures.push(pictures[0].clone());
+    }
+    assert_ne!(
+        first_pictures[0], first_pictures[1],
+        "two drawn views gave the same picture"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 fn refusal(vary_text: &str) -> String {
     let tmp = tempfile::tempdir().unwrap();
     let vary = write_vary(tmp.path(), vary_text);

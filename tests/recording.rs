@@ -52,7 +52,12 @@ fn servo_jp(q: &[f64]) -> RecordedInput {
 /// A bag of inputs only, as `--record` writes them: servo_jp pushing the probe 16 mm down
 /// into the tissue from frame 5 on (one command a frame at 60 Hz), then holding.
 fn write_input_bag(path: &Path, topic_arm: &str) {
-    let scene = dvrk_tissue_sim::config::load(&root().join(SMALL)).unwrap();
+    write_input_bag_for(SMALL, path, topic_arm);
+}
+
+/// [`write_input_bag`] for the scene file `scene`.
+fn write_input_bag_for(scene: &str, path: &Path, topic_arm: &str) {
+    let scene = dvrk_tissue_sim::config::load(&root().join(scene)).unwrap();
     let setup = dvrk_tissue_sim::sim::build_setup(&scene).unwrap();
     let layout = OutputLayout::new(&scene, &setup, "/");
     let (recorder, mut tap) = Recorder::create(path, layout, 1.0, false).unwrap();
@@ -115,7 +120,12 @@ fn replay(input: &Path, out: &Path) {
 
 /// Headless replay of `input` into `out` with `backend` arguments (`--backend ...`, `--p2g`).
 fn replay_on(input: &Path, out: &Path, backend: &[&str]) {
-    let mut args = vec!["run", "--scene", SMALL, "--headless"];
+    replay_scene(SMALL, input, out, backend);
+}
+
+/// [`replay_on`] for the scene file `scene`.
+fn replay_scene(scene: &str, input: &Path, out: &Path, backend: &[&str]) {
+    let mut args = vec!["run", "--scene", scene, "--headless"];
     args.extend_from_slice(backend);
     args.extend_from_slice(&[
         "--replay",
@@ -238,6 +248,142 @@ fn replay_records_every_output_and_repeats_tissue_clouds_bit_for_bit() {
 
     // The PyPI rosbags package reads it (types, counts, stamps, decoded contents).
     rosbags_check(&a, "replay");
+}
+
+/// The width and height a baseline JPEG's SOF0 segment declares.
+fn jpeg_size(jpeg: &[u8]) -> (u16, u16) {
+    assert_eq!(&jpeg[..2], [0xff, 0xd8], "no JPEG start-of-image marker");
+    let mut at = 2;
+    while at + 9 <= jpeg.len() {
+        let length = u16::from_be_bytes([jpeg[at + 2], jpeg[at + 3]]) as usize;
+        if jpeg[at + 1] == 0xc0 {
+            let height = u16::from_be_bytes([jpeg[at + 5], jpeg[at + 6]]);
+            let width = u16::from_be_bytes([jpeg[at + 7], jpeg[at + 8]]);
+            return (width, height);
+        }
+        at += 2 + length;
+    }
+    panic!("no SOF0 segment in the JPEG");
+}
+
+/// A headless replay that records keeps the endoscope's pictures (tests/scenes/camera.toml:
+/// an ECM's 2 × 160 × 120 stereo camera at 30 Hz), drawn again from the replayed state: as
+/// JPEG with both CameraInfos by default, as rgb8 with each eye's depth and labels with
+/// `camera.record = "raw"`, none with `"off"`; the same bag replayed twice gives the same
+/// pictures, and the PyPI `rosbags` package reads them (tests/ros/read_camera_bag.py).
+#[test]
+fn a_recorded_replay_draws_the_camera_again_and_keeps_its_pictures() {
+    const CAMERA: &str = "tests/scenes/camera.toml";
+    let input = scratch("camera_inputs.mcap");
+    write_input_bag_for(CAMERA, &input, "PSM1");
+    let (a, b) = (scratch("camera_a.mcap"), scratch("camera_b.mcap"));
+    replay_scene(CAMERA, &input, &a, &["--backend", "cpu"]);
+    replay_scene(CAMERA, &input, &b, &["--backend", "cpu"]);
+    let pictures = |bag: &Path| -> BTreeMap<u64, Vec<u8>> {
+        read_bag(bag)
+            .into_iter()
+            .filter(|m| m.0 == "/ECM/image_raw/compressed")
+            .map(|m| (m.2, m.3))
+            .collect()
+    };
+    let messages = read_bag(&a);
+    let count = |topic: &str| messages.iter().filter(|m| m.0 == topic).count();
+    // 38 frames at 60 Hz, a picture every other one (30 Hz), from the first frame on.
+    assert_eq!(count("/ECM/image_raw/compressed"), 19);
+    assert_eq!(count("/ECM/left/camera_info"), 19);
+    assert_eq!(count("/ECM/right/camera_info"), 19);
+    assert_eq!(
+        count("/ECM/image_raw"),
+        0,
+        "raw pictures in a compressed bag"
+    );
+    let (in_a, in_b) = (pictures(&a), pictures(&b));
+    for (t, jpeg) in &in_a {
+        let m: CompressedImage = from_cdr(jpeg).unwrap();
+        assert_eq!(Time::from_secs(*t as f64 * 1e-9), m.header.stamp);
+        assert_eq!(m.header.frame_id, "ECM_left_optical_frame");
+        assert_eq!(
+            (m.format.as_str(), jpeg_size(&m.data)),
+            ("jpeg", (320, 120))
+        );
+    }
+    assert!(in_a == in_b, "the same replay drew different pictures");
+    assert_ne!(
+        in_a.values().next(),
+        in_a.values().last(),
+        "the probe pushed the tissue, yet the picture never changed"
+    );
+    rosbags_camera_check(&a, "compressed");
+
+    // `record = "raw"`: the rgb8 pair, and each eye's depth and labels.
+    let text = std::fs::read_to_string(root().join(CAMERA)).unwrap();
+    let raw_scene = scratch("camera_raw.toml");
+    std::fs::write(
+        &raw_scene,
+        text.replace("[camera]\n", "[camera]\nrecord = \"raw\"\n"),
+    )
+    .unwrap();
+    let raw = scratch("camera_raw.mcap");
+    replay_scene(
+        raw_scene.to_str().unwrap(),
+        &input,
+        &raw,
+        &["--backend", "cpu"],
+    );
+    let messages = read_bag(&raw);
+    let count = |topic: &str| messages.iter().filter(|m| m.0 == topic).count();
+    for topic in [
+        "/ECM/image_raw",
+        "/ECM/left/depth",
+        "/ECM/right/depth",
+        "/ECM/left/labels",
+        "/ECM/right/labels",
+        "/ECM/left/camera_info",
+    ] {
+        assert_eq!(count(topic), 19, "{topic}");
+    }
+    assert_eq!(count("/ECM/image_raw/compressed"), 0);
+    rosbags_camera_check(&raw, "raw");
+
+    // `record = "off"`: no picture at all.
+    let off_scene = scratch("camera_off.toml");
+    std::fs::write(
+        &off_scene,
+        text.replace("[camera]\n", "[camera]\nrecord = \"off\"\n"),
+    )
+    .unwrap();
+    let off = scratch("camera_off.mcap");
+    replay_scene(
+        off_scene.to_str().unwrap(),
+        &input,
+        &off,
+        &["--backend", "cpu"],
+    );
+    let messages = read_bag(&off);
+    assert!(messages
+        .iter()
+        .all(|m| !m.0.starts_with("/ECM/image") && !m.0.ends_with("camera_info")));
+    assert!(messages.iter().any(|m| m.0 == "/tissue/points"));
+}
+
+/// tests/ros/read_camera_bag.py on `bag` (`kind`: compressed or raw).
+fn rosbags_camera_check(bag: &Path, kind: &str) {
+    if !has_rosbags() {
+        skip_or_fail("no .venv with the PyPI rosbags package (see .ci/run)");
+        return;
+    }
+    let o = Command::new(python())
+        .arg(root().join("tests/ros/read_camera_bag.py"))
+        .args([bag.to_str().unwrap(), kind])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    println!("{stdout}");
+    assert!(
+        o.status.success(),
+        "read_camera_bag.py failed:\n{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
 }
 
 fn has_rosbags() -> bool {

@@ -508,8 +508,9 @@ fn print_summary(
     }
 }
 
-/// Records a scripted run's outputs (tools' wrenches, /tf, tissue cloud and surface, at the
-/// scene's rates in simulated time) to the bag, as the node would publish them.
+/// Records a scripted run's outputs (tools' wrenches, /tf, tissue cloud and surface, the
+/// camera's pictures, at the scene's rates in simulated time) to the bag, as the node would
+/// publish them.
 fn attach_recorder(
     setup: &mut SimSetup,
     scene: &Scene,
@@ -526,6 +527,8 @@ fn attach_recorder(
         )
         .context("tissue surface for the recording")?,
     );
+    // The bag keeps the camera's pictures (`camera.record`) as a node run's does.
+    setup.camera = dvrk_tissue_sim::sim::setup::scripted_camera(&setup.world);
     let layout = ros::outputs::OutputLayout::new(scene, setup, "/");
     let (recorder, mut tap) =
         ros::recorder::Recorder::create(options.bag, layout, options.chunk_every, options.replace)?;

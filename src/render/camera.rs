@@ -43,6 +43,25 @@ pub struct CameraSettings {
     /// of the scene's `outputs.points_scalar`).
     #[serde(default)]
     pub colour: TissueColour,
+    /// What a bag (`run --record`) keeps of the camera: `compressed` (the JPEG stereo image
+    /// and both CameraInfos), `raw` (the rgb8 image, each eye's depth and labels, and both
+    /// CameraInfos) or `off`.
+    #[serde(default)]
+    pub record: CameraRecord,
+}
+
+/// What a bag keeps of the camera's pictures.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CameraRecord {
+    /// No picture: the bag holds the state the pictures are drawn from, and `--replay`
+    /// draws them again.
+    Off,
+    /// `ECM/image_raw/compressed` (JPEG) and both eyes' `camera_info`.
+    #[default]
+    Compressed,
+    /// `ECM/image_raw` (rgb8), each eye's `depth` and `labels`, and both `camera_info`s.
+    Raw,
 }
 
 /// How the renderer colours the tissue.
@@ -87,6 +106,7 @@ impl Default for CameraSettings {
             position: None,
             look_at: None,
             colour: TissueColour::default(),
+            record: CameraRecord::default(),
         }
     }
 }

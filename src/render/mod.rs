@@ -37,7 +37,7 @@ pub mod geometry;
 pub mod gpu;
 pub mod rig;
 
-pub use camera::{CameraSettings, Eye, Pinhole, TissueColour};
+pub use camera::{CameraRecord, CameraSettings, Eye, Pinhole, TissueColour};
 pub use geometry::{SceneGeometry, Triangles, Vertex};
 pub use gpu::{Frame, RenderError, Renderer};
 pub use rig::{CameraImages, CameraRig};

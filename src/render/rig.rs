@@ -27,7 +27,7 @@ pub struct CameraRig {
     /// Opened at the first picture, so a run nobody watches opens no device.
     renderer: Option<Renderer>,
     geometry: SceneGeometry,
-    /// Simulated time from which the next frame is due (s).
+    /// Simulated time from which the next frame is due (s); the first frame asked is.
     next: f64,
 }
 
@@ -61,7 +61,7 @@ impl CameraRig {
             return None;
         };
         tracing::info!(
-            "camera: {} × {} per eye, {}° wide, baseline {} m, {} Hz, on \"{}\" while subscribed",
+            "camera: {} × {} per eye, {}° wide, baseline {} m, {} Hz, on \"{}\" while subscribed or recorded",
             settings.resolution[0],
             settings.resolution[1],
             settings.hfov_deg,
@@ -74,7 +74,7 @@ impl CameraRig {
             pose,
             renderer: None,
             geometry,
-            next: 0.0,
+            next: f64::NEG_INFINITY,
         })
     }
 
@@ -82,6 +82,11 @@ impl CameraRig {
     /// forward, x right, y down), e.g. the ECM's tool frame.
     pub fn set_pose(&mut self, pose: Isometry3<f32>) {
         self.pose = pose;
+    }
+
+    /// Where the camera is: its left-right centre's optical frame in the world.
+    pub fn pose(&self) -> &Isometry3<f32> {
+        &self.pose
     }
 
     /// The camera's settings.
@@ -106,7 +111,8 @@ impl CameraRig {
         }
         let period = 1.0 / self.settings.rate_hz;
         self.next += period;
-        // After a pause (no subscriber) the schedule starts again from now.
+        // At the first picture, and after a pause (no subscriber), the schedule starts
+        // again from now.
         if self.next <= t {
             self.next = t + period;
         }

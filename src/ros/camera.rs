@@ -1,5 +1,6 @@
 //! The endoscope's topics, as dVRK's ROS 2 simulators name them, and their messages built
-//! from a camera frame. Each is encoded only while someone subscribes to it.
+//! from a camera frame. Each is encoded only while someone subscribes to it (a bag's
+//! pictures are encoded on the recorder's thread, [`crate::ros::recorder`]).
 //!
 //! | topic | type | content |
 //! |---|---|---|

@@ -66,7 +66,7 @@
 //! | `/clock` | rosgraph_msgs/Clock | simulated time, once per frame |
 //! | `/rosout` | rcl_interfaces/Log | WARN and ERROR log lines, the arms' `error` (ERROR), `warning` (WARN) and `status` (INFO) events, logger `<namespace>.<name>` ([`rosout`]) |
 //! | `/diagnostics` | diagnostic_msgs/DiagnosticArray | latched, once a second: real-time factor, substeps and frames per second, backend, adapter |
-//! | `ECM/image_raw`, `ECM/image_raw/compressed`, `ECM/{left,right}/camera_info`, `ECM/{left,right}/depth`, `ECM/{left,right}/labels` | Image, CompressedImage, CameraInfo | with `[camera]`: the stereo endoscope ([`camera`]) at the ECM's tip (or fixed where the scene has no ECM), rendered at `camera.rate_hz` in simulated time while subscribed |
+//! | `ECM/image_raw`, `ECM/image_raw/compressed`, `ECM/{left,right}/camera_info`, `ECM/{left,right}/depth`, `ECM/{left,right}/labels` | Image, CompressedImage, CameraInfo | with `[camera]`: the stereo endoscope ([`camera`]) at the ECM's tip (or fixed where the scene has no ECM), rendered at `camera.rate_hz` in simulated time while subscribed (and when a bag keeps pictures, `camera.record`) |
 //!
 //! - **Simulated arms** satisfy dVRK's `dvrk_arm_from_ros` contract: a dVRK console can
 //!   teleoperate them with a real MTM. They start ENABLED and homed at `home_joints`;

@@ -8,6 +8,7 @@ use crate::config::{ArmMode, Scene};
 use crate::output::{
     SurfaceTriangles, ThreadState, TissueCloud, CLOUD_POINT_STEP, THREAD_POINT_STEP,
 };
+use crate::render::CameraRecord;
 use crate::robot::{ArmKind, Psm};
 use crate::ros::camera;
 use crate::ros::msgs::*;
@@ -85,6 +86,8 @@ pub struct OutputLayout {
     pub tf_arm_links: bool,
     /// The camera's optical frames, for `/tf_static` (none without a camera).
     pub camera_frames: Vec<TransformStamped>,
+    /// What a bag keeps of the camera's pictures (`Off` without a camera).
+    pub camera_record: CameraRecord,
 }
 
 impl OutputLayout {
@@ -118,22 +121,29 @@ impl OutputLayout {
                 }
             })
             .collect();
-        // The camera's optical frames: fixed under the ECM's tool frame where an ECM holds it.
+        // The camera's optical frames: fixed under the ECM's tool frame where a simulated ECM
+        // holds it, else under `world` where the camera is (a run without arms holds it
+        // where the ECM's home puts it).
+        let ecm = scene
+            .arms
+            .iter()
+            .take(setup.arms.len())
+            .find(|a| a.kind == ArmKind::Ecm);
         let camera_frames = setup
             .camera
             .as_ref()
-            .and_then(|rig| {
+            .map(|rig| {
                 let settings = rig.settings();
-                let (parent, pose) = match scene.arms.iter().find(|a| a.kind == ArmKind::Ecm) {
+                let (parent, pose) = match ecm {
                     Some(ecm) => (ecm.name.as_str(), Isometry3::identity()),
-                    None => ("world", settings.fixed_pose()?),
+                    None => ("world", *rig.pose()),
                 };
-                Some(camera::optical_frame_transforms(
+                camera::optical_frame_transforms(
                     parent,
                     &pose,
                     settings.pinhole(),
                     settings.baseline as f32,
-                ))
+                )
             })
             .unwrap_or_default();
         let o = &scene.outputs;
@@ -154,6 +164,10 @@ impl OutputLayout {
             },
             tf_arm_links: o.tf_arm_links,
             camera_frames,
+            camera_record: setup
+                .camera
+                .as_ref()
+                .map_or(CameraRecord::Off, |rig| rig.settings().record),
         }
     }
 
@@ -678,6 +692,8 @@ impl SimSchedule {
             tf: self.tf.due(t),
             thread: self.thread.due(t),
             pieces: self.pieces.due(t),
+            // Pictures follow the camera's own rate; whoever records asks for them.
+            camera: false,
         }
     }
 }

@@ -35,6 +35,17 @@
 //! command. A failed write is logged in words ("no space left on the device", "permission
 //! denied", "read-only file system"); Ctrl-C then ends with a warning and exit status 0.
 //!
+//! A scene with a `[camera]` records its pictures at the camera's `rate_hz`, stamped with
+//! the simulated time they show, on the topics the node publishes them on
+//! ([`crate::ros::camera`]): by default `ECM/image_raw/compressed` (JPEG, encoded on the
+//! writer thread) and both eyes' `camera_info`; with `camera.record = "raw"` the `rgb8`
+//! image and each eye's `depth` and `labels` instead of the JPEG; with `"off"` none. A bag
+//! that keeps pictures has the camera draw them whether or not anyone subscribes. A
+//! scripted headless run (and so every `dataset` episode) has no arms: its camera stays
+//! where the scene's ECM holds it at `home_joints`, its optical frames on `/tf_static` under
+//! `world`. `tests/recording.rs` and `tests/dataset.rs` read the pictures back (with
+//! `rosbags` too, `tests/ros/read_camera_bag.py`).
+//!
 //! `run --headless --record out.mcap` records a scripted run (tools on their keyframes, no ROS,
 //! no network) as the node would publish it, for dataset generation from keyframed scenes.
 //!
@@ -48,7 +59,8 @@
 //! conversion as the live topics ([`crate::ros::replay`]; the input topics are not
 //! subscribed), until the bag's end or `--seconds`; with `--headless` there is no DDS
 //! participant and frames run as fast as they compute. So on the CPU backend the tissue
-//! outputs repeat bit for bit: `tests/recording.rs` drives the node with rclpy `servo_jp`
+//! outputs repeat bit for bit, and a replay that records draws the camera's pictures
+//! again from the replayed state: `tests/recording.rs` drives the node with rclpy `servo_jp`
 //! commands while it records, replays the bag headless with `--record`, and finds every
 //! recorded cloud byte-identical at its stamp. On the GPU a replay with fixed-point P2G
 //! (`--p2g fixed`) repeats bit for bit too; with f32 atomics, whose sums may come in a
@@ -76,6 +88,8 @@ use std::time::{Duration, Instant};
 
 use serde::Serialize;
 
+use crate::render::{CameraImages, CameraRecord};
+use crate::ros::camera;
 use crate::ros::msgs::{to_cdr, CdrError, RosMessage, Time};
 use crate::ros::outputs::{self, EventMessage, EventStamps, OutputLayout, SimSchedule};
 use crate::ros::schema;
@@ -212,6 +226,8 @@ pub struct RecordTap {
     last_warning: Option<Instant>,
     /// Block on a full queue instead of dropping the frame.
     lossless: bool,
+    /// Whether the bag keeps the camera's pictures (asks for them every frame).
+    pictures: bool,
 }
 
 impl RecordTap {
@@ -225,7 +241,10 @@ impl RecordTap {
 impl FrameSink for RecordTap {
     /// The outputs to record for the frame ending at `t` (once per frame, in order).
     fn due(&mut self, t: f64) -> Due {
-        self.schedule.due(t)
+        Due {
+            camera: self.pictures,
+            ..self.schedule.due(t)
+        }
     }
 
     /// Queues a frame's share; drops it (counted, logged at most once a second) when the
@@ -352,6 +371,7 @@ impl Recorder {
         let (tx, rx) = sync_channel(QUEUE_FRAMES);
         let dropped = Arc::new(Dropped::default());
         let schedule = SimSchedule::new(&layout.rates);
+        let pictures = layout.camera_record != CameraRecord::Off;
         let bag = Bag {
             writer: Some(writer),
             synced,
@@ -390,6 +410,7 @@ impl Recorder {
                 dropped,
                 last_warning: None,
                 lossless: false,
+                pictures,
             },
         ))
     }
@@ -691,7 +712,39 @@ impl Bag {
                 self.write(outputs::PIECES_TOPIC, Qos::Periodic, end, &m)?;
             }
         }
+        if let (true, Some(images)) = (due.camera, &frame.camera) {
+            self.write_pictures(images, end)?;
+        }
         self.close_chunk_if_due(frame.time)
+    }
+
+    /// The camera's picture as [`OutputLayout::camera_record`] says, on the topics the node
+    /// publishes it on ([`crate::ros::camera`]), stamped `time`.
+    fn write_pictures(&mut self, images: &CameraImages, time: u64) -> Result<(), BagError> {
+        let eyes = images.eyes.len().min(camera::EYES.len());
+        match self.layout.camera_record {
+            CameraRecord::Off => return Ok(()),
+            CameraRecord::Compressed => match camera::compressed_message(images) {
+                Ok(m) => self.write(camera::COMPRESSED_TOPIC, Qos::Periodic, time, &m)?,
+                // A picture the encoder refuses is left out; the run goes on recording.
+                Err(e) => tracing::warn!("{}: not encoded: {e}", camera::COMPRESSED_TOPIC),
+            },
+            CameraRecord::Raw => {
+                let m = camera::image_message(images);
+                self.write(camera::IMAGE_TOPIC, Qos::Periodic, time, &m)?;
+                for (index, eye) in camera::EYES.iter().enumerate().take(eyes) {
+                    let m = camera::depth_message(images, index);
+                    self.write(&camera::depth_topic(eye), Qos::Periodic, time, &m)?;
+                    let m = camera::labels_message(images, index);
+                    self.write(&camera::labels_topic(eye), Qos::Periodic, time, &m)?;
+                }
+            }
+        }
+        for (index, eye) in camera::EYES.iter().enumerate().take(eyes) {
+            let m = camera::info_message(images, index);
+            self.write(&camera::info_topic(eye), Qos::Periodic, time, &m)?;
+        }
+        Ok(())
     }
 }
 
@@ -820,6 +873,7 @@ mod tests {
             dropped: dropped.clone(),
             last_warning: None,
             lossless: false,
+            pictures: false,
         };
         (tap, dropped)
     }

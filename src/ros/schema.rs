@@ -148,6 +148,24 @@ const DEFINITIONS: &[Definition] = &[
         uses: &["std_msgs/msg/Header"],
     },
     Definition {
+        name: "sensor_msgs/msg/Image",
+        text: "std_msgs/Header header\nuint32 height\nuint32 width\nstring encoding\n\
+               uint8 is_bigendian\nuint32 step\nuint8[] data\n",
+        uses: &["std_msgs/msg/Header"],
+    },
+    Definition {
+        name: "sensor_msgs/msg/RegionOfInterest",
+        text: "uint32 x_offset\nuint32 y_offset\nuint32 height\nuint32 width\nbool do_rectify\n",
+        uses: &[],
+    },
+    Definition {
+        name: "sensor_msgs/msg/CameraInfo",
+        text: "std_msgs/Header header\nuint32 height\nuint32 width\nstring distortion_model\n\
+               float64[] d\nfloat64[9] k\nfloat64[9] r\nfloat64[12] p\nuint32 binning_x\n\
+               uint32 binning_y\nRegionOfInterest roi\n",
+        uses: &["std_msgs/msg/Header", "sensor_msgs/msg/RegionOfInterest"],
+    },
+    Definition {
         name: "visualization_msgs/msg/UVCoordinate",
         text: "float32 u\nfloat32 v\n",
         uses: &[],
@@ -248,6 +266,9 @@ mod tests {
             Float64::type_name(),
             UInt32::type_name(),
             Joy::type_name(),
+            Image::type_name(),
+            CompressedImage::type_name(),
+            CameraInfo::type_name(),
         ] {
             assert!(ros2msg(&name).is_some(), "{name}");
         }

@@ -65,6 +65,8 @@ pub struct Due {
     pub thread: bool,
     /// Cut-piece count.
     pub pieces: bool,
+    /// The camera's pictures, at the camera's own rate (`camera.rate_hz`).
+    pub camera: bool,
 }
 
 impl Due {
@@ -77,5 +79,6 @@ impl Due {
             || self.tf
             || self.thread
             || self.pieces
+            || self.camera
     }
 }

@@ -176,14 +176,18 @@ impl FrameLoop {
                 self.event(a, event);
             }
         }
-        let due = match &mut self.setup.recorder {
+        let mut due = match &mut self.setup.recorder {
             Some(sink) => sink.due(t_next),
-            None => Default::default(),
+            None => Due::default(),
         };
         let points = wanted.points || due.points;
         let surface = wanted.surface || due.surface;
         let pieces = due.pieces || (wanted.pieces && self.pieces_due(t_next));
-        let camera = wanted.camera && self.setup.camera.as_mut().is_some_and(|c| c.due(t_next));
+        // A bag that keeps pictures asks for them every frame; the camera's own rate decides
+        // which frames take one, for the bag and the subscribers alike.
+        let camera = (wanted.camera || due.camera)
+            && self.setup.camera.as_mut().is_some_and(|c| c.due(t_next));
+        due.camera &= camera;
         // Where the ECM holds the camera at the frame's end, for the picture taken then.
         let camera_pose = camera.then(|| endoscope_pose(&self.setup)).flatten();
         let needs_deformation = self

@@ -124,6 +124,35 @@ impl SimSetup {
     }
 }
 
+/// The scene's camera for a run without arms (a scripted run that records): fixed where
+/// the scene places it, or where the scene's ECM holds it at its home joints, since nothing
+/// moves the ECM there. `None` where the scene has no camera or it cannot run (logged).
+pub fn scripted_camera(world: &World) -> Option<crate::render::CameraRig> {
+    let mut rig = crate::render::CameraRig::for_world(world)?;
+    let scene = world.scene();
+    if let Some((index, ecm)) = scene
+        .arms
+        .iter()
+        .enumerate()
+        .find(|(_, a)| a.kind == ArmKind::Ecm)
+    {
+        let at_home = load_psm(index, ecm)
+            .map_err(|e| e.to_string())
+            .and_then(|psm| {
+                ArmSim::new(psm, ecm.mode, arm_base(ecm), &ecm.home_joints, 0.0)
+                    .map_err(|e| e.to_string())
+            });
+        match at_home {
+            Ok(arm) => rig.set_pose((arm.base() * arm.cp()).cast::<f32>()),
+            Err(e) => {
+                tracing::warn!("camera off: {}: {e}", ecm.name);
+                return None;
+            }
+        }
+    }
+    Some(rig)
+}
+
 /// The world-from-base pose of a scene arm.
 pub fn arm_base(arm: &crate::config::Arm) -> Isometry3<f64> {
     let [r, p, y] = arm.base_rpy_deg.map(f64::to_radians);
