@@ -220,6 +220,40 @@ fn table_rows(text: &str, keep: impl Fn(&str) -> bool) -> Vec<Vec<&str>> {
         .collect()
 }
 
+/// `bench camera` times the stereo frame at three resolutions and the simulation unsubscribed,
+/// subscribed and recorded with and without the pictures; the bag of the last holds one
+/// picture every other frame (30 Hz at 60 frames/s), as many as the subscribed run rendered.
+#[test]
+fn bench_camera_times_the_frame_and_the_runs_with_and_without_pictures() {
+    let dir = std::env::temp_dir().join(format!("dts-bench-camera-{}", std::process::id()));
+    let stdout = support::stdout_of_success(
+        support::binary()
+            .args(["bench", "camera", "--scene", "tests/scenes/camera.toml"])
+            .args(["--frames", "4", "--out"])
+            .arg(&dir),
+    );
+    std::fs::remove_dir_all(&dir).ok();
+    let frames = table_rows(&stdout, |eye| eye.contains(" × "));
+    assert_eq!(frames.len(), 3, "{stdout}");
+    for r in &frames {
+        let render_ms: f64 = r[3].parse().unwrap();
+        let jpeg_ms: f64 = r[4].parse().unwrap();
+        assert!(render_ms > 0.0 && jpeg_ms > 0.0, "{r:?}");
+    }
+    let runs = table_rows(&stdout, |run| {
+        run == "unsubscribed" || run == "subscribed" || run.starts_with("recorded")
+    });
+    let pictures: Vec<&str> = runs.iter().map(|r| r[2]).collect();
+    assert_eq!(
+        pictures,
+        ["0", "2 rendered", "0", "2 in the bag"],
+        "{stdout}"
+    );
+    for r in &runs {
+        assert!(r[1].parse::<f64>().unwrap() > 0.0, "{r:?}");
+    }
+}
+
 /// `bench throughput --threads` runs the seed-000 scene in a pool of each size and reports
 /// speed-up and efficiency against the first; a pool of no threads is refused.
 #[test]

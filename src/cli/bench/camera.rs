@@ -1,13 +1,16 @@
 //! The camera's cost on a scene with a `[camera]`: the time of one stereo frame (the
 //! scene's triangles, the render with RGB, depth and labels and its readback, the JPEG) at
 //! a few resolutions, and the simulation's frame rate with the camera subscribed against
-//! unsubscribed.
+//! unsubscribed, and recorded to a bag with the pictures against without.
 
 use anyhow::{bail, Result};
 use dvrk_tissue_sim::config::Scene;
 use dvrk_tissue_sim::render::camera::stereo_eyes;
+use dvrk_tissue_sim::render::CameraRecord;
 use dvrk_tissue_sim::render::{CameraImages, Renderer, SceneGeometry};
-use dvrk_tissue_sim::ros::camera::compressed_message;
+use dvrk_tissue_sim::ros::camera::{compressed_message, COMPRESSED_TOPIC};
+use dvrk_tissue_sim::ros::outputs::OutputLayout;
+use dvrk_tissue_sim::ros::recorder::Recorder;
 use dvrk_tissue_sim::sim::frame_loop::{endoscope_pose, FrameLoop, Wanted};
 use dvrk_tissue_sim::sim::setup::build_setup;
 use dvrk_tissue_sim::world::World;
@@ -29,10 +32,13 @@ pub struct CameraBench {
     scene: String,
     adapter: String,
     rows: Vec<Row>,
-    /// Frames per second of the simulation unsubscribed and subscribed (paced off), and the
-    /// camera frames the subscribed run rendered.
-    fps: [f64; 2],
+    /// Frames per second of the simulation (paced off) unsubscribed, subscribed, recorded
+    /// without pictures (`camera.record = "off"`) and recorded with JPEG pictures.
+    fps: [f64; 4],
+    /// The camera frames the subscribed run rendered, and the pictures the second recorded
+    /// run's bag holds.
     rendered: usize,
+    recorded: u64,
     frames: u32,
 }
 
@@ -93,11 +99,34 @@ pub fn run(scene: &Scene, frames: u32) -> Result<CameraBench> {
             jpeg_ms: median(j),
         });
     }
-    let mut fps = [0.0; 2];
+    let mut fps = [0.0; 4];
     let mut rendered = 0;
-    for (k, subscribed) in [false, true].into_iter().enumerate() {
-        let mut setup = build_setup(scene)?;
+    let mut recorded = 0;
+    let runs = [
+        (false, None),
+        (true, None),
+        (false, Some(CameraRecord::Off)),
+        (false, Some(CameraRecord::Compressed)),
+    ];
+    let bag = std::env::temp_dir().join(format!("dts-bench-camera-{}.mcap", std::process::id()));
+    for (k, (subscribed, record)) in runs.into_iter().enumerate() {
+        let mut scene = scene.clone();
+        if let (Some(camera), Some(record)) = (&mut scene.camera, record) {
+            camera.record = record;
+        }
+        let mut setup = build_setup(&scene)?;
         setup.paced = false;
+        // Recorded as `run --record` does, every frame kept (the writer's JPEG work counts).
+        let recorder = match record {
+            Some(_) => {
+                let layout = OutputLayout::new(&scene, &setup, "/");
+                let (recorder, mut tap) = Recorder::create(&bag, layout, 1.0, true)?;
+                tap.wait_when_behind();
+                setup.recorder = Some(Box::new(tap));
+                Some(recorder)
+            }
+            None => None,
+        };
         let mut frame_loop = FrameLoop::new(setup, None);
         let wanted = Wanted {
             camera: subscribed,
@@ -107,18 +136,37 @@ pub fn run(scene: &Scene, frames: u32) -> Result<CameraBench> {
         for _ in 0..frames {
             let (finished, _) = frame_loop.step([], wanted, None, |_| {});
             let frame = frame_loop.finish(finished);
-            rendered += frame.camera.is_some() as usize;
+            rendered += (subscribed && frame.camera.is_some()) as usize;
+        }
+        drop(frame_loop);
+        if let Some(recorder) = recorder {
+            recorder.finish()?;
+            if record == Some(CameraRecord::Compressed) {
+                recorded = count_pictures(&bag)?;
+            }
         }
         fps[k] = frames as f64 / start.elapsed().as_secs_f64();
     }
+    std::fs::remove_file(&bag).ok();
     Ok(CameraBench {
         scene: scene.name.clone(),
         adapter: renderer.adapter.clone(),
         rows,
         fps,
         rendered,
+        recorded,
         frames,
     })
+}
+
+/// The JPEG pictures in `bag`.
+fn count_pictures(bag: &std::path::Path) -> Result<u64> {
+    let bytes = std::fs::read(bag)?;
+    let mut pictures = 0;
+    for message in mcap::MessageStream::new(&bytes)? {
+        pictures += (message?.channel.topic == format!("/{COMPRESSED_TOPIC}")) as u64;
+    }
+    Ok(pictures)
 }
 
 impl CameraBench {
@@ -145,9 +193,19 @@ impl CameraBench {
         }
         let _ = write!(
             s,
-            "\nSimulation, {} frames as fast as they compute: {:.1} frames/s unsubscribed, \
-             {:.1} subscribed ({} camera frames at the scene's camera settings)\n",
-            self.frames, self.fps[0], self.fps[1], self.rendered
+            "\nSimulation, {} frames as fast as they compute, at the scene's camera settings:\n\n\
+             | run | frames/s | pictures |\n|---|---|---|\n\
+             | unsubscribed | {:.1} | 0 |\n\
+             | subscribed | {:.1} | {} rendered |\n\
+             | recorded, `camera.record = \"off\"` | {:.1} | 0 |\n\
+             | recorded, `camera.record = \"compressed\"` | {:.1} | {} in the bag |\n",
+            self.frames,
+            self.fps[0],
+            self.fps[1],
+            self.rendered,
+            self.fps[2],
+            self.fps[3],
+            self.recorded
         );
         s
     }

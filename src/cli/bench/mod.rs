@@ -141,7 +141,8 @@ pub enum BenchCommand {
     },
     /// The stereo camera on a scene with a `[camera]`: render time per stereo frame (RGB,
     /// depth, labels, readback; JPEG) at 320×240, 640×360 and 1280×720 per eye, and the
-    /// simulation's frame rate with the camera subscribed against unsubscribed.
+    /// simulation's frame rate with the camera subscribed against unsubscribed, and recorded
+    /// with the pictures against without.
     Camera {
         #[arg(long, default_value = "config/default.toml")]
         scene: PathBuf,
