@@ -7,6 +7,7 @@
 //! and outputs to an MCAP bag; with `--replay` a bag's inputs drive the arms instead of the
 //! input topics.
 
+use std::collections::VecDeque;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -33,6 +34,7 @@ use crate::ros::sim_clock::SimClock;
 use crate::ros::status::{backend_and_adapter, Progress, StatusReport};
 use crate::sim::log::RateLimitedLog;
 use crate::sim::realtime::{self, SimHandle};
+use crate::sim::arm::ArmEvent;
 use crate::sim::{Frame, RecordedInput, SimInput};
 
 /// Why the node could not start or ended with an error.
@@ -488,6 +490,8 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
         inputs,
         recording: recorder.is_some(),
         stamps: EventStamps::default(),
+        held_events: VecDeque::new(),
+        arms_published: f64::NEG_INFINITY,
         force,
         points,
         surface,
@@ -528,9 +532,9 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
                 services.serve();
             }
             let frame = sim.frames.borrow().clone();
+            io.publish_frame(&node, &sim, &frame);
             io.publish_events(&sim, &rosout, Time::from_secs(frame.time));
             rosout.publish_logged(Time::from_secs(frame.time));
-            io.publish_frame(&node, &sim, &frame);
             clock.publish(&frame);
             let progress = Progress {
                 wall: Instant::now(),
@@ -606,6 +610,11 @@ struct Io {
     /// Inputs go to the simulation with their messages, to be recorded.
     recording: bool,
     stamps: EventStamps,
+    /// Arm events received from the simulation and not published yet: a state change waits
+    /// until the arm states of its frame are out (see [`Io::publish_events`]).
+    held_events: VecDeque<(usize, ArmEvent)>,
+    /// Simulated time of the last frame whose arm states were published (s).
+    arms_published: f64,
     /// MTM force feedback, per teleoperation pair that asks for it: publisher, scale,
     /// scene tool.
     force: Vec<(Publisher<WrenchStamped>, f64, usize)>,
@@ -783,8 +792,23 @@ impl Io {
     }
 
     /// The arms' events on their topics, and their texts on `/rosout` at dVRK's levels.
+    ///
+    /// A state change (a move's end, say) goes out only once the arm states of the frame it
+    /// happened in have: a client that waits for the idle state and then reads
+    /// `measured_js` reads where the move ended. Events keep their order.
     fn publish_events(&mut self, sim: &SimHandle, rosout: &Rosout, stamp: Time) {
-        while let Ok((index, event)) = sim.events.try_recv() {
+        self.held_events.extend(sim.events.try_iter());
+        while let Some((_, event)) = self.held_events.front() {
+            // Without arm states (`arm_rate_hz = 0`) nothing is waited for.
+            let arm_states = self.rates.arm.period.is_some();
+            if let ArmEvent::State { time, .. } = event {
+                if arm_states && *time > self.arms_published + 1e-9 {
+                    break;
+                }
+            }
+            let Some((index, event)) = self.held_events.pop_front() else {
+                break;
+            };
             let Some(p) = self.arms.get(index).and_then(|a| a.publishers.as_ref()) else {
                 continue;
             };
@@ -895,6 +919,7 @@ impl Io {
     }
 
     fn publish_arms(&mut self, frame: &Frame, stamp: Time) {
+        self.arms_published = frame.time;
         for (index, (io, status)) in self.arms.iter_mut().zip(&frame.arms).enumerate() {
             let Some(p) = &io.publishers else {
                 continue;
