@@ -4,7 +4,9 @@
 //! peer in this process reads what has no Python wheel: crtk_msgs (a refused move's busy
 //! pair, the forward and inverse kinematics services) and tf2_msgs (`world` → `PSM1_base` once on `/tf_static`, the links on `/tf`). On a
 //! second, started with `--ros-args` (tests/ros/test_ros_args.py): namespace, node name, a
-//! remap and parameters, and `/tf` with the links left to dVRK's robot_state_publisher.
+//! remap and parameters, and `/tf` with the links left to dVRK's robot_state_publisher. On
+//! a third, on `config/default.toml`: dVRK's Python PSM client played with crtk_msgs' own
+//! Python bindings (built by `.ci/crtk_msgs.sh`), tests/ros/test_dvrk_client.py.
 //!
 //! Starts DDS participants: runs only inside a loopback-only network namespace (as
 //! tests/ros_node.rs; `.ci/run` makes one); elsewhere prints `SKIPPED: <reason>` and passes,
@@ -375,5 +377,33 @@ fn standard_ros_arguments_and_links_left_to_dvrk() {
     assert!(
         status.is_some_and(|s| s.success()),
         "node exit {status:?}\n{log}"
+    );
+}
+
+/// dVRK's Python PSM client's connections and first script (tests/ros/test_dvrk_client.py)
+/// on the shipped default scene, with crtk_msgs' Python bindings (`.ci/crtk_msgs.sh`).
+#[test]
+fn dvrk_python_psm_client_connects_and_drives_the_default_scene() {
+    if !network_prerequisites(true) {
+        return;
+    }
+    if !support::dds::python_imports("crtk_msgs.srv") {
+        support::dds::skip_or_fail("no crtk_msgs Python bindings in .venv (.ci/crtk_msgs.sh)");
+        return;
+    }
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let domain = DOMAIN + 2;
+    let node = NodeProcess::start_with(
+        &["--scene", "config/default.toml", "--backend", "cpu"],
+        domain,
+    );
+    let out = run_rclpy("test_dvrk_client.py", domain);
+    println!("{}", String::from_utf8_lossy(&out.stdout));
+    assert!(
+        out.status.success(),
+        "test_dvrk_client.py failed:\n{}\n{}\n--- node ---\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+        node.log()
     );
 }

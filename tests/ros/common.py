@@ -43,7 +43,7 @@ class Recorder:
         def callback(msg, topic=topic):
             self.messages[topic].append((time.monotonic(), msg))
 
-        self.node.create_subscription(msg_type, topic, callback, qos)
+        return self.node.create_subscription(msg_type, topic, callback, qos)
 
     def publisher(self, msg_type, topic, qos=10):
         return self.node.create_publisher(msg_type, topic, qos)

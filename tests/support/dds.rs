@@ -15,6 +15,15 @@ pub fn python() -> PathBuf {
     root().join(".venv/bin/python")
 }
 
+/// Whether the venv's python imports `module`.
+pub fn python_imports(module: &str) -> bool {
+    python().exists()
+        && std::process::Command::new(python())
+            .args(["-c", &format!("import {module}")])
+            .status()
+            .is_ok_and(|s| s.success())
+}
+
 /// Prints why a test does not run here and lets it pass; panics under `CI`.
 pub fn skip_or_fail(reason: &str) {
     if std::env::var_os("CI").is_some() {
