@@ -1,6 +1,7 @@
 //! dVRK's kinematics services on each simulated arm, as dVRK's Python client calls them
 //! (`arm.forward_kinematics(jp)`, `arm.inverse_kinematics(jp, cp)` on `crtk_python_client`):
-//! `<arm>/forward_kinematics` (`crtk_msgs/srv/QueryForwardKinematics`) and
+//! `<arm>/forward_kinematics` and `<arm>/local/forward_kinematics`
+//! (`crtk_msgs/srv/QueryForwardKinematics`; the client's `arm.local.forward_kinematics`) and
 //! `<arm>/inverse_kinematics` (`crtk_msgs/srv/QueryInverseKinematics`), with crtk_msgs'
 //! definitions. Poses are in the arm's base frame, as `measured_cp`; joints in the arm's
 //! order, as `measured_js`. The node answers them from its own loop with the arm's own
@@ -129,6 +130,9 @@ fn check_joints(psm: &Psm, jp: &[f64]) -> Result<(), String> {
 pub struct KinematicsServices {
     psm: Psm,
     forward: Server<ForwardKinematicsRequest, ForwardKinematicsResponse>,
+    /// `local/forward_kinematics`: the same answer, since the node's poses are already in
+    /// the arm's own base frame (as `local/measured_cp` is `measured_cp`).
+    local_forward: Server<ForwardKinematicsRequest, ForwardKinematicsResponse>,
     inverse: Server<InverseKinematicsRequest, InverseKinematicsResponse>,
 }
 
@@ -165,6 +169,11 @@ impl KinematicsServices {
         let name = |service: &str| resolve(namespace, &format!("{arm}/{service}"));
         Ok(KinematicsServices {
             forward: server(node, &name("forward_kinematics"), "QueryForwardKinematics")?,
+            local_forward: server(
+                node,
+                &name("local/forward_kinematics"),
+                "QueryForwardKinematics",
+            )?,
             inverse: server(node, &name("inverse_kinematics"), "QueryInverseKinematics")?,
             psm,
         })
@@ -172,9 +181,11 @@ impl KinematicsServices {
 
     /// Answers every request waiting (never blocks).
     pub fn serve(&self) {
-        while let Ok(Some((id, request))) = self.forward.receive_request() {
-            if let Err(e) = self.forward.send_response(id, forward(&self.psm, &request)) {
-                tracing::debug!("forward_kinematics response: {e:?}");
+        for server in [&self.forward, &self.local_forward] {
+            while let Ok(Some((id, request))) = server.receive_request() {
+                if let Err(e) = server.send_response(id, forward(&self.psm, &request)) {
+                    tracing::debug!("forward_kinematics response: {e:?}");
+                }
             }
         }
         while let Ok(Some((id, request))) = self.inverse.receive_request() {

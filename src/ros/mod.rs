@@ -43,14 +43,13 @@
 //! | `PSM1/body/set_cf_orientation_absolute`, `emulate_tool_present` | std_msgs/Bool (sub) | accepted, no effect (no force control; the tool is always present) |
 //!
 //! These are the topics dVRK's Python client (`dvrk_python`'s `psm` on `crtk_python_client`)
-//! opens, and its `forward_kinematics` / `inverse_kinematics` services (crtk_msgs'
+//! opens, and its `forward_kinematics` (also under `local/`) / `inverse_kinematics` services (crtk_msgs'
 //! `QueryForwardKinematics` / `QueryInverseKinematics`, [`kinematics`]) on every simulated
 //! arm. `tests/ros/test_dvrk_client.py` opens exactly the client's publishers and
 //! subscribers with crtk_msgs' own Python bindings (built from its definitions by
 //! `.ci/crtk_msgs.sh`; crtk_msgs has no wheel), finds every one matched within 5 s, and runs
 //! a user's first script on `config/default.toml`: enable, home, `move_jp` and wait,
-//! `servo_cp`, the jaw open and closed, `forward_kinematics`. dVRK's `local/forward_kinematics`
-//! service is not offered.
+//! `servo_cp`, the jaw open and closed, `forward_kinematics` and `local/forward_kinematics`.
 //!
 //! An ECM (`kind = "ecm"`, e.g. `ECM`) has the same topics without the jaw, the tool and its
 //! contact wrench (no `jaw/...`, `tool_type`, `body/measured_cf`, `spatial/measured_cf`,

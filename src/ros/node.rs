@@ -32,9 +32,9 @@ use crate::ros::rosout::Rosout;
 use crate::ros::session::{finish_recording, prepare, NodeSettings, SessionError};
 use crate::ros::sim_clock::SimClock;
 use crate::ros::status::{backend_and_adapter, Progress, StatusReport};
+use crate::sim::arm::ArmEvent;
 use crate::sim::log::RateLimitedLog;
 use crate::sim::realtime::{self, SimHandle};
-use crate::sim::arm::ArmEvent;
 use crate::sim::{Frame, RecordedInput, SimInput};
 
 /// Why the node could not start or ended with an error.

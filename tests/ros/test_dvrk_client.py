@@ -4,7 +4,7 @@ subscribers `dvrk.psm(ral, 'PSM1')` opens (dvrk_python's arm and psm classes on
 crtk_python_client's utils, listed below as facts from their sources), checks every one
 matches the node within 5 s as the client's `check_connections()` does, then runs a dVRK
 user's first script: enable, home, move_jp and wait, servo_cp, open and close the jaw,
-forward_kinematics."""
+forward_kinematics (and local/forward_kinematics)."""
 
 import math
 import time
@@ -77,6 +77,7 @@ subscriptions = [rec.subscribe(msg_type, f"{ARM}/{suffix}", qos(latched))
 publishers = {s: node.create_publisher(t, f"{ARM}/{s}", qos(latched))
               for s, t, latched in PUBLISHES}
 forward = node.create_client(QueryForwardKinematics, f"{ARM}/forward_kinematics")
+local_forward = node.create_client(QueryForwardKinematics, f"{ARM}/local/forward_kinematics")
 
 # check_connections(): every publisher has a subscriber and every subscriber a publisher.
 # The node is up once its first topic matches; from then the client's 5 s apply.
@@ -147,15 +148,18 @@ for name, angle in (("open", math.radians(60.0)), ("close", math.radians(-20.0))
                  300.0, f"jaw {name}")
     check(True, f"jaw.{name}(): {math.degrees(angle):.0f}°")
 
-# psm.forward_kinematics(jp): the tool frame at the joints now, as measured_cp says.
-forward.wait_for_service(timeout_sec=10.0) or fail("no forward_kinematics service")
+# psm.forward_kinematics(jp) and psm.local.forward_kinematics(jp): the tool frame at the
+# joints now, as measured_cp (and local/measured_cp, the same base frame) say.
 jp = list(rec.latest(f"{ARM}/measured_js").position)
-future = forward.call_async(QueryForwardKinematics.Request(jp=jp))
-rec.wait_for(future.done, 10.0, "the forward_kinematics answer")
-answer = future.result()
 measured = rec.latest(f"{ARM}/measured_cp").pose.position
-p = answer.cp.position
-check(answer.result and math.dist((p.x, p.y, p.z), (measured.x, measured.y, measured.z)) < 1e-6,
-      f"forward_kinematics: ({p.x:.4f}, {p.y:.4f}, {p.z:.4f}) m, measured_cp's")
+for name, client in (("forward_kinematics", forward), ("local/forward_kinematics", local_forward)):
+    client.wait_for_service(timeout_sec=10.0) or fail(f"no {name} service")
+    future = client.call_async(QueryForwardKinematics.Request(jp=jp))
+    rec.wait_for(future.done, 10.0, f"the {name} answer")
+    answer = future.result()
+    p = answer.cp.position
+    check(answer.result
+          and math.dist((p.x, p.y, p.z), (measured.x, measured.y, measured.z)) < 1e-6,
+          f"{name}: ({p.x:.4f}, {p.y:.4f}, {p.z:.4f}) m, measured_cp's")
 
 rec.close()
