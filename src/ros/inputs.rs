@@ -271,9 +271,9 @@ pub fn input_topics(scene: &Scene, namespace: &str) -> Vec<InputTopic> {
                     ("body/set_cf_orientation_absolute", CfOrientationAbsolute),
                     ("emulate_tool_present", EmulateToolPresent),
                 ] {
-                    // The ECM has no jaw and holds no tool to feel forces through.
-                    let psm_only = suffix.starts_with("jaw/") || suffix.ends_with("servo_cf");
-                    if !(ecm && psm_only) {
+                    // The ECM has no jaw; its force commands are answered as a PSM's are
+                    // (dVRK's ECM client opens them too).
+                    if !(ecm && suffix.starts_with("jaw/")) {
                         push(name(&format!("{n}/{suffix}")), kind);
                     }
                 }

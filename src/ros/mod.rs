@@ -51,9 +51,10 @@
 //! a user's first script on `config/default.toml`: enable, home, `move_jp` and wait,
 //! `servo_cp`, the jaw open and closed, `forward_kinematics` and `local/forward_kinematics`.
 //!
-//! An ECM (`kind = "ecm"`, e.g. `ECM`) has the same topics without the jaw, the tool and its
-//! contact wrench (no `jaw/...`, `tool_type`, `body/measured_cf`, `spatial/measured_cf`,
-//! `jaw/servo_jf`, `body/servo_cf`, `spatial/servo_cf`): `ECM/measured_js`, `setpoint_js`
+//! An ECM (`kind = "ecm"`, e.g. `ECM`) has the same topics without the jaw and the tool
+//! (no `jaw/...`, no `tool_type`; `body/measured_cf` and
+//! `spatial/measured_cf` are zero, the scope touching nothing; its force commands are
+//! answered as a PSM's), as dVRK's `ecm` client opens them: `ECM/measured_js`, `setpoint_js`
 //! (`outer_yaw, outer_pitch, insertion, outer_roll`), `measured_cp`, `setpoint_cp` (frame
 //! `ECM_base`, the tool frame `ECM` at the scope's tip, where the camera is),
 //! `operating_state`, `move_jp`, `servo_jp`, `state_command`, ...; `/tf_static` carries

@@ -227,8 +227,9 @@ struct ArmPublishers {
     status: Publisher<StringMsg>,
     local_measured_cp: Publisher<PoseStamped>,
     local_setpoint_cp: Publisher<PoseStamped>,
-    /// A PSM's `body/measured_cf`, `spatial/measured_cf` (the ECM holds no tool).
-    measured_cf: Option<[Publisher<WrenchStamped>; 2]>,
+    /// `body/measured_cf`, `spatial/measured_cf`: a PSM's tool's contact wrench; zero on the
+    /// ECM, whose scope touches nothing in the simulation.
+    measured_cf: [Publisher<WrenchStamped>; 2],
     body_jacobian: Publisher<Float64MultiArray>,
     spatial_jacobian: Publisher<Float64MultiArray>,
     /// Latched, sent once: kept alive for late subscribers (a PSM's).
@@ -381,13 +382,10 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
                     .publisher(&format!("{n}/local/measured_cp"), periodic_qos())?,
                 local_setpoint_cp: topics
                     .publisher(&format!("{n}/local/setpoint_cp"), periodic_qos())?,
-                measured_cf: match output.tool {
-                    None => None,
-                    Some(_) => Some([
-                        topics.publisher(&format!("{n}/body/measured_cf"), periodic_qos())?,
-                        topics.publisher(&format!("{n}/spatial/measured_cf"), periodic_qos())?,
-                    ]),
-                },
+                measured_cf: [
+                    topics.publisher(&format!("{n}/body/measured_cf"), periodic_qos())?,
+                    topics.publisher(&format!("{n}/spatial/measured_cf"), periodic_qos())?,
+                ],
                 body_jacobian: topics.publisher(&format!("{n}/body/jacobian"), periodic_qos())?,
                 spatial_jacobian: topics
                     .publisher(&format!("{n}/spatial/jacobian"), periodic_qos())?,
@@ -931,13 +929,10 @@ impl Io {
                     data: status.trajectory_ratio,
                 });
             }
-            if let (Some([body_p, spatial_p]), Some(tool)) =
-                (&p.measured_cf, arm.tool.and_then(|t| frame.tools.get(t)))
-            {
-                let (body, spatial) = outputs::measured_cf_messages(arm, status, tool, stamp);
-                let _ = body_p.publish(body);
-                let _ = spatial_p.publish(spatial);
-            }
+            let tool = arm.tool.and_then(|t| frame.tools.get(t));
+            let (body, spatial) = outputs::measured_cf_messages(arm, status, tool, stamp);
+            let _ = p.measured_cf[0].publish(body);
+            let _ = p.measured_cf[1].publish(spatial);
             if let Some((body, spatial)) = outputs::jacobian_messages(arm, status) {
                 let _ = p.body_jacobian.publish(body);
                 let _ = p.spatial_jacobian.publish(spatial);

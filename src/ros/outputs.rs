@@ -301,21 +301,29 @@ pub(crate) fn arm_messages(arm: &ArmOutput, status: &ArmStatus, stamp: Time) -> 
     }
 }
 
-/// The contact wrench on an arm's tool as dVRK's `body/measured_cf` (in the tool frame) and
-/// `spatial/measured_cf` (the same wrench, about the tool, in the base frame's orientation).
+/// The contact wrench on an arm's tool as dVRK's `body/measured_cf` (in the arm's tool
+/// frame) and `spatial/measured_cf` (the same wrench, about the tool, in the base frame's
+/// orientation); zero for an arm without a tool (the ECM).
 pub fn measured_cf_messages(
     arm: &ArmOutput,
     status: &ArmStatus,
-    tool: &ToolState,
+    tool: Option<&ToolState>,
     stamp: Time,
 ) -> (WrenchStamped, WrenchStamped) {
-    let body = wrench_message(tool, 1.0, stamp);
+    let wrench = tool.map(|t| t.wrench).unwrap_or_default();
+    let body = WrenchStamped {
+        header: Header::new(stamp, tool.map_or(arm.name.as_str(), |t| &t.frame_id)),
+        wrench: Wrench {
+            force: wrench.force.into(),
+            torque: wrench.torque.into(),
+        },
+    };
     let r = status.cp.rotation;
     let spatial = WrenchStamped {
         header: Header::new(stamp, &arm.base_frame),
         wrench: Wrench {
-            force: (r * tool.wrench.force).into(),
-            torque: (r * tool.wrench.torque).into(),
+            force: (r * wrench.force).into(),
+            torque: (r * wrench.torque).into(),
         },
     };
     (body, spatial)

@@ -4,7 +4,8 @@ subscribers `dvrk.psm(ral, 'PSM1')` opens (dvrk_python's arm and psm classes on
 crtk_python_client's utils, listed below as facts from their sources), checks every one
 matches the node within 5 s as the client's `check_connections()` does, then runs a dVRK
 user's first script: enable, home, move_jp and wait, servo_cp, open and close the jaw,
-forward_kinematics (and local/forward_kinematics)."""
+forward_kinematics (and local/forward_kinematics); then `dvrk.ecm(ral, 'ECM')`'s connections
+and a move of the scope."""
 
 import math
 import time
@@ -72,23 +73,36 @@ def qos(latched):
     return profile
 
 
-subscriptions = [rec.subscribe(msg_type, f"{ARM}/{suffix}", qos(latched))
-                 for suffix, msg_type, latched in SUBSCRIBES]
-publishers = {s: node.create_publisher(t, f"{ARM}/{s}", qos(latched))
-              for s, t, latched in PUBLISHES}
+def open_client(arm, psm):
+    """The client's subscriptions and publishers on `arm` (dvrk.psm, or dvrk.ecm: the arm
+    class alone, without the jaw and emulate_tool_present)."""
+    kept = lambda suffix: psm or not (suffix.startswith("jaw/") or suffix == "emulate_tool_present")
+    subscriptions = [rec.subscribe(t, f"{arm}/{s}", qos(latched))
+                     for s, t, latched in SUBSCRIBES if kept(s)]
+    publishers = {s: node.create_publisher(t, f"{arm}/{s}", qos(latched))
+                  for s, t, latched in PUBLISHES if kept(s)}
+    return subscriptions, publishers
+
+
+def check_connections(arm, subscriptions, publishers, first):
+    """The client's check_connections(): every publisher has a subscriber and every
+    subscriber a publisher within 5 s (from when the node is up: `first` is matched)."""
+    rec.wait_for(lambda: first.get_publisher_count() > 0, 60.0, "the node")
+    start = time.monotonic()
+    unmatched = lambda: ([s.topic_name for s in subscriptions if s.get_publisher_count() == 0]
+                         + [p.topic_name for p in publishers.values()
+                            if p.get_subscription_count() == 0])
+    rec.wait_for(lambda: not unmatched(), 5.0, f"every connection (left: {unmatched()})")
+    check(True, f"{arm}: {len(subscriptions)} subscribers and {len(publishers)} publishers "
+          f"of dVRK's client matched in {time.monotonic() - start:.2f} s")
+
+
+subscriptions, publishers = open_client(ARM, psm=True)
+ecm_subscriptions, ecm_publishers = open_client("/ECM", psm=False)
 forward = node.create_client(QueryForwardKinematics, f"{ARM}/forward_kinematics")
 local_forward = node.create_client(QueryForwardKinematics, f"{ARM}/local/forward_kinematics")
-
-# check_connections(): every publisher has a subscriber and every subscriber a publisher.
-# The node is up once its first topic matches; from then the client's 5 s apply.
-rec.wait_for(lambda: subscriptions[0].get_publisher_count() > 0, 60.0, "the node")
-start = time.monotonic()
-unmatched = lambda: ([s.topic_name for s in subscriptions if s.get_publisher_count() == 0]
-                     + [p.topic_name for p in publishers.values()
-                        if p.get_subscription_count() == 0])
-rec.wait_for(lambda: not unmatched(), 5.0, f"every connection (left: {unmatched()})")
-check(True, f"{len(SUBSCRIBES)} subscribers and {len(PUBLISHES)} publishers of dVRK's PSM "
-      f"client matched in {time.monotonic() - start:.2f} s")
+check_connections(ARM, subscriptions, publishers, subscriptions[0])
+check_connections("/ECM", ecm_subscriptions, ecm_publishers, subscriptions[0])
 
 state = lambda: rec.latest(f"{ARM}/operating_state")
 states_since = lambda n: [m for _, m in rec.messages[f"{ARM}/operating_state"][n:]]
@@ -161,5 +175,21 @@ for name, client in (("forward_kinematics", forward), ("local/forward_kinematics
     check(answer.result
           and math.dist((p.x, p.y, p.z), (measured.x, measured.y, measured.z)) < 1e-6,
           f"{name}: ({p.x:.4f}, {p.y:.4f}, {p.z:.4f}) m, measured_cp's")
+
+# ecm.move_jp(goal).wait(): the scope turns 0.05 rad in yaw; its wrench reads zero.
+ecm_state = lambda: rec.latest("/ECM/operating_state")
+rec.wait_for(lambda: ecm_state() is not None and rec.count("/ECM/setpoint_js") > 0, 30.0,
+             "the ECM's state")
+goal = list(rec.latest("/ECM/setpoint_js").position)
+goal[0] += 0.05
+seen = rec.count("/ECM/operating_state")
+ecm_publishers["move_jp"].publish(JointState(position=goal))
+rec.wait_for(lambda: any(m.is_busy for _, m in rec.messages["/ECM/operating_state"][seen:])
+             and not ecm_state().is_busy, 300.0, "the ECM's move_jp busy pair")
+error = lambda: max(abs(a - b) for a, b in zip(rec.latest("/ECM/measured_js").position, goal))
+rec.wait_for(lambda: error() < 1e-6, 1.0, f"the ECM at its goal (off by {error():.2e})")
+cf = rec.latest("/ECM/spatial/measured_cf")
+check(cf.header.frame_id == "ECM_base" and cf.wrench.force.x == cf.wrench.force.z == 0.0,
+      "ecm.move_jp(...).wait(): yaw +0.05 rad; spatial/measured_cf zero in ECM_base")
 
 rec.close()
