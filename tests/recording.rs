@@ -316,20 +316,17 @@ fn a_recorded_replay_draws_the_camera_again_and_keeps_its_pictures() {
     rosbags_camera_check(&a, "compressed");
 
     // `record = "raw"`: the rgb8 pair, and each eye's depth and labels.
-    let text = std::fs::read_to_string(root().join(CAMERA)).unwrap();
-    let raw_scene = scratch("camera_raw.toml");
-    std::fs::write(
-        &raw_scene,
-        text.replace("[camera]\n", "[camera]\nrecord = \"raw\"\n"),
-    )
-    .unwrap();
-    let raw = scratch("camera_raw.mcap");
-    replay_scene(
-        raw_scene.to_str().unwrap(),
-        &input,
-        &raw,
-        &["--backend", "cpu"],
-    );
+    // The camera scene with `camera.record = mode`, replayed into a bag of that name.
+    let replay_recording = |mode: &str| {
+        let text = std::fs::read_to_string(root().join(CAMERA)).unwrap();
+        let scene = scratch(&format!("camera_{mode}.toml"));
+        let record = format!("[camera]\nrecord = \"{mode}\"\n");
+        std::fs::write(&scene, text.replace("[camera]\n", &record)).unwrap();
+        let bag = scratch(&format!("camera_{mode}.mcap"));
+        replay_scene(scene.to_str().unwrap(), &input, &bag, &["--backend", "cpu"]);
+        bag
+    };
+    let raw = replay_recording("raw");
     let messages = read_bag(&raw);
     let count = |topic: &str| messages.iter().filter(|m| m.0 == topic).count();
     for topic in [
@@ -346,20 +343,7 @@ fn a_recorded_replay_draws_the_camera_again_and_keeps_its_pictures() {
     rosbags_camera_check(&raw, "raw");
 
     // `record = "off"`: no picture at all.
-    let off_scene = scratch("camera_off.toml");
-    std::fs::write(
-        &off_scene,
-        text.replace("[camera]\n", "[camera]\nrecord = \"off\"\n"),
-    )
-    .unwrap();
-    let off = scratch("camera_off.mcap");
-    replay_scene(
-        off_scene.to_str().unwrap(),
-        &input,
-        &off,
-        &["--backend", "cpu"],
-    );
-    let messages = read_bag(&off);
+    let messages = read_bag(&replay_recording("off"));
     assert!(messages
         .iter()
         .all(|m| !m.0.starts_with("/ECM/image") && !m.0.ends_with("camera_info")));
@@ -368,12 +352,27 @@ fn a_recorded_replay_draws_the_camera_again_and_keeps_its_pictures() {
 
 /// tests/ros/read_camera_bag.py on `bag` (`kind`: compressed or raw).
 fn rosbags_camera_check(bag: &Path, kind: &str) {
+    run_bag_script("read_camera_bag.py", bag, kind);
+}
+
+/// tests/ros/read_bag.py on `bag` (`kind`: replay, node or interrupted).
+fn rosbags_check(bag: &Path, kind: &str) {
+    run_bag_script("read_bag.py", bag, kind);
+}
+
+fn has_rosbags() -> bool {
+    support::dds::python_imports("rosbags")
+}
+
+/// `tests/ros/<script> BAG KIND`, which reads the bag with the PyPI rosbags package and
+/// fails on what it finds wrong.
+fn run_bag_script(script: &str, bag: &Path, kind: &str) {
     if !has_rosbags() {
         skip_or_fail("no .venv with the PyPI rosbags package (see .ci/run)");
         return;
     }
     let o = Command::new(python())
-        .arg(root().join("tests/ros/read_camera_bag.py"))
+        .arg(root().join("tests/ros").join(script))
         .args([bag.to_str().unwrap(), kind])
         .output()
         .unwrap();
@@ -381,35 +380,7 @@ fn rosbags_camera_check(bag: &Path, kind: &str) {
     println!("{stdout}");
     assert!(
         o.status.success(),
-        "read_camera_bag.py failed:\n{stdout}\n{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
-
-fn has_rosbags() -> bool {
-    python().exists()
-        && Command::new(python())
-            .args(["-c", "import rosbags"])
-            .status()
-            .is_ok_and(|s| s.success())
-}
-
-/// tests/ros/read_bag.py on `bag` (`kind`: replay, node or interrupted).
-fn rosbags_check(bag: &Path, kind: &str) {
-    if !has_rosbags() {
-        skip_or_fail("no .venv with the PyPI rosbags package (see .ci/run)");
-        return;
-    }
-    let o = Command::new(python())
-        .arg(root().join("tests/ros/read_bag.py"))
-        .args([bag.to_str().unwrap(), kind])
-        .output()
-        .unwrap();
-    println!("{}", String::from_utf8_lossy(&o.stdout));
-    assert!(
-        o.status.success(),
-        "read_bag.py failed:\n{}\n{}",
-        String::from_utf8_lossy(&o.stdout),
+        "{script} failed:\n{stdout}\n{}",
         String::from_utf8_lossy(&o.stderr)
     );
 }

@@ -139,6 +139,19 @@ where
     );
 }
 
+/// Runs `tests/ros/<script>` against `node` on `domain` and fails with both logs if it does.
+fn run_script_against(node: &NodeProcess, script: &str, domain: u16) {
+    let out = run_rclpy(script, domain);
+    println!("{}", String::from_utf8_lossy(&out.stdout));
+    assert!(
+        out.status.success(),
+        "{script} failed:\n{}\n{}\n--- node ---\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+        node.log()
+    );
+}
+
 #[test]
 fn ros_tools_and_dvrk_clients_see_the_node_as_any_node() {
     if !network_prerequisites(true) {
@@ -146,15 +159,7 @@ fn ros_tools_and_dvrk_clients_see_the_node_as_any_node() {
     }
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let node = NodeProcess::start_with(&["--scene", SMALL, "--backend", "cpu"], DOMAIN);
-    let out = run_rclpy("test_contract.py", DOMAIN);
-    println!("{}", String::from_utf8_lossy(&out.stdout));
-    assert!(
-        out.status.success(),
-        "test_contract.py failed:\n{}\n{}\n--- node ---\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr),
-        node.log()
-    );
+    run_script_against(&node, "test_contract.py", DOMAIN);
 
     let context = Context::with_options(ContextOptions::new().domain_id(DOMAIN)).unwrap();
     let mut peer = context
@@ -346,15 +351,7 @@ fn standard_ros_arguments_and_links_left_to_dvrk() {
         ],
         domain,
     );
-    let out = run_rclpy("test_ros_args.py", domain);
-    println!("{}", String::from_utf8_lossy(&out.stdout));
-    assert!(
-        out.status.success(),
-        "test_ros_args.py failed:\n{}\n{}\n--- node ---\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr),
-        node.log()
-    );
+    run_script_against(&node, "test_ros_args.py", domain);
 
     // With `tf_arm_links = false` /tf carries only what dVRK's robot_state_publisher (fed
     // by measured_js) does not: the tool frame and our tool tip, under the base.
@@ -397,13 +394,5 @@ fn dvrk_python_psm_client_connects_and_drives_the_default_scene() {
         &["--scene", "config/default.toml", "--backend", "cpu"],
         domain,
     );
-    let out = run_rclpy("test_dvrk_client.py", domain);
-    println!("{}", String::from_utf8_lossy(&out.stdout));
-    assert!(
-        out.status.success(),
-        "test_dvrk_client.py failed:\n{}\n{}\n--- node ---\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr),
-        node.log()
-    );
+    run_script_against(&node, "test_dvrk_client.py", domain);
 }
