@@ -447,9 +447,14 @@ impl ArmSim {
             .expect("arm joint vector has the chain's length")
     }
 
+    /// The tool frame in the world: the base's pose times `cp`.
+    pub fn world_cp(&self) -> Isometry3<f64> {
+        self.base * self.cp()
+    }
+
     /// The tool pose in the world, jaw included: what drives the scene's tool.
     pub fn tool_pose(&self) -> ToolPose {
-        let world = self.base * self.cp();
+        let world = self.world_cp();
         ToolPose {
             position: world.translation.vector,
             rotation: world.rotation * self.mount,

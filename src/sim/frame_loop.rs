@@ -478,7 +478,7 @@ pub fn endoscope_pose(setup: &SimSetup) -> Option<Isometry3<f32>> {
         .arms
         .iter()
         .find(|a| a.psm().kind() == crate::robot::ArmKind::Ecm)?;
-    Some((ecm.base() * ecm.cp()).cast::<f32>())
+    Some(ecm.world_cp().cast::<f32>())
 }
 
 fn frame_of(setup: &SimSetup, report: Option<&FrameReport>) -> Frame {

@@ -143,7 +143,7 @@ pub fn scripted_camera(world: &World) -> Option<crate::render::CameraRig> {
                     .map_err(|e| e.to_string())
             });
         match at_home {
-            Ok(arm) => rig.set_pose((arm.base() * arm.cp()).cast::<f32>()),
+            Ok(arm) => rig.set_pose(arm.world_cp().cast::<f32>()),
             Err(e) => {
                 tracing::warn!("camera off: {}: {e}", ecm.name);
                 return None;
