@@ -1,5 +1,5 @@
-//! A surgeon's retraction, headless, on the shipped `config/deep_lift.toml`: its own keyframes
-//! grasp the default liver and lift it 25 mm above the grasp, hold, and open the jaws. Total
+//! A surgeon's retraction, headless, on the shipped `config/default.toml`: its own keyframes
+//! grasp the liver and lift it 25 mm above the grasp, hold, and open the jaws. Total
 //! Lagrangian MPM must keep the liver one piece all the way up, the wrench must rise with the
 //! lift, and opening must let the liver fall back.
 
@@ -8,7 +8,7 @@ use dvrk_tissue_sim::world::World;
 
 #[test]
 fn the_liver_lifted_25_mm_stays_one_piece_and_falls_back_when_released() {
-    let path = format!("{}/config/deep_lift.toml", env!("CARGO_MANIFEST_DIR"));
+    let path = format!("{}/config/default.toml", env!("CARGO_MANIFEST_DIR"));
     let scene = config::load(std::path::Path::new(&path)).unwrap();
     let keys = &scene.tools[0].keyframes;
     let close = keys.iter().find(|k| k.jaw_deg <= 0.0).unwrap();

@@ -39,7 +39,7 @@
 //!   live on the rest configuration, so tissue pulled far past a cell per particle stays one
 //!   piece, where the updated-Lagrangian methods part it by numerics (the default liver
 //!   lifted 25 mm above the grasp: MLS-MPM tears a chunk away at 10–13 mm; `tl_mpm` holds it
-//!   to the top with the wrench rising to 2.8 N, `config/deep_lift.toml`). Stretched 2× and
+//!   to the top with the wrench rising to 2.8 N, `config/default.toml`). Stretched 2× and
 //!   3× (`bench accuracy`, a block 4 cells thick), its force stays within 8.1 % of the
 //!   Neo-Hookean answer (−7.8 %, −8.1 %; −3.7 %, −4.0 % at 8 cells), where MLS-MPM's block
 //!   parts and carries nothing (−100 %). Its cost:

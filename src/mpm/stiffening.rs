@@ -6,7 +6,7 @@
 //! squeezed to a smallest principal stretch σ_min stiffens by about 1/σ_min² along that axis
 //! (the F⁻ᵀ terms of its stress), so elastic waves cross a rest cell up to 1/σ_min times
 //! sooner than that substep allows. Tissue a lift stretches narrows across the pull, and
-//! tissue between closed jaws is squeezed; without the cut the liver `config/deep_lift.toml`
+//! tissue between closed jaws is squeezed; without the cut the liver `config/default.toml`
 //! lifts 25 mm ran away at 10 m/s when the jaws let it go.
 //!
 //! Each substep is therefore cut into ⌈b⌉ pieces (at most [`MAX_PIECES`]), b the largest

@@ -1,14 +1,16 @@
 """Grasp and lift on the default scene as a dVRK user scripts it: open the jaws, insert the
-tips into the liver, close (a negative jaw command: the jaws meet and squeeze), lift 10 mm,
-hold, open. The grasped region must rise with the jaws, the gripper wrench must carry the
-pull while holding, and opening must let the tissue go. Waits follow simulated time (the
-stamps of PSM1/measured_js), so the script works however slowly the simulation runs."""
+tips into the liver, close (a negative jaw command: the jaws meet and squeeze), lift 25 mm
+(a surgeon's retraction), hold, open. The grasped region must rise with the jaws, the liver
+must stay one piece (tissue/pieces), the gripper's pull must rise with the lift and carry
+the tissue while holding, and opening must let the tissue go. Waits follow simulated time
+(the stamps of PSM1/measured_js), so the script works however slowly the simulation runs."""
 
 import math
 import struct
 
 from geometry_msgs.msg import WrenchStamped
 from sensor_msgs.msg import JointState, PointCloud2
+from std_msgs.msg import UInt32
 
 from common import Recorder, check
 
@@ -17,6 +19,7 @@ rec.subscribe(JointState, "/PSM1/measured_js")
 rec.subscribe(JointState, "/PSM1/jaw/measured_js")
 rec.subscribe(PointCloud2, "/tissue/points")
 rec.subscribe(WrenchStamped, "/tools/gripper/wrench")
+rec.subscribe(UInt32, "/tissue/pieces")
 move = rec.publisher(JointState, "/PSM1/move_jp")
 jaw_move = rec.publisher(JointState, "/PSM1/jaw/move_jp")
 rec.wait_for(lambda: rec.latest("/tissue/points") is not None
@@ -63,17 +66,41 @@ rec.wait_for(lambda: abs(rec.latest("/PSM1/measured_js").position[2] - home_inse
 jaw_move.publish(JointState(name=["jaw"], position=[math.radians(-20)]))
 rec.wait_for(lambda: jaw()[0] < 0.01 and jaw()[1] < -0.1, 600.0, "the jaws to close and squeeze")
 print(f"RESULT closed jaw={jaw()[0]:.4f} rad effort={jaw()[1]:.3f} N·m")
-move.publish(JointState(position=q[:2] + [home_insertion + 0.001] + q[3:]))
-rec.wait_for(lambda: abs(rec.latest("/PSM1/measured_js").position[2] - home_insertion - 0.001)
-             < 1e-4, 600.0, "the 10 mm lift")
+
+LIFT = 0.025
+
+
+def stamp(msg):
+    return msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
+
+
+lift_from = stamp(rec.latest("/PSM1/measured_js"))
+move.publish(JointState(position=q[:2] + [home_insertion + 0.011 - LIFT] + q[3:]))
+rec.wait_for(lambda: abs(rec.latest("/PSM1/measured_js").position[2] - home_insertion - 0.011
+                         + LIFT) < 1e-4, 1200.0, "the 25 mm lift")
+lift_to = stamp(rec.latest("/PSM1/measured_js"))
 rec.wait_sim(0.3, "the hold")
 held_rise = region_z() - z0
 wrenches = [m for _, m in rec.messages["/tools/gripper/wrench"][-10:]]
 # Tool z points down along the instrument: the tissue pulls the lifted jaws down, along +z.
 pull = sum(w.wrench.force.z for w in wrenches) / len(wrenches)
-print(f"RESULT held rise {held_rise * 1e3:.2f} mm, pull {pull:.3f} N along the tool's z")
-check(held_rise >= 0.005, f"the grasped region rose {held_rise * 1e3:.2f} mm (>= 5 mm)")
-check(pull > 0.05, f"the gripper wrench carries the pull ({pull:.3f} N)")
+pieces = [m.data for _, m in rec.messages["/tissue/pieces"]]
+print(f"RESULT held rise {held_rise * 1e3:.2f} mm, pull {pull:.3f} N along the tool's z, "
+      f"pieces seen {sorted(set(pieces))}")
+check(held_rise >= 0.8 * LIFT,
+      f"the grasped region rose {held_rise * 1e3:.2f} mm (>= 80 % of the 25 mm lift)")
+check(pull > 1.0, f"the gripper wrench carries the pull ({pull:.3f} N)")
+check(len(pieces) > 0 and set(pieces) == {1}, f"the liver stayed one piece ({sorted(set(pieces))})")
+# The pull rises with the lift: from a tenth of the way up, every frame's wrench at least the
+# one before less 2 % of the final pull (the frame-to-frame ripple). A frame's wrench may
+# come more than once; its stamp names the frame.
+rising = sorted({stamp(w): w.wrench.force.z for _, w in rec.messages["/tools/gripper/wrench"]
+                 if lift_from + 0.1 * (lift_to - lift_from) <= stamp(w) <= lift_to}.items())
+check(len(rising) > 10, f"{len(rising)} frames' wrenches during the lift")
+drop, at = max((f0 - f1, t1) for (_, f0), (t1, f1) in zip(rising, rising[1:]))
+print(f"RESULT pull from {rising[0][1]:.3f} N to {rising[-1][1]:.3f} N over {len(rising)} frames, "
+      f"largest fall {drop:.4f} N")
+check(drop <= 0.02 * pull, f"the pull fell by {drop:.4f} N at t = {at:.3f} s during the lift")
 
 jaw_move.publish(JointState(name=["jaw"], position=[math.radians(50)]))
 rec.wait_sim(1.0, "the release")

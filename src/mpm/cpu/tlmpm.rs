@@ -20,7 +20,7 @@
 //!   (see [`crate::mpm::stiffening`]); the backend cuts the frame's plan, so a call here
 //!   is one step.
 //!
-//! Measured on `config/deep_lift.toml` (the default liver, lifted 25 mm above the grasp,
+//! Measured on `config/default.toml` (the default liver, lifted 25 mm above the grasp,
 //! `tests/deep_lift.rs`): one piece to the top and after the release, |F_z| rising every
 //! 0.1 s of the lift from 0.39 to 2.78 N, the top of the liver at 23.5 mm at rest, 48.6 mm
 //! lifted and back at 23.7 mm 0.8 s after the jaws open. MLS-MPM on the same lift tears a
@@ -39,6 +39,13 @@
 //! What it does not do: cut (a crack would have to be carried back to the rest
 //! configuration) or tear; contact between separate pieces of tissue is not seen (their
 //! nodes never meet). The GPU runs the same math (`mpm::gpu`'s `tlmpm`).
+//!
+//! Not yet resolution-independent under the jaws: the default liver's half-size copy
+//! (20 × 20 × 10 mm, the same grasp 5 mm deep, closed to −20°, lifted 25 mm in 1 s) lifts
+//! to 2.21 N at dx 2 mm (4,000 particles, one piece), but at dx 1 mm (32,000 particles)
+//! a particle between the closed jaws runs away (11–15 m/s) as the lift starts, at
+//! `cfl = 0.5` and `0.25` alike, so the substep is not what fails: the squeeze and the
+//! held nodes' edge are.
 
 use super::super::grid::{Boundary, GridLayout, TableHold, WALL_NODES};
 use super::super::guard::{GuardEvent, GuardKind};
