@@ -41,11 +41,15 @@
 //! nodes never meet). The GPU runs the same math (`mpm::gpu`'s `tlmpm`).
 //!
 //! Not yet resolution-independent under the jaws: the default liver's half-size copy
-//! (20 × 20 × 10 mm, the same grasp 5 mm deep, closed to −20°, lifted 25 mm in 1 s) lifts
-//! to 2.21 N at dx 2 mm (4,000 particles, one piece), but at dx 1 mm (32,000 particles)
-//! a particle between the closed jaws runs away (11–15 m/s) as the lift starts, at
-//! `cfl = 0.5` and `0.25` alike, so the substep is not what fails: the squeeze and the
-//! held nodes' edge are.
+//! (20 × 20 × 10 mm, the same grasp 5 mm deep, jaws closing from 50° to −20° over 0.5 s)
+//! lifts at dx 2 mm (4,000 particles, one piece), but at dx 1 mm (32,000 particles) the
+//! closing jaws crush the free tissue between their faces before the grip holds any of it:
+//! its smallest stretch falls to 1/24.7 (J = 0.06) at t = 0.48 s and to 1/133 within the
+//! next frame, faster than cutting the frame's substeps by the bound taken at its start
+//! can follow, and a particle there runs away at 11–15 m/s. `cfl = 0.25`, a cap of 64
+//! pieces and a grip taking over at two cells' gap each leave it so: the crush, not the
+//! substep, is what fails.
+//!
 
 use super::super::grid::{Boundary, GridLayout, TableHold, WALL_NODES};
 use super::super::guard::{GuardEvent, GuardKind};
