@@ -311,21 +311,10 @@ pub fn measured_cf_messages(
     stamp: Time,
 ) -> (WrenchStamped, WrenchStamped) {
     let wrench = tool.map(|t| t.wrench).unwrap_or_default();
-    let body = WrenchStamped {
-        header: Header::new(stamp, tool.map_or(arm.name.as_str(), |t| &t.frame_id)),
-        wrench: Wrench {
-            force: wrench.force.into(),
-            torque: wrench.torque.into(),
-        },
-    };
+    let body_frame = tool.map_or(arm.name.as_str(), |t| &t.frame_id);
+    let body = wrench_stamped(wrench.force, wrench.torque, body_frame, stamp);
     let r = status.cp.rotation;
-    let spatial = WrenchStamped {
-        header: Header::new(stamp, &arm.base_frame),
-        wrench: Wrench {
-            force: (r * wrench.force).into(),
-            torque: (r * wrench.torque).into(),
-        },
-    };
+    let spatial = wrench_stamped(r * wrench.force, r * wrench.torque, &arm.base_frame, stamp);
     (body, spatial)
 }
 
@@ -372,11 +361,22 @@ pub fn jacobian_messages(
 
 /// A tool's contact wrench, in its frame, times `scale`.
 pub fn wrench_message(tool: &ToolState, scale: f64, stamp: Time) -> WrenchStamped {
+    let w = &tool.wrench;
+    wrench_stamped(w.force * scale, w.torque * scale, &tool.frame_id, stamp)
+}
+
+/// A force and torque, expressed in `frame`, as a stamped wrench message.
+fn wrench_stamped(
+    force: nalgebra::Vector3<f64>,
+    torque: nalgebra::Vector3<f64>,
+    frame: &str,
+    stamp: Time,
+) -> WrenchStamped {
     WrenchStamped {
-        header: Header::new(stamp, &tool.frame_id),
+        header: Header::new(stamp, frame),
         wrench: Wrench {
-            force: (tool.wrench.force * scale).into(),
-            torque: (tool.wrench.torque * scale).into(),
+            force: force.into(),
+            torque: torque.into(),
         },
     }
 }

@@ -8,8 +8,9 @@ of one picture), K and P against the scene's optics, and that depth and labels a
 (NaN exactly where nothing was drawn).
 
 Then the ECM as dVRK's clients drive it: its CRTK topics exist with dVRK's types (the
-contact wrench included, zero) and no jaw, `measured_js` names its four joints, a `move_jp` turns it (measured_js follows to the
-goal, measured_cp moves) and the picture changes with it.
+contact wrench included, zero) and no jaw, `measured_js` names its four joints, a
+`move_jp` turns it (measured_js follows to the goal, measured_cp moves) and the picture
+changes with it.
 
 Prints `RESULT images=.. rate_hz=.. ecm_moved_pixels=..`.
 """

@@ -49,7 +49,6 @@
 //! can follow, and a particle there runs away at 11–15 m/s. `cfl = 0.25`, a cap of 64
 //! pieces and a grip taking over at two cells' gap each leave it so: the crush, not the
 //! substep, is what fails.
-//!
 
 use super::super::grid::{Boundary, GridLayout, TableHold, WALL_NODES};
 use super::super::guard::{GuardEvent, GuardKind};
