@@ -170,9 +170,11 @@
 //! | 2·10⁵ nested XML elements in a URDF | refused: nesting deeper than 32 levels, with the line | `tests/urdf_limits.rs` |
 //! | a second node with the same name and namespace in the domain | refused at start, naming the first; the first runs on | `tests/hostile_network.rs` |
 //! | `ROS_AUTOMATIC_DISCOVERY_RANGE`, `ROS_LOCALHOST_ONLY` | honoured as ROS 2 defines them (LOCALHOST: rclpy on this host finds the node, and every socket of the node is bound to 127.0.0.1 or the multicast group, none to every interface; OFF: nobody does); an unknown range refused | `tests/hostile_network.rs`, unit test in [`participant`] |
+//! | a participant without a permitted identity (unsecured, or with its own CA's identity and permissions) sending `move_jp` to a node under SROS2 | not matched: the arm does not move and the participant reads nothing; a permitted reader is refused a writer its permissions do not grant ([`security`]: `ROS_SECURITY_ENABLE=true`, a keystore, the `sros2` feature) | `tests/sros2.rs`, unit test in [`security`] |
 //!
-//! Not defended: any participant that can reach the node's ports may still command the arms
-//! (DDS Security, SROS2, is not used).
+//! Without SROS2 (the default, as in ROS 2), any participant that can reach the node's
+//! ports may command the arms: `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST` keeps other hosts
+//! out, SROS2 keeps out every participant without a permitted identity.
 
 pub mod camera;
 pub mod inputs;
@@ -189,6 +191,7 @@ pub mod replay;
 pub mod ros_args;
 pub mod rosout;
 pub mod schema;
+pub mod security;
 pub mod session;
 pub mod shutdown;
 pub mod sim_clock;

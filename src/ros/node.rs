@@ -29,6 +29,7 @@ use crate::ros::outputs::{self, ArmOutput, EventMessage, EventStamps, OutputLayo
 use crate::ros::parameters::ParameterServices;
 use crate::ros::participant::{self, DiscoveryRange};
 use crate::ros::rosout::Rosout;
+use crate::ros::security;
 use crate::ros::session::{finish_recording, prepare, NodeSettings, SessionError};
 use crate::ros::sim_clock::SimClock;
 use crate::ros::status::{backend_and_adapter, Progress, StatusReport};
@@ -329,10 +330,14 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
         .map_err(|e| err("node name / namespace", e))?;
     let domain_id = domain_id_from_env()?;
     let discovery_range = DiscoveryRange::from_env()?;
+    let enclave = security::enclave_from_env(&node_name.fully_qualified_name())?;
     let (setup, recorder) = prepare(scene, settings)?;
     let layout = OutputLayout::new(scene, &setup, &settings.namespace);
     log_wire_distribution();
-    let context = participant::open(domain_id, discovery_range)?;
+    if let Some(dir) = &enclave {
+        tracing::info!("DDS Security on: SROS2 enclave {}", dir.display());
+    }
+    let context = participant::open(domain_id, discovery_range, enclave.as_deref())?;
     participant::ensure_name_is_free(&context, &node_name)?;
     let mut node = context
         .new_node(node_name, NodeOptions::new().enable_rosout(true))

@@ -1,6 +1,7 @@
 //! The node's DDS participant: what a packet may make it allocate, which networks it
 //! discovers and is discovered on (`ROS_AUTOMATIC_DISCOVERY_RANGE`, `ROS_LOCALHOST_ONLY`),
-//! and that its name is its own in the domain.
+//! that its name is its own in the domain, and DDS Security when an SROS2 enclave is given
+//! ([`super::security`]).
 //!
 //! - **Fragmented samples are bounded.** A DATA_FRAG submessage says how large its whole
 //!   sample is; the claim is the sender's word and its writer may be made up. The node's
@@ -22,6 +23,7 @@
 //!   participant already runs a node with the same name and namespace, naming it.
 
 use std::net::{IpAddr, Ipv4Addr};
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 use ros2_client::builtin_topics::ros_discovery;
@@ -82,10 +84,15 @@ impl DiscoveryRange {
     }
 }
 
-/// The node's participant on `domain_id` over `range`, with the fragment limits set.
-pub fn open(domain_id: u16, range: DiscoveryRange) -> Result<Context, NodeError> {
+/// The node's participant on `domain_id` over `range`, with the fragment limits set, and
+/// secured by the SROS2 enclave `enclave` when there is one (see [`super::security`]).
+pub fn open(
+    domain_id: u16,
+    range: DiscoveryRange,
+    enclave: Option<&Path>,
+) -> Result<Context, NodeError> {
     rustdds::set_fragment_assembly_limits(MAX_FRAGMENTED_SAMPLE_BYTES, MAX_ASSEMBLING_BYTES);
-    let builder = DomainParticipantBuilder::new(domain_id);
+    let builder = secure(DomainParticipantBuilder::new(domain_id), enclave);
     let builder = match range {
         DiscoveryRange::Subnet => builder,
         DiscoveryRange::Localhost => builder.with_only_networks([IpAddr::V4(Ipv4Addr::LOCALHOST)]),
@@ -101,6 +108,29 @@ pub fn open(domain_id: u16, range: DiscoveryRange) -> Result<Context, NodeError>
         what: "DDS participant".into(),
         detail: format!("{e:?}"),
     })
+}
+
+/// `builder` with DDS Security's builtin plugins configured from `enclave`'s files (SROS2's
+/// names; the private key unencrypted, as SROS2 writes it).
+#[cfg(feature = "sros2")]
+fn secure(builder: DomainParticipantBuilder, enclave: Option<&Path>) -> DomainParticipantBuilder {
+    match enclave {
+        Some(dir) => builder.builtin_security(
+            rustdds::DomainParticipantSecurityConfigFiles::with_ros_default_names(
+                dir,
+                String::new(),
+            ),
+        ),
+        None => builder,
+    }
+}
+
+/// Without the `sros2` feature there is no enclave to use ([`super::security`] refuses or
+/// warns before the participant exists).
+#[cfg(not(feature = "sros2"))]
+fn secure(builder: DomainParticipantBuilder, enclave: Option<&Path>) -> DomainParticipantBuilder {
+    debug_assert!(enclave.is_none(), "an enclave without DDS Security");
+    builder
 }
 
 /// How long the node listens for a namesake before it starts: over loopback a running

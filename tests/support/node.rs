@@ -1,6 +1,7 @@
 //! The node as a child process and the rclpy scripts that drive it, for the tests that start
 //! DDS participants.
 
+use std::ffi::OsStr;
 use std::path::PathBuf;
 use std::process::{Child, Command, ExitStatus, Output, Stdio};
 use std::time::{Duration, Instant};
@@ -23,6 +24,11 @@ impl NodeProcess {
 
     /// The node with `args` after `run`.
     pub fn start_with(args: &[&str], domain: u16) -> NodeProcess {
+        NodeProcess::start_with_env(args, &[], domain)
+    }
+
+    /// The node with `args` after `run` and the environment variables `env` set.
+    pub fn start_with_env(args: &[&str], env: &[(&str, &OsStr)], domain: u16) -> NodeProcess {
         let log =
             std::env::temp_dir().join(format!("dvrk-node-{domain}-{}.log", std::process::id()));
         let child = binary()
@@ -30,6 +36,7 @@ impl NodeProcess {
             .args(args)
             .env("ROS_DOMAIN_ID", domain.to_string())
             .env("NO_COLOR", "1")
+            .envs(env.iter().copied())
             .stdout(Stdio::null())
             .stderr(std::fs::File::create(&log).unwrap())
             .spawn()
