@@ -255,3 +255,68 @@ fn the_shipped_default_scene_puts_its_optical_frames_on_tf_static_under_the_ecm(
         );
     }
 }
+
+/// Tissue labelled pixels whose surface point lies in the gap between the two halves of a
+/// block pulled 4 mm apart (world x from 1 to 3 mm, above the table), and all tissue pixels,
+/// as the camera draws the scene with `toughness` set (tissue that can tear) or not.
+fn tissue_pixels_in_the_gap(toughness: Option<f64>) -> (usize, usize) {
+    let mut scene = grasp_scene(0.5, 0.8, 1.2, 0.01);
+    scene.tools.clear();
+    scene.tissues[0].center = [0.0, 0.0, 0.004];
+    scene.tissues[0].size = [0.012, 0.006, 0.004];
+    scene.tissues[0].material.toughness = toughness;
+    let mut world = World::new(&scene);
+    let mut geometry = SceneGeometry::new(&world, None).unwrap();
+    // The block in two: the half at x > 0 moved 4 mm (four cells) along x.
+    for x in world.particles_mut().x.iter_mut().filter(|x| x.x > 0.0) {
+        x.x += 0.004;
+    }
+    let tris = geometry.triangles(&world);
+    let mut r = renderer();
+    let p = pinhole(128, 96);
+    let pose = look_at(
+        Vec3::new(0.002, -0.025, 0.035),
+        Vec3::new(0.002, 0.0, 0.004),
+    );
+    let frame = r
+        .render(&tris.vertices, &stereo_eyes(&pose, p, 0.0))
+        .unwrap();
+    let (mut in_gap, mut tissue) = (0, 0);
+    for v in 0..96 {
+        for u in 0..128 {
+            let i = v * 128 + u;
+            if frame.labels[i] != LABEL_TISSUE {
+                continue;
+            }
+            tissue += 1;
+            let ray = Vec3::new(
+                (u as f32 - p.cx) / p.focal,
+                (v as f32 - p.cy) / p.focal,
+                1.0,
+            );
+            let x = pose * Point3::from(ray * frame.depth[i]);
+            if x.x > 0.001 && x.x < 0.003 && x.z > 0.0025 {
+                in_gap += 1;
+            }
+        }
+    }
+    (in_gap, tissue)
+}
+
+#[test]
+fn tissue_that_can_tear_is_drawn_as_its_isosurface_so_a_gap_shows() {
+    // The rest surface's mesh stretches over the gap: what the camera drew before.
+    let (bridged, mesh_tissue) = tissue_pixels_in_the_gap(None);
+    // With toughness the scene's surface is the isosurface, rebuilt from the particles.
+    let (in_gap, iso_tissue) = tissue_pixels_in_the_gap(Some(1.0));
+    println!(
+        "tissue pixels over the 4 mm gap: mesh {bridged} of {mesh_tissue}, isosurface \
+         {in_gap} of {iso_tissue}"
+    );
+    assert!(
+        bridged > 50,
+        "the mesh should bridge the gap: {bridged} pixels"
+    );
+    assert_eq!(in_gap, 0, "the isosurface drew tissue in the gap");
+    assert!(iso_tissue > mesh_tissue / 2, "{iso_tissue} tissue pixels");
+}

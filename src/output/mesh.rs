@@ -275,6 +275,13 @@ impl SpatialHash {
             })
     }
 
+    /// The point nearest `p` within `radius` (at most the cell edge), if any.
+    pub fn nearest(&self, p: Vec3, radius: f32) -> Option<u32> {
+        self.within(p, radius)
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(i, _)| i)
+    }
+
     /// Distance from `p` to the nearest point within `radius`; `radius` when there is none.
     pub fn nearest_distance(&self, p: Vec3, radius: f32) -> f32 {
         self.within(p, radius)

@@ -2,8 +2,11 @@
 //! surface, each tool tessellated from its shape, each thread as a tube, and the table.
 
 use crate::math::Vec3;
-use crate::output::mesh::TissueMesh;
+use crate::output::isosurface;
+use crate::output::mesh::{SpatialHash, TissueMesh};
 use crate::output::strain::{colour_range, StrainMeasure};
+use crate::output::SurfaceKind;
+use crate::sim::setup::surface_choice;
 use crate::tools::sdf::jaw_angle;
 use crate::tools::Shape;
 use crate::world::World;
@@ -61,6 +64,37 @@ impl Triangles {
                 colour,
                 label: label as u32,
             });
+        }
+    }
+
+    /// A tissue surface: `triangles` over `vertices` with their `normals` and `colours`,
+    /// each triangle labelled by its first corner's tissue block (`blocks`); triangles with
+    /// a non-finite corner are left out.
+    fn tissue(
+        &mut self,
+        vertices: &[Vec3],
+        normals: &[Vec3],
+        triangles: &[[u32; 3]],
+        colours: &[[f32; 3]],
+        blocks: &[u16],
+    ) {
+        for t in triangles {
+            let [a, b, c] = t.map(|i| i as usize);
+            if ![a, b, c]
+                .iter()
+                .all(|&v| vertices[v].iter().all(|x| x.is_finite()))
+            {
+                continue;
+            }
+            let label = LABEL_TISSUE.saturating_add(blocks[a].min(39) as u8);
+            for v in [a, b, c] {
+                self.vertices.push(Vertex {
+                    position: vertices[v].into(),
+                    normal: normals[v].into(),
+                    colour: colours[v],
+                    label: label as u32,
+                });
+            }
         }
     }
 
@@ -290,12 +324,22 @@ impl Triangles {
     }
 }
 
+/// How the tissue's surface is drawn: as the scene's outputs publish it.
+enum TissueDrawing {
+    /// The rest surface's mesh carried by the particles, with each vertex's tissue block.
+    Mesh {
+        mesh: Box<TissueMesh>,
+        vertex_block: Vec<u16>,
+    },
+    /// The level set extracted afresh each frame (tissue that is cut or tears, whose
+    /// topology the mesh cannot follow), on a lattice of spacing `cell` (m).
+    Isosurface { cell: f32 },
+}
+
 /// Builds a world's triangles each frame; holds the tissue mesh bound to the particles.
 pub struct SceneGeometry {
     /// The tissue surface (None: no tissue).
-    mesh: Option<TissueMesh>,
-    /// Tissue block of each mesh vertex.
-    vertex_block: Vec<u16>,
+    tissue: Option<TissueDrawing>,
     /// Strain measure the tissue is coloured by; `None`: the tissue colour.
     strain: Option<StrainMeasure>,
 }
@@ -303,26 +347,29 @@ pub struct SceneGeometry {
 impl SceneGeometry {
     /// The geometry of `world` as it is now (its particles taken as the rest state the
     /// tissue mesh binds to); `strain`: colour the tissue by that measure instead of its
-    /// colour.
+    /// colour. The tissue is drawn as the scene's surface output is (see
+    /// [`crate::sim::setup::surface_kind`]): the isosurface where it is cut or tears.
     pub fn new(
         world: &World,
         strain: Option<StrainMeasure>,
     ) -> Result<SceneGeometry, crate::output::mesh::MeshError> {
         let particles = world.particles();
-        let (mesh, vertex_block) = if particles.is_empty() {
-            (None, Vec::new())
+        let cell = world.scene().domain.dx as f32;
+        let tissue = if particles.is_empty() {
+            None
+        } else if surface_choice(world.scene()).0 == SurfaceKind::Isosurface {
+            Some(TissueDrawing::Isosurface { cell })
         } else {
-            let mesh = TissueMesh::build(particles, world.scene().domain.dx as f32)?;
-            let blocks = (0..mesh.vertices.len())
+            let mesh = TissueMesh::build(particles, cell)?;
+            let vertex_block = (0..mesh.vertices.len())
                 .map(|v| particles.material[mesh.first_particle(v) as usize])
                 .collect();
-            (Some(mesh), blocks)
+            Some(TissueDrawing::Mesh {
+                mesh: Box::new(mesh),
+                vertex_block,
+            })
         };
-        Ok(SceneGeometry {
-            mesh,
-            vertex_block,
-            strain,
-        })
+        Ok(SceneGeometry { tissue, strain })
     }
 
     /// The world's triangles now (particles as the backend last read them back).
@@ -339,36 +386,55 @@ impl SceneGeometry {
                 [(o[0] + 1.5 * s[0]) as f32, (o[1] + 1.5 * s[1]) as f32],
             );
         }
-        if let Some(mesh) = &mut self.mesh {
-            let particles = world.particles();
-            mesh.update(&particles.x);
-            let colours: Vec<[f32; 3]> = match self.strain {
-                None => vec![TISSUE_COLOUR; mesh.vertices.len()],
-                Some(measure) => {
-                    let values = mesh.vertex_values(&measure.values(particles));
-                    let range = colour_range(&values);
-                    values
-                        .iter()
-                        .map(|&v| measure.colour(v, range).into())
-                        .collect()
-                }
-            };
-            for t in &mesh.triangles {
-                let [a, b, c] = t.map(|i| i as usize);
-                let label = LABEL_TISSUE.saturating_add(self.vertex_block[a].min(39) as u8);
-                for v in [a, b, c] {
-                    out.vertices.push(Vertex {
-                        position: mesh.vertices[v].into(),
-                        normal: mesh.normals[v].into(),
-                        colour: colours[v],
-                        label: label as u32,
-                    });
-                }
-                let tri = &out.vertices[out.vertices.len() - 3..];
-                if !tri.iter().flat_map(|v| v.position).all(f32::is_finite) {
-                    out.vertices.truncate(out.vertices.len() - 3);
-                }
+        let particles = world.particles();
+        let strain = self.strain;
+        match &mut self.tissue {
+            Some(TissueDrawing::Mesh { mesh, vertex_block }) => {
+                mesh.update(&particles.x);
+                let colours =
+                    strain_colours(strain, particles, |values| mesh.vertex_values(values));
+                let colours = colours.unwrap_or_else(|| vec![TISSUE_COLOUR; mesh.vertices.len()]);
+                let blocks = vertex_block.as_slice();
+                out.tissue(
+                    &mesh.vertices,
+                    &mesh.normals,
+                    &mesh.triangles,
+                    &colours,
+                    blocks,
+                );
             }
+            Some(TissueDrawing::Isosurface { cell }) => {
+                let surface = isosurface::extract(particles, *cell);
+                // Each vertex takes its block and strain from the particle nearest it
+                // (a vertex of the ½ level set lies within a lattice cell of one).
+                let near = SpatialHash::new(
+                    particles.x.iter().enumerate().map(|(i, &x)| (i as u32, x)),
+                    *cell,
+                );
+                let nearest: Vec<Option<u32>> = surface
+                    .vertices
+                    .iter()
+                    .map(|&v| near.nearest(v, *cell))
+                    .collect();
+                let blocks: Vec<u16> = nearest
+                    .iter()
+                    .map(|p| p.map_or(0, |p| particles.material[p as usize]))
+                    .collect();
+                let colours = strain_colours(strain, particles, |values| {
+                    let of = |p: &Option<u32>| p.map_or(0.0, |p| values[p as usize]);
+                    nearest.iter().map(of).collect()
+                });
+                let colours =
+                    colours.unwrap_or_else(|| vec![TISSUE_COLOUR; surface.vertices.len()]);
+                out.tissue(
+                    &surface.vertices,
+                    &surface.normals,
+                    &surface.triangles,
+                    &colours,
+                    &blocks,
+                );
+            }
+            None => {}
         }
         for (i, thread) in world.threads().iter().enumerate() {
             let label = LABEL_THREAD.saturating_add(i.min(49) as u8);
@@ -396,4 +462,22 @@ impl SceneGeometry {
         }
         out
     }
+}
+
+/// The tissue's vertex colours by `strain` (`None`: coloured as tissue), the particles'
+/// values carried to the vertices by `at_vertices`.
+fn strain_colours(
+    strain: Option<StrainMeasure>,
+    particles: &crate::mpm::Particles,
+    at_vertices: impl FnOnce(&[f32]) -> Vec<f32>,
+) -> Option<Vec<[f32; 3]>> {
+    let measure = strain?;
+    let values = at_vertices(&measure.values(particles));
+    let range = colour_range(&values);
+    Some(
+        values
+            .iter()
+            .map(|&v| measure.colour(v, range).into())
+            .collect(),
+    )
 }

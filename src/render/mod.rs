@@ -5,8 +5,10 @@
 //!   default dVRK's simulators': 1280 × 720 per eye, 60°, 6 mm, 30 Hz), with CameraInfo's
 //!   K and P (the right eye's Tx = −f·baseline). Frames are REP 103's optical frames.
 //! - **Geometry** ([`geometry`]): one triangle list a frame, each corner labelled: the
-//!   tissue's fixed-topology surface mesh (bound to the particles as the published mesh is,
-//!   in a tissue colour or coloured by strain), each tool tessellated from its shape (the
+//!   tissue's surface as the scene's outputs publish it (the fixed-topology mesh bound to
+//!   the particles, or, where the tissue is cut or can tear, the isosurface extracted afresh
+//!   each frame, so a cut or a tear shows as the gap it is; in a tissue colour or coloured by
+//!   strain), each tool tessellated from its shape (the
 //!   gripper's two jaws at their opening, the needle's arc as a tube, a slicer's blade,
 //!   a mesh slicer's triangles), each thread as a tube of its radius, the table in 5 mm
 //!   tiles. Labels: 0 nothing, 1 the table, 10 + i tissue block i, 50 + i thread i,
@@ -25,12 +27,12 @@
 //!
 //! The tissue mesh follows the particles as the backend last read them back, so on the GPU
 //! backend a camera frame reads the particle positions back (the solver's buffers are not
-//! drawn in place). A scene whose tissue is cut or torn is still drawn with the mesh of its
-//! rest surface, stretched over the cut.
+//! drawn in place).
 //!
 //! `tests/camera.rs` checks the picture against geometry: a plane's depth against the
 //! analytic one, a point's pixel against K, stereo disparity against f·b/z, labels against
-//! the shapes.
+//! the shapes, and tissue in two pieces 4 mm apart drawn with the gap between them
+//! (nothing labelled tissue over it, where the rest surface's mesh drew 101 pixels).
 
 pub mod camera;
 pub mod geometry;

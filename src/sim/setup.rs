@@ -288,29 +288,37 @@ fn home_outside_limits(
 /// The surface a scene's outputs get: the constant-topology mesh cannot follow a cut, so a
 /// scene with a slicer that asks for it gets the isosurface instead, with the reason logged.
 pub fn surface_kind(scene: &Scene) -> SurfaceKind {
-    let tears = scene
+    let (kind, instead) = surface_choice(scene);
+    if let Some(reason) = instead {
+        tracing::info!("outputs.surface: isosurface instead of mesh: {reason}");
+    }
+    kind
+}
+
+/// [`surface_kind`] without the log line: the kind, and why the isosurface replaced the
+/// mesh the scene asked for (`None`: it did not).
+pub fn surface_choice(scene: &Scene) -> (SurfaceKind, Option<String>) {
+    if scene.outputs.surface != SurfaceKind::Mesh {
+        return (scene.outputs.surface, None);
+    }
+    let fixed = "and the mesh's topology is fixed at rest";
+    if let Some(tissue) = scene
         .tissues
         .iter()
-        .find(|t| t.material.toughness.is_some());
-    if let (SurfaceKind::Mesh, Some(tissue)) = (scene.outputs.surface, tears) {
-        tracing::info!(
-            "outputs.surface: isosurface instead of mesh: tissue {} can tear \
-             (material.toughness), and the mesh's topology is fixed at rest",
+        .find(|t| t.material.toughness.is_some())
+    {
+        let reason = format!(
+            "tissue {} can tear (material.toughness), {fixed}",
             tissue.name
         );
-        return SurfaceKind::Isosurface;
+        return (SurfaceKind::Isosurface, Some(reason));
     }
-    let cuts = scene.tools.iter().find(|t| t.shape.cuts());
-    match (scene.outputs.surface, cuts) {
-        (SurfaceKind::Mesh, Some(tool)) => {
-            tracing::info!(
-                "outputs.surface: isosurface instead of mesh: tool {} cuts the tissue, and the \
-                 mesh's topology is fixed at rest",
-                tool.name
-            );
-            SurfaceKind::Isosurface
+    match scene.tools.iter().find(|t| t.shape.cuts()) {
+        Some(tool) => {
+            let reason = format!("tool {} cuts the tissue, {fixed}", tool.name);
+            (SurfaceKind::Isosurface, Some(reason))
         }
-        (kind, _) => kind,
+        None => (SurfaceKind::Mesh, None),
     }
 }
 
