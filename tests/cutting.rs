@@ -182,9 +182,11 @@ fn a_snapshot_draws_the_faces_of_the_cut() {
     use dvrk_tissue_sim::output::snapshot::{self, SnapshotOptions};
     let scene = shipped("cutting.toml");
     let mut world = World::new(&scene);
+    // The camera's renderer marks the surface over the faces, a line along the cut: at
+    // 640 × 480 it is a few pixels wide.
     let options = SnapshotOptions {
-        width: 320,
-        height: 240,
+        width: 640,
+        height: 480,
         ..Default::default()
     };
     let face = snapshot::cut_face_colour(options.measure);
@@ -213,6 +215,11 @@ fn a_snapshot_draws_the_faces_of_the_cut() {
     );
     assert!(expected > 0);
     assert_eq!(picture.cut_face_particles, expected);
+    assert!(red > 30, "{red} pixels show the cut");
+    // The CPU fallback (no GPU adapter at all) draws each face particle as a red disc.
+    let splats = snapshot::render_splats(&world, &options);
+    let red = pixels_of_colour(&splats.rgb, face);
+    println!("the CPU splat fallback: {red} pixels in the cut colour");
     assert!(red > 30, "{red} pixels show the cut");
 }
 
@@ -600,9 +607,11 @@ fn a_snapshot_draws_the_cut_of_a_mesh_blade() {
     use dvrk_tissue_sim::output::snapshot::{self, SnapshotOptions};
     let scene = shipped("cutting_mesh.toml");
     let mut world = World::new(&scene);
+    // The camera's renderer marks the surface over the faces, a line along the cut: at
+    // 640 × 480 it is a few pixels wide.
     let options = SnapshotOptions {
-        width: 320,
-        height: 240,
+        width: 640,
+        height: 480,
         ..Default::default()
     };
     run_until(&mut world, 0.3);

@@ -31,8 +31,9 @@ enum Command {
     /// Start the ROS 2 node on a scene; `--headless` instead runs its scripted tools with no
     /// network at all.
     Run(run::RunArgs),
-    /// Simulate a scene headless to a time and write a PNG picture of it: tissue coloured
-    /// by strain, tools drawn, no display or GPU needed.
+    /// Simulate a scene headless to a time and write a PNG picture of it, drawn by the
+    /// camera's renderer (a GPU, or Mesa's llvmpipe; no display needed): tissue coloured
+    /// by strain, tools and threads drawn.
     Snapshot(snapshot::SnapshotArgs),
     /// Stability matrix: stiffness, Poisson ratio, time step, tool speed, jaws closing,
     /// pulling apart, dropping, and a long soak; a table of stability, energy drift,

@@ -64,7 +64,7 @@ pub fn run(args: SnapshotArgs) -> Result<()> {
     );
     if picture.cut_face_particles > 0 {
         println!(
-            "cut faces: {} particles drawn in {}",
+            "cut faces: {} particles, the surface over them marked in {}",
             picture.cut_face_particles,
             if args.measure.is_signed() {
                 "green"

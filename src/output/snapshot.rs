@@ -1,9 +1,17 @@
-//! Headless pictures of a scene: tissue particles shaded as small spheres and coloured by
-//! strain (the particles on the faces of a cut in red), suture threads as tubes, tools ray-marched from their own signed distance functions, the table as a
-//! checkerboard. A CPU renderer, so it works on any machine (no display, no GPU).
+//! Headless pictures of a scene, drawn by the endoscope camera's renderer
+//! ([`crate::render::picture`]: wgpu on a hardware GPU, or Mesa's llvmpipe on the CPU), so a
+//! picture is what the camera would see: the tissue's surface coloured by strain, the
+//! surface over the faces of a cut marked (red, or green against the volume-change map),
+//! tools from their shapes, threads as tubes, the table in 5 mm tiles.
+//!
+//! On a machine with no GPU adapter at all (not even a software one) the pictures fall back
+//! to a CPU splat renderer ([`render_splats`], said once in the log): each particle a
+//! shaded sphere, tools ray-marched from their signed distance functions, the table as a
+//! checkerboard. It stays for that case only, so `snapshot` works on every machine.
 
 use super::strain::{self, StrainMeasure};
 use crate::math::Vec3;
+use crate::render::picture::Picture;
 use crate::tools::Shape;
 use crate::world::World;
 use std::io::BufWriter;
@@ -70,7 +78,7 @@ pub fn cut_face_colour(measure: StrainMeasure) -> Vec3 {
 /// cut: its crack plane is nearer than one particle spacing, i.e. it is in the particle
 /// layer next to the cut (particles further from the plane carry a crack too, up to a
 /// stencil's reach, but lie inside their piece).
-fn on_cut_face(crack: Vec3, spacing: f32) -> bool {
+pub(crate) fn on_cut_face(crack: Vec3, spacing: f32) -> bool {
     crack != Vec3::zeros() && crack.norm() < spacing
 }
 
@@ -89,7 +97,6 @@ impl Snapshot {
 }
 
 /// Pictures at regular simulated times during a run, written as `DIR/t<seconds>.png`.
-#[derive(Clone, Debug)]
 pub struct SnapshotSchedule {
     /// Simulated seconds between pictures (> 0).
     pub every: f64,
@@ -98,6 +105,35 @@ pub struct SnapshotSchedule {
     /// How each picture is drawn.
     pub options: SnapshotOptions,
     next: f64,
+    /// The renderer, opened at the first picture.
+    picture: Option<Picture>,
+    /// No renderer can run: pictures are splats.
+    splats: bool,
+}
+
+/// A copy opens its own renderer at its first picture.
+impl Clone for SnapshotSchedule {
+    fn clone(&self) -> Self {
+        SnapshotSchedule {
+            every: self.every,
+            dir: self.dir.clone(),
+            options: self.options.clone(),
+            next: self.next,
+            picture: None,
+            splats: false,
+        }
+    }
+}
+
+impl std::fmt::Debug for SnapshotSchedule {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SnapshotSchedule")
+            .field("every", &self.every)
+            .field("dir", &self.dir)
+            .field("options", &self.options)
+            .field("next", &self.next)
+            .finish_non_exhaustive()
+    }
 }
 
 impl SnapshotSchedule {
@@ -108,6 +144,8 @@ impl SnapshotSchedule {
             dir,
             options,
             next: every,
+            picture: None,
+            splats: false,
         }
     }
 
@@ -122,7 +160,22 @@ impl SnapshotSchedule {
         }
         world.sync_particles();
         let path = self.dir.join(format!("t{:08.3}.png", world.time()));
-        render(world, &self.options).write_png(&path)?;
+        if self.picture.is_none() && !self.splats {
+            match Picture::new(world, &self.options) {
+                Ok(p) => self.picture = Some(p),
+                Err(e) => {
+                    warn_fallback(&e);
+                    self.splats = true;
+                }
+            }
+        }
+        let picture = match &mut self.picture {
+            Some(p) => p
+                .draw(world, &self.options)
+                .map_err(std::io::Error::other)?,
+            None => render_splats(world, &self.options),
+        };
+        picture.write_png(&path)?;
         Ok(Some(path))
     }
 }
@@ -203,8 +256,29 @@ fn scene_distance(tools: &[DrawnTool], p: Vec3) -> f32 {
         .fold(f32::INFINITY, f32::min)
 }
 
-/// Renders the world's current state.
+/// Renders the world's current state through the camera's renderer, or by
+/// [`render_splats`] where there is no GPU adapter at all (said once in the log).
 pub fn render(world: &World, opts: &SnapshotOptions) -> Snapshot {
+    match Picture::new(world, opts).and_then(|mut p| p.draw(world, opts)) {
+        Ok(picture) => picture,
+        Err(e) => {
+            warn_fallback(&e);
+            render_splats(world, opts)
+        }
+    }
+}
+
+/// Says once per process why pictures are splats.
+fn warn_fallback(e: &crate::render::RenderError) {
+    static SAID: std::sync::Once = std::sync::Once::new();
+    SAID.call_once(|| {
+        tracing::warn!("snapshot: the camera's renderer cannot run ({e}); drawing particles as splats on the CPU");
+    });
+}
+
+/// Renders the world's current state on the CPU: particles as shaded spheres (the fallback
+/// where no GPU adapter exists).
+pub fn render_splats(world: &World, opts: &SnapshotOptions) -> Snapshot {
     let (w, h) = (opts.width as usize, opts.height as usize);
     let particles = world.particles();
     let tools: Vec<DrawnTool> = world

@@ -4,6 +4,7 @@
 use crate::math::Vec3;
 use crate::output::isosurface;
 use crate::output::mesh::{SpatialHash, TissueMesh};
+use crate::output::snapshot::on_cut_face;
 use crate::output::strain::{colour_range, StrainMeasure};
 use crate::output::SurfaceKind;
 use crate::sim::setup::surface_choice;
@@ -342,18 +343,27 @@ pub struct SceneGeometry {
     tissue: Option<TissueDrawing>,
     /// Strain measure the tissue is coloured by; `None`: the tissue colour.
     strain: Option<StrainMeasure>,
+    /// Strain at the top of the colour scale; `None`: the 98th percentile over the surface.
+    strain_range: Option<f32>,
+    /// The strain range of the last frame coloured by strain.
+    last_strain_range: Option<f32>,
+    /// Colour of the surface over a cut's faces (`None`: not marked).
+    cut_faces: Option<[f32; 3]>,
+    /// Threads are drawn at least this thick (m): a picture framing a whole scene would
+    /// lose a 0.1 mm thread between its pixels.
+    min_thread_radius: f32,
 }
 
 impl SceneGeometry {
-    /// The geometry of `world` as it is now (its particles taken as the rest state the
-    /// tissue mesh binds to); `strain`: colour the tissue by that measure instead of its
+    /// The geometry of `world` (the tissue mesh bound to the scene's particles at rest);
+    /// `strain`: colour the tissue by that measure instead of its
     /// colour. The tissue is drawn as the scene's surface output is (see
     /// [`crate::sim::setup::surface_kind`]): the isosurface where it is cut or tears.
     pub fn new(
         world: &World,
         strain: Option<StrainMeasure>,
     ) -> Result<SceneGeometry, crate::output::mesh::MeshError> {
-        let particles = world.particles();
+        let particles = &world.rest_particles();
         let cell = world.scene().domain.dx as f32;
         let tissue = if particles.is_empty() {
             None
@@ -369,7 +379,39 @@ impl SceneGeometry {
                 vertex_block,
             })
         };
-        Ok(SceneGeometry { tissue, strain })
+        Ok(SceneGeometry {
+            tissue,
+            strain,
+            strain_range: None,
+            last_strain_range: None,
+            cut_faces: None,
+            min_thread_radius: 0.0,
+        })
+    }
+
+    /// Colours strain up to `range` at the top of the scale (`None`: the 98th percentile
+    /// over the surface, frame by frame).
+    pub fn with_strain_range(mut self, range: Option<f32>) -> Self {
+        self.strain_range = range;
+        self
+    }
+
+    /// Colours the isosurface `colour` where its nearest particle lies on a cut's face (the
+    /// particle layer next to the blade's plane), so a picture shows where the blade cut.
+    pub fn with_cut_faces(mut self, colour: [f32; 3]) -> Self {
+        self.cut_faces = Some(colour);
+        self
+    }
+
+    /// Draws threads at least `radius` (m) thick, so that they show in a picture whose
+    /// pixels are wider than a thread.
+    pub fn set_min_thread_radius(&mut self, radius: f32) {
+        self.min_thread_radius = radius;
+    }
+
+    /// The strain at the top of the colour scale in the last frame coloured by strain.
+    pub fn last_strain_range(&self) -> Option<f32> {
+        self.last_strain_range
     }
 
     /// The world's triangles now (particles as the backend last read them back).
@@ -387,13 +429,17 @@ impl SceneGeometry {
             );
         }
         let particles = world.particles();
-        let strain = self.strain;
+        let (strain, range) = (self.strain, self.strain_range);
+        let mut used_range = None;
         match &mut self.tissue {
             Some(TissueDrawing::Mesh { mesh, vertex_block }) => {
                 mesh.update(&particles.x);
+                let colours = strain_colours(strain, range, particles, |values| {
+                    mesh.vertex_values(values)
+                });
+                used_range = colours.as_ref().map(|c| c.1);
                 let colours =
-                    strain_colours(strain, particles, |values| mesh.vertex_values(values));
-                let colours = colours.unwrap_or_else(|| vec![TISSUE_COLOUR; mesh.vertices.len()]);
+                    colours.map_or_else(|| vec![TISSUE_COLOUR; mesh.vertices.len()], |c| c.0);
                 let blocks = vertex_block.as_slice();
                 out.tissue(
                     &mesh.vertices,
@@ -420,12 +466,22 @@ impl SceneGeometry {
                     .iter()
                     .map(|p| p.map_or(0, |p| particles.material[p as usize]))
                     .collect();
-                let colours = strain_colours(strain, particles, |values| {
+                let colours = strain_colours(strain, range, particles, |values| {
                     let of = |p: &Option<u32>| p.map_or(0.0, |p| values[p as usize]);
                     nearest.iter().map(of).collect()
                 });
-                let colours =
-                    colours.unwrap_or_else(|| vec![TISSUE_COLOUR; surface.vertices.len()]);
+                used_range = colours.as_ref().map(|c| c.1);
+                let mut colours =
+                    colours.map_or_else(|| vec![TISSUE_COLOUR; surface.vertices.len()], |c| c.0);
+                if let Some(face) = self.cut_faces {
+                    let spacing = particles.volume0.first().map_or(*cell, |v| v.cbrt());
+                    for (colour, p) in colours.iter_mut().zip(&nearest) {
+                        let crack = p.and_then(|p| particles.crack.get(p as usize));
+                        if crack.is_some_and(|&c| on_cut_face(c, spacing)) {
+                            *colour = face;
+                        }
+                    }
+                }
                 out.tissue(
                     &surface.vertices,
                     &surface.normals,
@@ -436,11 +492,14 @@ impl SceneGeometry {
             }
             None => {}
         }
+        if used_range.is_some() {
+            self.last_strain_range = used_range;
+        }
         for (i, thread) in world.threads().iter().enumerate() {
             let label = LABEL_THREAD.saturating_add(i.min(49) as u8);
             out.tube(
                 &thread.rod.points,
-                thread.rod.material.radius,
+                thread.rod.material.radius.max(self.min_thread_radius),
                 6,
                 THREAD_COLOUR,
                 label,
@@ -464,20 +523,21 @@ impl SceneGeometry {
     }
 }
 
-/// The tissue's vertex colours by `strain` (`None`: coloured as tissue), the particles'
-/// values carried to the vertices by `at_vertices`.
+/// The tissue's vertex colours by `strain` (`None`: coloured as tissue) with the strain at
+/// the top of the scale (`range`, or the 98th percentile of the vertices' values), the
+/// particles' values carried to the vertices by `at_vertices`.
 fn strain_colours(
     strain: Option<StrainMeasure>,
+    range: Option<f32>,
     particles: &crate::mpm::Particles,
     at_vertices: impl FnOnce(&[f32]) -> Vec<f32>,
-) -> Option<Vec<[f32; 3]>> {
+) -> Option<(Vec<[f32; 3]>, f32)> {
     let measure = strain?;
     let values = at_vertices(&measure.values(particles));
-    let range = colour_range(&values);
-    Some(
-        values
-            .iter()
-            .map(|&v| measure.colour(v, range).into())
-            .collect(),
-    )
+    let range = range.unwrap_or_else(|| colour_range(&values));
+    let colours = values
+        .iter()
+        .map(|&v| measure.colour(v, range).into())
+        .collect();
+    Some((colours, range))
 }

@@ -20,6 +20,11 @@
 //!   REP 118 asks) and the label. Without any adapter [`gpu::Renderer::new`] says so and the
 //!   camera stays off.
 //!
+//! **Pictures** ([`picture`]): `snapshot` and `run --snapshot-every` draw through the same
+//! geometry and rasteriser, one eye framing the scene from an azimuth and an elevation,
+//! threads drawn at least a pixel and a half thick; where no adapter exists at all they fall
+//! back to the CPU splat renderer (`output::snapshot::render_splats`).
+//!
 //! **Where** ([`rig`]): with an ECM `[[arm]]` the camera sits at the ECM's tool frame (the
 //! scope's tip, z along the scope), moved to the ECM's pose at the end of each frame that
 //! takes a picture, so `move_jp` on the ECM moves the view; without one it stays where
@@ -37,6 +42,7 @@
 pub mod camera;
 pub mod geometry;
 pub mod gpu;
+pub mod picture;
 pub mod rig;
 
 pub use camera::{CameraRecord, CameraSettings, Eye, Pinhole, TissueColour};

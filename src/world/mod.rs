@@ -95,6 +95,25 @@ pub enum WorldError {
     Gpu(#[from] GpuError),
 }
 
+/// The particles of `scene`'s tissue blocks at rest, block by block.
+fn rest_particles(scene: &Scene) -> Particles {
+    let dx = scene.domain.dx as f32;
+    let mut particles = Particles::default();
+    for (i, t) in scene.tissues.iter().enumerate() {
+        let c = Vector3::from(t.center);
+        let h = Vector3::from(t.size) * 0.5;
+        particles.add_box(
+            (c - h).cast(),
+            (c + h).cast(),
+            dx,
+            t.particles_per_axis,
+            t.material.density as f32,
+            i as u16,
+        );
+    }
+    particles
+}
+
 impl World {
     /// Builds the world of a validated scene on the backend its `solver.backend` asks for.
     ///
@@ -118,10 +137,10 @@ impl World {
             Vector3::from(d.size).cast(),
             dx,
         );
-        let mut particles = Particles::default();
+        let particles = rest_particles(scene);
         let mut materials = Vec::new();
         let mut wave_speed: f64 = 0.0;
-        for (i, t) in scene.tissues.iter().enumerate() {
+        for t in &scene.tissues {
             let m = &t.material;
             let lame = Lame::from_young_poisson(m.youngs_modulus, m.poisson_ratio);
             wave_speed = wave_speed.max(lame.p_wave_speed(m.density));
@@ -132,16 +151,6 @@ impl World {
                 damping: m.damping as f32,
                 toughness: m.toughness.unwrap_or(0.0) as f32,
             });
-            let c = Vector3::from(t.center);
-            let h = Vector3::from(t.size) * 0.5;
-            particles.add_box(
-                (c - h).cast(),
-                (c + h).cast(),
-                dx,
-                t.particles_per_axis,
-                m.density as f32,
-                i as u16,
-            );
         }
         let boundary = Boundary {
             table: scene.table.as_ref().map(|t| {
@@ -256,6 +265,11 @@ impl World {
                 .map(|t| ThreadBody::new(scene, t))
                 .collect(),
         })
+    }
+
+    /// The scene's tissue at rest, as the world started: what a surface mesh binds to.
+    pub fn rest_particles(&self) -> Particles {
+        rest_particles(&self.scene)
     }
 
     /// Particles the scene's tissue started with; [`World::particles`] holds more once
