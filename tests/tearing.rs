@@ -1181,10 +1181,11 @@ fn gpu_tear_agrees(
 
 #[test]
 fn gpu_tearing_agrees_with_cpu_f32_atomics() {
-    // Measured on llvmpipe over three runs (f32 atomics add in no fixed order): damage
-    // within 3.9e-4–5.1e-4, positions within 2.6e-7 m in one piece and 3.5e-5–4.3e-5 m torn
-    // off.
-    gpu_tear_agrees(P2gAtomics::Float, 1e-3, 1e-5, 1e-4);
+    // f32 atomics add in no fixed order, so the run varies: over nine runs on llvmpipe the
+    // damage agreed within 4.4e-4 to 1.03e-3 (two runs in three above 9e-4 in one sitting;
+    // fixed point gives 5.1e-4 every run), positions within 2.6e-7–3.4e-7 m in one piece
+    // and 2.0e-5–3.7e-5 m torn off. The damage bound is twice the largest seen.
+    gpu_tear_agrees(P2gAtomics::Float, 2e-3, 1e-5, 1e-4);
 }
 
 #[test]
