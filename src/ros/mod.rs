@@ -61,7 +61,7 @@
 //! `world` → `ECM_base`, `/tf` its links.
 //! | `tissue/points` | sensor_msgs/PointCloud2 | x, y, z and the scalar `points_scalar` names (`volumetric_strain`, `equivalent_strain` or `damage`), frame `world` |
 //! | `tissue/surface` | visualization_msgs/Marker | TRIANGLE_LIST in `world`: the mesh (fixed corner order, a strain colour and a UV per corner) or the isosurface |
-//! | `tissue/pieces` | std_msgs/UInt32 | separate tissue pieces, counted at `pieces_rate_hz` in simulated time while subscribed (and when recording) |
+//! | `tissue/pieces` | std_msgs/UInt32 | separate tissue pieces, counted at `pieces_rate_hz` in simulated time while subscribed (and when recording); under total Lagrangian MPM, the rest configuration's pieces ([`crate::mpm::pieces`]) |
 //! | `tools/<tool>/wrench` | geometry_msgs/WrenchStamped | contact wrench on the tool, in its frame (`PSM1` for an arm's tool, the mount undone) |
 //! | `threads/<name>/centreline`, `threads/<name>/tension` | Marker, PointCloud2 | a suture thread's LINE_STRIP and its axial force per point |
 //! | `/tf_static` | tf2_msgs/TFMessage | once, transient local: `world` → `PSM1_base`; with a camera, `ECM` → `ECM_left_optical_frame` and `ECM_right_optical_frame` (`world` → them for a camera without an arm) |

@@ -16,6 +16,7 @@ use crate::mpm::frame_plan::FramePlan;
 use crate::mpm::gpu::{self, GpuError, GpuSolver};
 use crate::mpm::grid::{Boundary, GridLayout, TableHold};
 use crate::mpm::guard::GuardPolicy;
+use crate::mpm::Method;
 use crate::mpm::SolveCounts;
 use crate::mpm::{timestep, Lame, MaterialParams, Particles, PbMpmParams, SolverSetup};
 use crate::rod::RodCollider;
@@ -41,6 +42,9 @@ pub struct World {
     last_max_speed: f32,
     /// Particles the scene's tissue starts with (splitting adds to them).
     scene_particles: usize,
+    /// Under total Lagrangian MPM, the pieces of the rest configuration (see
+    /// [`World::pieces`]); `None` for the other methods.
+    rest_pieces: Option<usize>,
     warned_fixed_dt: bool,
     /// This frame's tool kinematics, substep-major (capacity reused across frames).
     kinematics: Vec<ToolKinematics>,
@@ -138,6 +142,8 @@ impl World {
             dx,
         );
         let particles = rest_particles(scene);
+        let rest_pieces = (scene.solver.method == Method::TlMpm)
+            .then(|| crate::mpm::pieces::count(&particles.x, &[], dx));
         let mut materials = Vec::new();
         let mut wave_speed: f64 = 0.0;
         for t in &scene.tissues {
@@ -247,6 +253,7 @@ impl World {
             None => Backend::Cpu(Box::new(CpuBackend::new(CpuSolver::new(setup)))),
         };
         Ok(World {
+            rest_pieces,
             scene: scene.clone(),
             params: StepParams::new(scene, wave_speed),
             last_max_speed: 0.0,
@@ -343,8 +350,14 @@ impl World {
     }
 
     /// Separate tissue pieces: particles linked through neighbours within a cell, not
-    /// across a cut (see [`crate::mpm::pieces`]).
+    /// across a cut (see [`crate::mpm::pieces`]). Under total Lagrangian MPM, the pieces of
+    /// the rest configuration: two particles that share grid nodes at rest interact
+    /// however far they are pulled apart, so tissue stretched past a cell per particle is
+    /// still one piece (it neither cuts nor tears).
     pub fn pieces(&self) -> usize {
+        if let Some(pieces) = self.rest_pieces {
+            return pieces;
+        }
         let p = self.particles();
         crate::mpm::pieces::count_torn(&p.x, &p.crack, &p.damage, self.layout().dx)
     }

@@ -1,8 +1,9 @@
 """Grasp and lift on the default scene as a dVRK user scripts it: open the jaws, insert the
 tips into the liver, close (a negative jaw command: the jaws meet and squeeze), lift 25 mm
 (a surgeon's retraction), hold, open. The grasped region must rise with the jaws, the liver
-must stay one piece (tissue/pieces), the gripper's pull must rise with the lift and carry
-the tissue while holding, and opening must let the tissue go. Waits follow simulated time
+must stay one piece (tissue/pieces, which counts total Lagrangian MPM's rest connectivity,
+and the cloud itself: no point a cell from its neighbours), the gripper's pull must rise with
+the lift and carry the tissue while holding, and opening must let the tissue go. Waits follow simulated time
 (the stamps of PSM1/measured_js), so the script works however slowly the simulation runs."""
 
 import math
@@ -32,6 +33,29 @@ rec.wait_subscribers(jaw_move)
 def points(cloud):
     data = bytes(cloud.data)
     return [struct.unpack_from("<3f", data, i * cloud.point_step) for i in range(cloud.width)]
+
+
+def pieces_within(pts, link):
+    """Connected pieces of the points, two linked when nearer than `link` (m)."""
+    cells = {}
+    for i, p in enumerate(pts):
+        cells.setdefault(tuple(math.floor(c / link) for c in p), []).append(i)
+    parent = list(range(len(pts)))
+
+    def root(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    steps = [(a, b, c) for a in (-1, 0, 1) for b in (-1, 0, 1) for c in (-1, 0, 1)]
+    for (x, y, z), members in cells.items():
+        for a, b, c in steps:
+            for j in cells.get((x + a, y + b, z + c), ()):
+                for i in members:
+                    if j > i and sum((u - v) ** 2 for u, v in zip(pts[i], pts[j])) < link * link:
+                        parent[root(i)] = root(j)
+    return len({root(i) for i in range(len(pts))})
 
 
 def jaw():
@@ -81,16 +105,19 @@ rec.wait_for(lambda: abs(rec.latest("/PSM1/measured_js").position[2] - home_inse
 lift_to = stamp(rec.latest("/PSM1/measured_js"))
 rec.wait_sim(0.3, "the hold")
 held_rise = region_z() - z0
+# The scene's cell (dx = 2 mm): at the hold, every point within a cell of a neighbour.
+apart = pieces_within(points(rec.latest("/tissue/points")), 0.002)
 wrenches = [m for _, m in rec.messages["/tools/gripper/wrench"][-10:]]
 # Tool z points down along the instrument: the tissue pulls the lifted jaws down, along +z.
 pull = sum(w.wrench.force.z for w in wrenches) / len(wrenches)
 pieces = [m.data for _, m in rec.messages["/tissue/pieces"]]
 print(f"RESULT held rise {held_rise * 1e3:.2f} mm, pull {pull:.3f} N along the tool's z, "
-      f"pieces seen {sorted(set(pieces))}")
+      f"pieces seen {sorted(set(pieces))}, cloud pieces at the hold {apart}")
 check(held_rise >= 0.8 * LIFT,
       f"the grasped region rose {held_rise * 1e3:.2f} mm (>= 80 % of the 25 mm lift)")
 check(pull > 1.0, f"the gripper wrench carries the pull ({pull:.3f} N)")
-check(len(pieces) > 0 and set(pieces) == {1}, f"the liver stayed one piece ({sorted(set(pieces))})")
+check(len(pieces) > 0 and set(pieces) == {1}, f"tissue/pieces read one piece ({sorted(set(pieces))})")
+check(apart == 1, f"at the hold the cloud is one piece of points within a cell ({apart})")
 # The pull rises with the lift: from a tenth of the way up, every frame's wrench at least the
 # one before less 2 % of the final pull (the frame-to-frame ripple). A frame's wrench may
 # come more than once; its stamp names the frame.
