@@ -39,6 +39,22 @@ fn openssl(dir: &Path, args: &[&str]) {
     output_of_success(Command::new("openssl").current_dir(dir).args(args));
 }
 
+/// A new P-256 private key at `path` (relative to `dir`), the curve SROS2's keys use.
+fn new_key(dir: &Path, path: &str) {
+    openssl(
+        dir,
+        &[
+            "genpkey",
+            "-algorithm",
+            "EC",
+            "-pkeyopt",
+            "ec_paramgen_curve:prime256v1",
+            "-out",
+            path,
+        ],
+    );
+}
+
 /// Who may publish and subscribe what (DDS topic names, `*` a wildcard).
 struct Grant<'a> {
     publish: &'a [&'a str],
@@ -63,18 +79,7 @@ impl Keystore {
         for sub in ["public", "private", "enclaves"] {
             std::fs::create_dir(dir.join(sub)).unwrap();
         }
-        openssl(
-            dir,
-            &[
-                "genpkey",
-                "-algorithm",
-                "EC",
-                "-pkeyopt",
-                "ec_paramgen_curve:prime256v1",
-                "-out",
-                "private/ca.key.pem",
-            ],
-        );
+        new_key(dir, "private/ca.key.pem");
         openssl(
             dir,
             &[
@@ -128,18 +133,7 @@ impl Keystore {
         let rel = format!("enclaves/{}", name.trim_start_matches('/'));
         let dir = self.path().join(&rel);
         std::fs::create_dir_all(&dir).unwrap();
-        openssl(
-            self.path(),
-            &[
-                "genpkey",
-                "-algorithm",
-                "EC",
-                "-pkeyopt",
-                "ec_paramgen_curve:prime256v1",
-                "-out",
-                &format!("{rel}/key.pem"),
-            ],
-        );
+        new_key(self.path(), &format!("{rel}/key.pem"));
         // A slash inside a value is escaped in openssl's -subj syntax.
         let subject = format!("/CN={}", name.replace('/', "\\/"));
         openssl(
