@@ -202,6 +202,46 @@ fn bench_frame_prints_a_row_per_backend_with_both_timings_and_writes_them() {
     assert_eq!(in_csv, printed_cells, "{csv}");
 }
 
+/// `bench thread` ends with config/knot.toml stepped headless: its real-time factor on one
+/// core, the knot's determinant, the largest strain and the frames the crossing guard acted
+/// in. Two simulated seconds: the grippers have lifted the loop, no knot yet.
+#[test]
+fn bench_thread_times_the_knot_scene_on_one_core() {
+    let dir = std::env::temp_dir().join(format!("dts-bench-thread-{}", std::process::id()));
+    let stdout = support::stdout_of_success(
+        support::binary()
+            .args([
+                "bench",
+                "thread",
+                "--frames",
+                "2",
+                "--knot-seconds",
+                "2",
+                "--out",
+            ])
+            .arg(&dir),
+    );
+    std::fs::remove_dir_all(&dir).ok();
+    let rows = table_rows(&stdout, |scene| scene == "config/knot.toml");
+    assert_eq!(rows.len(), 1, "one knot row in\n{stdout}");
+    let r = &rows[0];
+    assert_eq!(r[1], "2.00", "simulated seconds: {r:?}");
+    let (wall, cpu, factor): (f64, f64, f64) = (
+        r[2].parse().unwrap(),
+        r[3].parse().unwrap(),
+        r[4].parse().unwrap(),
+    );
+    assert!(wall > 0.0 && cpu > 0.0, "{r:?}");
+    assert!(
+        (factor - 2.0 / cpu).abs() < 0.02,
+        "factor = simulated / cpu: {r:?}"
+    );
+    assert_eq!(r[5], "1", "unknotted at 2 s: {r:?}");
+    let strain: f64 = r[6].parse().unwrap();
+    assert!(strain < 1e-3, "the thread keeps its length: {r:?}");
+    assert_eq!(r[7], "0", "nothing passed through: {r:?}");
+}
+
 /// The cells of a Markdown table row, trimmed.
 fn table_cells(row: &str) -> Vec<&str> {
     row.trim()

@@ -113,6 +113,21 @@
 //! arrays (nalgebra's generic Cholesky solves had taken two thirds of a profile), the chord
 //! second iteration, and one substep out of contact.
 //!
+//! In contact the cost is the knot's: `bench thread`'s last row steps `config/knot.toml`
+//! headless (225 segments, 100 substeps of 3 iterations a frame, the table, two grippers and
+//! self-contact in every substep): 17.15 s simulated in 48.3 s of one core, a real-time
+//! factor of 0.36, the knot tied (determinant 3), largest strain 4.05e-3, no frame held
+//! back. The self-contact broad phase sweeps one sorted key per segment instead of hashing
+//! each swept box into every cell it covers and sorting those (`self_contact`): the same
+//! pairs in the same order, so the same run to the bit, in 48.7 s of CPU against 60.5 s
+//! (`/usr/bin/time run --headless --scene config/knot.toml`, the binaries before and after
+//! in one sitting; real-time factor 0.283 → 0.352). What is left is the direct solve: 4.4
+//! factorisations a substep (3.4 in the contact rounds, 1.0 restoring the length), two
+//! thirds of a profile, and the tools' SDF queries (a seventh). Chord steps for the rounds
+//! after the first (no factorisation) ran the script in 38.2 s with the knot still tied,
+//! but let the thread stretch 4.5 % in a frame (against 0.4 %): not taken. Real time needs
+//! fewer substeps than 100 a frame, which `config/knot.toml` explains.
+//!
 //! Not yet: a contact force report back to the tools. A GPU rod would need a parallel
 //! block-tridiagonal solve (cyclic reduction, or one thread per rod); at a few hundred segments
 //! the launch latency would exceed the CPU's work, so it pays only for many threads at once.

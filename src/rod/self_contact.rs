@@ -7,9 +7,12 @@
 //!
 //! 1. Broad phase, each iteration after the elastic solve: each segment's box swept from its
 //!    substep-start to its current position (grown by 2r and half its own motion, for what
-//!    the contact passes add), hashed into a uniform grid (Teschner et al. 2003, sorted
-//!    keys instead of a hash table: no allocation once warm); pairs sharing a cell whose
-//!    boxes overlap are candidates.
+//!    the contact passes add), sorted along the axis where they spread most and swept
+//!    (sweep and prune, Baraff 1992: no allocation once warm); pairs whose boxes overlap
+//!    are candidates. A thread's boxes are a few segments long, so the sweep meets each
+//!    box's chain neighbours and the strands that cross it; sorting one key per segment
+//!    costs far less than hashing each box into every cell it covers and sorting those
+//!    (measured: `bench thread`'s knot row, see `rod`'s module doc).
 //! 2. For each candidate the side each segment must keep is taken at the substep's start,
 //!    where the thread is known not to intersect itself. For segments crossing at an angle
 //!    it is the sign of the distance of the two segments' lines along their common normal
@@ -65,10 +68,8 @@ use nalgebra::{RealField, Vector3};
 pub struct SelfContacts {
     lo: Vec<Vec3>,
     hi: Vec<Vec3>,
-    /// (cell key, segment), sorted by key.
-    cells: Vec<(u64, u32)>,
-    /// Segments whose swept box covers too many cells to hash; tested against all.
-    large: Vec<u32>,
+    /// Segments sorted by their box's lower corner along the sweep axis.
+    order: Vec<u32>,
     pairs: Vec<(u32, u32)>,
     candidates: Vec<Candidate>,
     /// Whether the last `project` swept the candidates from the chain's far end.
@@ -98,9 +99,6 @@ enum Side {
 /// Sine of the angle between two segments below which they count as parallel: their common
 /// normal c = e_a × e_b is then too short to give a direction (|c| = |e_a||e_b| sin θ).
 const PARALLEL_SINE: f32 = 0.1;
-
-/// Above this many cells a segment's box goes to the brute-force list.
-const MAX_CELLS_PER_SEGMENT: i64 = 64;
 
 impl SelfContacts {
     /// Least chain distance (in segments) between two segments that may collide.
@@ -157,75 +155,50 @@ impl SelfContacts {
         let gap = Self::chain_gap(rod);
         self.lo.clear();
         self.hi.clear();
-        let mut widest = 0.0f32;
         for j in 0..n {
             let (a0, a1, b0, b1) = (start[j], start[j + 1], rod.points[j], rod.points[j + 1]);
             let motion = (b0 - a0).norm().max((b1 - a1).norm());
             let grow = Vec3::repeat(2.0 * r + 0.5 * motion);
             let lo = a0.inf(&a1).inf(&b0).inf(&b1) - grow;
             let hi = a0.sup(&a1).sup(&b0).sup(&b1) + grow;
-            widest = widest.max(rod.rest_lengths[j]);
             self.lo.push(lo);
             self.hi.push(hi);
         }
-        // Cells about a segment plus its margin: a resting segment spans a few.
-        let cell = widest + 4.0 * r;
-        let index = |x: f32| (x / cell).floor() as i64;
-        self.cells.clear();
-        self.large.clear();
-        for j in 0..n {
-            let (lo, hi) = (self.lo[j], self.hi[j]);
-            let (i0, i1) = (
-                [index(lo.x), index(lo.y), index(lo.z)],
-                [index(hi.x), index(hi.y), index(hi.z)],
-            );
-            let count = (0..3).map(|a| i1[a] - i0[a] + 1).product::<i64>();
-            if count > MAX_CELLS_PER_SEGMENT {
-                self.large.push(j as u32);
-                continue;
-            }
-            for x in i0[0]..=i1[0] {
-                for y in i0[1]..=i1[1] {
-                    for z in i0[2]..=i1[2] {
-                        self.cells.push((cell_key(x, y, z), j as u32));
-                    }
-                }
-            }
-        }
-        self.cells.sort_unstable();
+        // Sweep along the axis where the boxes spread most: along it a box overlaps the
+        // fewest others.
+        let spread = |axis: usize| {
+            let (lo, hi) = self.lo.iter().fold((f32::MAX, f32::MIN), |(a, b), p| {
+                (a.min(p[axis]), b.max(p[axis]))
+            });
+            hi - lo
+        };
+        let axis = (0..3)
+            .max_by(|&a, &b| spread(a).total_cmp(&spread(b)))
+            .unwrap_or(0);
+        self.order.clear();
+        self.order.extend(0..n as u32);
+        let lo = &self.lo;
+        self.order
+            .sort_unstable_by(|&a, &b| lo[a as usize][axis].total_cmp(&lo[b as usize][axis]));
         self.pairs.clear();
         let overlaps = |lo: &[Vec3], hi: &[Vec3], a: usize, b: usize| {
             (0..3).all(|k| lo[a][k] <= hi[b][k] && lo[b][k] <= hi[a][k])
         };
-        let mut run = 0;
-        while run < self.cells.len() {
-            let key = self.cells[run].0;
-            let end = run
-                + self.cells[run..]
-                    .iter()
-                    .take_while(|(k, _)| *k == key)
-                    .count();
-            for p in run..end {
-                for q in p + 1..end {
-                    let (a, b) = (self.cells[p].1 as usize, self.cells[q].1 as usize);
-                    let (a, b) = (a.min(b), a.max(b));
-                    if b - a >= gap && overlaps(&self.lo, &self.hi, a, b) {
-                        self.pairs.push((a as u32, b as u32));
-                    }
+        for (k, &a) in self.order.iter().enumerate() {
+            let a = a as usize;
+            let reach = self.hi[a][axis];
+            for &b in &self.order[k + 1..] {
+                let b = b as usize;
+                if self.lo[b][axis] > reach {
+                    break;
                 }
-            }
-            run = end;
-        }
-        for &l in &self.large {
-            let l = l as usize;
-            for j in 0..n {
-                if l.abs_diff(j) >= gap && overlaps(&self.lo, &self.hi, l, j) {
-                    self.pairs.push((l.min(j) as u32, l.max(j) as u32));
+                let (a, b) = (a.min(b), a.max(b));
+                if b - a >= gap && overlaps(&self.lo, &self.hi, a, b) {
+                    self.pairs.push((a as u32, b as u32));
                 }
             }
         }
         self.pairs.sort_unstable();
-        self.pairs.dedup();
         &self.pairs
     }
 
@@ -355,12 +328,6 @@ fn apply(rod: &mut Rod, a: usize, b: usize, w: [f32; 4], impulse: Vec3) {
     rod.points[b + 1] += impulse * w[3];
 }
 
-fn cell_key(x: i64, y: i64, z: i64) -> u64 {
-    (x as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
-        ^ (y as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
-        ^ (z as u64).wrapping_mul(0x1656_67B1_9E37_79F9)
-}
-
 /// Parameters (s, t) ∈ [0, 1]² of the closest points of segments p0–p1 and q0–q1
 /// (Ericson, "Real-Time Collision Detection", §5.1.9), in the precision of the points: f32
 /// for the contact passes, f64 for `crossing` (a crossing's distance at its root is
@@ -445,4 +412,55 @@ pub fn min_self_distance(rod: &Rod) -> f32 {
         }
     }
     best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rod::ThreadMaterial;
+
+    /// Every pair of segments at least `chain_gap` apart whose swept boxes overlap, by
+    /// testing all pairs.
+    fn brute_force_pairs(rod: &Rod, start: &[Vec3], contacts: &SelfContacts) -> Vec<(u32, u32)> {
+        let gap = SelfContacts::chain_gap(rod);
+        let n = rod.segments();
+        let (lo, hi) = (&contacts.lo, &contacts.hi);
+        let mut pairs = Vec::new();
+        for a in 0..n {
+            for b in a + gap..n {
+                if (0..3).all(|k| lo[a][k] <= hi[b][k] && lo[b][k] <= hi[a][k]) {
+                    pairs.push((a as u32, b as u32));
+                }
+            }
+        }
+        assert_eq!(lo.len(), n, "boxes of the rod from {} points", start.len());
+        pairs
+    }
+
+    #[test]
+    fn sweep_and_prune_finds_every_overlapping_pair() {
+        // A helix of 3-0 thread wound tighter than its pitch in places, moved by a random
+        // step per point: strands lie beside, across and on top of each other.
+        use rand::{rngs::ChaCha8Rng, Rng, SeedableRng};
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let mut jitter = || ((rng.next_u64() >> 40) as f32 / (1u64 << 24) as f32 - 0.5) * 1e-3;
+        let points: Vec<Vec3> = (0..300)
+            .map(|i| {
+                let t = i as f32 * 0.25;
+                Vec3::new(0.004 * t.cos(), 0.004 * t.sin(), 0.0003 * t)
+            })
+            .collect();
+        let rod = {
+            let mut rod = Rod::from_polyline(ThreadMaterial::nylon_3_0(), points.clone());
+            for p in &mut rod.points {
+                *p += Vec3::new(jitter(), jitter(), jitter());
+            }
+            rod
+        };
+        let mut contacts = SelfContacts::default();
+        let swept = contacts.swept_pairs(&rod, &points).to_vec();
+        let expected = brute_force_pairs(&rod, &points, &contacts);
+        assert!(swept.len() > 300, "a tangle: {} pairs", swept.len());
+        assert_eq!(swept, expected);
+    }
 }

@@ -67,11 +67,18 @@ pub enum BenchCommand {
     /// explicit MLS-MPM (CFL 0.5) against implicit, with the implicit speed-up.
     Stiff,
     /// The suture thread swinging from one fixed end: ms/frame and elongation at 40–1000
-    /// segments, one core.
+    /// segments, one core; and a scene of threads in contact (`config/knot.toml`) stepped
+    /// headless: its real-time factor on one core.
     Thread {
         /// Frames to run each thread (60 Hz).
         #[arg(long, default_value_t = 60)]
         frames: u32,
+        /// Scene of threads alone for the contact row (two grippers tying a knot).
+        #[arg(long, default_value = "config/knot.toml")]
+        knot_scene: PathBuf,
+        /// Simulated seconds of that scene (default: its script to the end).
+        #[arg(long)]
+        knot_seconds: Option<f64>,
     },
     /// What a scene does not need costs nothing: resting tissue asleep against stepped, the
     /// same tissue in a 4× larger domain, tools parked out of reach against none; and what
@@ -246,13 +253,18 @@ pub fn run(args: BenchArgs) -> Result<()> {
             let gpu = (loaded.solver.backend != BackendChoice::Cpu).then(adapter_name);
             print_and_write("surface", &result.table(), gpu.as_deref())
         }
-        BenchCommand::Thread { frames } => {
+        BenchCommand::Thread {
+            frames,
+            knot_scene,
+            knot_seconds,
+        } => {
             let frames = frames.max(1);
             let table = format!(
-                "{}{}{}",
+                "{}{}{}{}",
                 thread::table(&thread::run(&thread::SEGMENTS, frames), frames),
                 thread::substep_table(frames),
-                thread::analytic_table()
+                thread::analytic_table(),
+                thread::knot_table(&thread::knot_run(&knot_scene, knot_seconds)?)
             );
             print_and_write("thread", &table, None)
         }

@@ -6,11 +6,16 @@
 //! calling thread alone (no rayon), so the rows are one core's; besides wall time the table
 //! gives the thread's own CPU time, which other processes on a loaded machine do not inflate.
 //! A second table: the analytic beam cases of `validation::thread` against segment count.
+//! A third: `config/knot.toml` stepped headless (two grippers tie an overhand knot on the
+//! table and pull it tight: contact with the table, the tools and itself every substep), its
+//! thread CPU time against the simulated time, so the real-time factor of a thread in
+//! contact is measured where it is hardest.
 
 use dvrk_tissue_sim::math::Vec3;
 use dvrk_tissue_sim::rod::solver::RodSolverSettings;
 use dvrk_tissue_sim::rod::{Rod, RodSolver, ThreadMaterial};
 use dvrk_tissue_sim::validation::thread as analytic;
+use std::path::Path;
 use std::time::Instant;
 
 pub const SEGMENTS: [usize; 4] = [40, 100, 400, 1000];
@@ -128,6 +133,81 @@ pub fn analytic_table() -> String {
         }
     }
     out
+}
+
+/// What stepping a scene of threads alone headless cost, one core.
+pub struct KnotRow {
+    pub scene: String,
+    pub simulated_s: f64,
+    pub wall_s: f64,
+    pub cpu_s: Option<f64>,
+    /// Knot determinant of the first thread at the end (1: unknotted, 3: trefoil).
+    pub determinant: u128,
+    /// Largest |strain| of any segment at the end of any frame.
+    pub max_strain: f32,
+    /// Frames in which a move was scaled back because it would have passed a strand
+    /// through another (the crossing guard acted).
+    pub frames_held_back: u32,
+}
+
+/// Steps `scene` (threads alone: the world steps them on this thread) for `seconds`, or its
+/// script to the end.
+pub fn knot_run(scene: &Path, seconds: Option<f64>) -> anyhow::Result<KnotRow> {
+    use anyhow::{bail, Context};
+    use dvrk_tissue_sim::{config, world::World};
+    let loaded =
+        config::load(scene).with_context(|| format!("thread bench scene {}", scene.display()))?;
+    if loaded.threads.is_empty() || !loaded.tissues.is_empty() {
+        bail!(
+            "{}: the knot row steps a scene of threads alone",
+            scene.display()
+        );
+    }
+    let seconds = seconds.or(loaded.script_end_s()).unwrap_or(2.0);
+    let mut world = World::try_new(&loaded)?;
+    let frames = (seconds * loaded.frame_rate_hz).round().max(1.0) as u64;
+    let (mut max_strain, mut frames_held_back) = (0.0f32, 0u32);
+    let cpu_start = thread_cpu_seconds();
+    let start = Instant::now();
+    for _ in 0..frames {
+        world.step_frame().context("knot row: a frame failed")?;
+        for thread in world.threads() {
+            let report = thread.last_report();
+            max_strain = max_strain.max(report.max_strain);
+            frames_held_back += u32::from(report.substeps_held_back > 0);
+        }
+    }
+    let wall_s = start.elapsed().as_secs_f64();
+    let cpu_s = thread_cpu_seconds()
+        .zip(cpu_start)
+        .map(|(end, start)| end - start);
+    Ok(KnotRow {
+        scene: scene.display().to_string(),
+        simulated_s: frames as f64 / loaded.frame_rate_hz,
+        wall_s,
+        cpu_s,
+        determinant: world.threads()[0].knot_determinant(),
+        max_strain,
+        frames_held_back,
+    })
+}
+
+pub fn knot_table(row: &KnotRow) -> String {
+    let cpu = row
+        .cpu_s
+        .map_or_else(|| "n/a".to_string(), |c| format!("{c:.1}"));
+    let factor = row.cpu_s.map_or_else(
+        || "n/a".to_string(),
+        |c| format!("{:.2}", row.simulated_s / c),
+    );
+    format!(
+        "\na scene of threads in contact, stepped headless on one core (real-time factor: \
+         simulated s per CPU s)\n\
+         | scene | simulated s | wall s | cpu s | real-time factor | knot determinant | largest strain | frames held back |\n\
+         |---|---|---|---|---|---|---|---|\n\
+         | {} | {:.2} | {:.1} | {cpu} | {factor} | {} | {:.2e} | {} |\n",
+        row.scene, row.simulated_s, row.wall_s, row.determinant, row.max_strain, row.frames_held_back
+    )
 }
 
 /// CPU time this thread has run (s), from CLOCK_THREAD_CPUTIME_ID (brought up to date when

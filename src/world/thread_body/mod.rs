@@ -91,7 +91,7 @@ use crate::config::{Scene, Thread};
 use crate::math::Vec3;
 use crate::mpm::cpu::thread_contact::ThreadProxy;
 use crate::mpm::grid::WALL_NODES;
-use crate::rod::{Rod, RodAttachment, RodCollider, RodEnvironment, RodSolver};
+use crate::rod::{Rod, RodAttachment, RodCollider, RodEnvironment, RodFrameReport, RodSolver};
 use crate::tools::ContactModel;
 use crate::world::WorldTool;
 use grasp::{Grasps, GripperView};
@@ -152,6 +152,8 @@ pub struct ThreadBody {
     held: Vec<bool>,
     /// Velocities at the start of the frame being solved; reused.
     start_velocities: Vec<Vec3>,
+    /// What the last frame's solve met (contacts, strain, crossings held back).
+    last_report: RodFrameReport,
 }
 
 impl ThreadBody {
@@ -206,6 +208,7 @@ impl ThreadBody {
             drive: vec![gravity; pinned.len()],
             held: pinned.clone(),
             start_velocities: Vec::new(),
+            last_report: RodFrameReport::default(),
             pinned,
         }
     }
@@ -259,7 +262,7 @@ impl ThreadBody {
             self_friction: self.self_friction,
         };
         self.start_velocities.clone_from(&self.rod.velocities);
-        self.solver.step_frame_in(&mut self.rod, dt as f32, &env);
+        self.last_report = self.solver.step_frame_in(&mut self.rod, dt as f32, &env);
         let inv_dt = 1.0 / dt as f32;
         let rod = &self.rod;
         for (i, drive) in self.drive.iter_mut().enumerate() {
@@ -315,6 +318,12 @@ impl ThreadBody {
         {
             *f = (j / elapsed).cast::<f32>();
         }
+    }
+
+    /// What the last frame's solve met: contacts found, the largest strain, substeps whose
+    /// moves were scaled back so that no strand passed through another.
+    pub fn last_report(&self) -> RodFrameReport {
+        self.last_report
     }
 
     /// The tissue's force on each point over the latest frame solve (or the coming one,
