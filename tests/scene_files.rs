@@ -673,6 +673,45 @@ fn a_thread_outside_the_domain_is_refused() {
     );
 }
 
+/// A thread starting inside a solid tool would be pushed through it or held crossed in it:
+/// refused with the point, where it lies and how deep in which tool. Jaws closed on it at
+/// the start are a grasp; a tool an arm drives starts at the arm's pose and is not checked.
+#[test]
+fn a_thread_starting_inside_a_tool_is_refused() {
+    // The probe (a 5 mm sphere) moved onto the thread's middle, 1 mm above its axis.
+    let inside = with_thread("").replace("[0.0, 0.0, 0.031]", "[0.0, 0.0, 0.007]");
+    let p = problems_of(&inside);
+    assert_single(&p, "thread[0] (suture).start", "inside tool \"probe\"");
+    assert!(
+        p[0].value.contains("point 30 of the thread at (0.0000"),
+        "{p:?}"
+    );
+    assert!(p[0].allowed.contains("4.00 mm inside"), "{p:?}");
+    // Laid along points: the key is `points`.
+    let laid = inside.replace(
+        "start = [-0.03, 0.0, 0.006]\nlength = 0.06\n",
+        "points = [[-0.03, 0.0, 0.006], [0.03, 0.0, 0.006]]\nlength = 0.06\n",
+    );
+    assert_single(&problems_of(&laid), "thread[0] (suture).points", "probe");
+    // Touching from above (the thread 0.1 mm below the sphere's surface line): valid.
+    let above = with_thread("").replace("[0.0, 0.0, 0.031]", "[0.0, 0.0, 0.0111]");
+    config::from_str(&above, Path::new("above.toml")).unwrap_or_else(|e| panic!("{e}"));
+    // A gripper closed on the thread at the start holds it.
+    let grasp = with_thread("").replace(
+        "shape = { type = \"sphere\", radius = 0.005 }\n[[tool.keyframe]]\nt = 0.0\nposition = [0.0, 0.0, 0.031]",
+        "shape = { type = \"gripper\", jaw_length = 0.01, jaw_width = 0.006, jaw_thickness = 0.004 }\n\
+         [[tool.keyframe]]\nt = 0.0\nposition = [0.0, 0.0017, 0.0155]\nrpy_deg = [180.0, 0.0, 0.0]\njaw_deg = 0.0",
+    );
+    assert_ne!(grasp, with_thread(""), "the gripper replaced the probe");
+    config::from_str(&grasp, Path::new("grasp.toml")).unwrap_or_else(|e| panic!("{e}"));
+    // Driven by an arm, the probe starts where the arm's home joints put it: not checked.
+    let driven = format!(
+        "{inside}\n[[arm]]\nname = \"PSM1\"\nbase_xyz = [0.0, 0.0, 0.14]\n\
+         home_joints = [0.0, 0.0, 0.12, 0.0, 0.0, 0.0]\ntool = \"probe\"\n"
+    );
+    config::from_str(&driven, Path::new("driven.toml")).unwrap_or_else(|e| panic!("{e}"));
+}
+
 #[test]
 fn an_arm_held_tools_mount_and_the_pieces_rate_are_validated() {
     let arm = "\n[[arm]]\nname = \"PSM1\"\nbase_xyz = [0.0, 0.0, 0.14]\n\

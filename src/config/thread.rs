@@ -289,6 +289,68 @@ const MIN_PIECE: f64 = 1e-9;
 /// The longest thread (m).
 const MAX_THREAD_LENGTH: f64 = 10.0;
 
+/// The deepest point of thread `t` inside the first solid tool it starts in (sphere,
+/// capsule, box, open gripper jaw, needle, each where the scene's script starts it: its
+/// first keyframe), as a problem under `key`. The rod's contact keeps the thread outside a
+/// tool's surface; one starting inside would be pushed through the tool or held crossed in
+/// it. A gripper closed at the start holds what lies between its jaws. A tool an arm drives
+/// starts where the arm's home joints put it, not at a keyframe, and is not checked.
+fn start_inside_tool(scene: &Scene, t: &Thread, key: &dyn Fn(&str) -> String) -> Option<Problem> {
+    use crate::tools::Shape;
+    use nalgebra::{UnitQuaternion, Vector3};
+    let points = t.centreline()?;
+    let driven = |name: &str| scene.arms.iter().any(|a| a.tool.as_deref() == Some(name));
+    for tool in scene.tools.iter().filter(|tool| !driven(&tool.name)) {
+        if matches!(tool.shape, Shape::Slicer { .. } | Shape::MeshSlicer { .. }) {
+            continue;
+        }
+        let Some(first) = tool.keyframes.first() else {
+            continue;
+        };
+        if matches!(tool.shape, Shape::Gripper { .. }) && first.jaw_deg <= 0.0 {
+            // Jaws closed at the start hold the thread between them: a grasp (the closed
+            // jaws' volume is the grasp's, `world::thread_body::grasp`).
+            continue;
+        }
+        let [r, p, y] = first.rpy_deg.map(f64::to_radians);
+        let rotation = UnitQuaternion::from_euler_angles(r, p, y);
+        let position = Vector3::from(first.position);
+        let deepest = points
+            .iter()
+            .enumerate()
+            .map(|(k, point)| {
+                let local = rotation.inverse() * (Vector3::from(*point) - position);
+                let hit = tool
+                    .shape
+                    .query(local.cast::<f32>(), first.jaw_deg.to_radians() as f32);
+                (k, -hit.distance)
+            })
+            .max_by(|a, b| a.1.total_cmp(&b.1));
+        if let Some((k, depth)) = deepest.filter(|&(_, depth)| depth > 0.0) {
+            let point = points[k];
+            let field = if t.points.is_some() {
+                "points"
+            } else {
+                "start"
+            };
+            return Some(Problem {
+                key: key(field),
+                value: format!(
+                    "point {k} of the thread at ({:.4}, {:.4}, {:.4}) m",
+                    point[0], point[1], point[2]
+                ),
+                allowed: format!(
+                    "outside every solid tool at the script's start: it lies {:.2} mm inside \
+                     tool {:?}",
+                    depth * 1e3,
+                    tool.name
+                ),
+            });
+        }
+    }
+    None
+}
+
 /// The problems of `scene`'s threads; `inside` tells whether a point lies in the domain less
 /// its wall cells, described by `region`.
 pub(super) fn validate(
@@ -329,6 +391,9 @@ pub(super) fn validate(
     }
     for (i, t) in scene.threads.iter().enumerate() {
         let key = |k: &str| format!("thread[{i}] ({}).{k}", t.name);
+        if let Some(p) = start_inside_tool(scene, t, &key) {
+            require(false, p.key, p.value, p.allowed);
+        }
         if scene.threads[..i].iter().any(|o| o.name == t.name) {
             require(
                 false,
