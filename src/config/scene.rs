@@ -377,6 +377,18 @@ pub struct Keyframe {
     pub jaw_deg: f64,
 }
 
+impl Keyframe {
+    /// The tool pose this keyframe names (angles in radians).
+    pub fn pose(&self) -> crate::tools::ToolPose {
+        let [r, p, y] = self.rpy_deg.map(f64::to_radians);
+        crate::tools::ToolPose {
+            position: nalgebra::Vector3::from(self.position),
+            rotation: nalgebra::UnitQuaternion::from_euler_angles(r, p, y),
+            jaw: self.jaw_deg.to_radians(),
+        }
+    }
+}
+
 /// A dVRK arm: a PSM whose tool frame (FK ∘ base) drives one of the scene's tools in node
 /// runs, or the ECM that carries the camera.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

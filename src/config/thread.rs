@@ -297,7 +297,7 @@ const MAX_THREAD_LENGTH: f64 = 10.0;
 /// starts where the arm's home joints put it, not at a keyframe, and is not checked.
 fn start_inside_tool(scene: &Scene, t: &Thread, key: &dyn Fn(&str) -> String) -> Option<Problem> {
     use crate::tools::Shape;
-    use nalgebra::{UnitQuaternion, Vector3};
+    use nalgebra::Vector3;
     let points = t.centreline()?;
     let driven = |name: &str| scene.arms.iter().any(|a| a.tool.as_deref() == Some(name));
     for tool in scene.tools.iter().filter(|tool| !driven(&tool.name)) {
@@ -312,17 +312,13 @@ fn start_inside_tool(scene: &Scene, t: &Thread, key: &dyn Fn(&str) -> String) ->
             // jaws' volume is the grasp's, `world::thread_body::grasp`).
             continue;
         }
-        let [r, p, y] = first.rpy_deg.map(f64::to_radians);
-        let rotation = UnitQuaternion::from_euler_angles(r, p, y);
-        let position = Vector3::from(first.position);
+        let pose = first.pose();
         let deepest = points
             .iter()
             .enumerate()
             .map(|(k, point)| {
-                let local = rotation.inverse() * (Vector3::from(*point) - position);
-                let hit = tool
-                    .shape
-                    .query(local.cast::<f32>(), first.jaw_deg.to_radians() as f32);
+                let local = pose.rotation.inverse() * (Vector3::from(*point) - pose.position);
+                let hit = tool.shape.query(local.cast::<f32>(), pose.jaw as f32);
                 (k, -hit.distance)
             })
             .max_by(|a, b| a.1.total_cmp(&b.1));

@@ -24,7 +24,7 @@ use crate::sleep::SleepState;
 use crate::tools::{JawCommand, Shape, ToolKinematics, ToolPose, ToolVelocity, Trajectory};
 use crate::world::thread_body::grasp::GripperView;
 use crate::world::thread_body::{tool_collider, ThreadBody};
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::Vector3;
 pub use report::{CommandError, FrameReport, StepError, Wrench};
 pub use step_params::StepParams;
 use tool::Jaws;
@@ -181,18 +181,7 @@ impl World {
                     Jaws::new(t.jaw, first)
                 }),
                 driver: ToolDriver::Scripted(Trajectory::new(
-                    t.keyframes
-                        .iter()
-                        .map(|k| {
-                            let [r, p, y] = k.rpy_deg.map(f64::to_radians);
-                            let pose = ToolPose {
-                                position: Vector3::from(k.position),
-                                rotation: UnitQuaternion::from_euler_angles(r, p, y),
-                                jaw: k.jaw_deg.to_radians(),
-                            };
-                            (k.t, pose)
-                        })
-                        .collect(),
+                    t.keyframes.iter().map(|k| (k.t, k.pose())).collect(),
                 )),
             })
             .collect();
