@@ -337,6 +337,46 @@ fn bench_throughput_sweeps_thread_counts() {
     assert!(String::from_utf8_lossy(&refused.stderr).contains("--threads"));
 }
 
+/// `bench throughput --transfer` times the seed-000 scene on each G2P path named, the first
+/// the reference of the speed-up column; a path that is not one is refused with the names.
+#[test]
+fn bench_throughput_compares_g2p_paths() {
+    let dir = std::env::temp_dir().join(format!("dts-bench-transfer-{}", std::process::id()));
+    let stdout = support::stdout_of_success(
+        support::binary()
+            .args([
+                "bench",
+                "throughput",
+                "--frames",
+                "1",
+                "--transfer",
+                "scalar,lanes4",
+                "--out",
+            ])
+            .arg(&dir),
+    );
+    std::fs::remove_dir_all(&dir).ok();
+    let rows = table_rows(&stdout, |path| path == "scalar" || path == "lanes4");
+    assert_eq!(rows.len(), 2, "{stdout}");
+    assert_eq!((rows[0][1], rows[1][1]), ("1", "4"), "lanes: {stdout}");
+    assert_eq!(
+        rows[0][6], "1.00",
+        "the first path is the reference: {stdout}"
+    );
+    for r in &rows {
+        assert_eq!(r[2], "24000");
+        let rate: f64 = r[5].parse().unwrap();
+        assert!(rate > 0.0, "{r:?}");
+    }
+    let refused = support::binary()
+        .args(["bench", "throughput", "--transfer", "lanes3"])
+        .output()
+        .unwrap();
+    assert!(!refused.status.success());
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(stderr.contains("lanes16"), "{stderr}");
+}
+
 /// `config/knot.toml` ties its knot by its last keyframe: a headless run without `--seconds`
 /// must get there.
 #[test]

@@ -22,6 +22,7 @@ use crate::scene_args::{scene_value, SolverOverrides};
 use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand};
 use dvrk_tissue_sim::mpm::backend::BackendChoice;
+use dvrk_tissue_sim::mpm::cpu::TransferPath;
 use dvrk_tissue_sim::mpm::gpu::adapter;
 use dvrk_tissue_sim::mpm::Method;
 use std::path::{Path, PathBuf};
@@ -60,6 +61,11 @@ pub enum BenchCommand {
         /// cores.
         #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u16).range(1..))]
         threads: Option<Vec<u16>>,
+        /// G2P paths to compare, comma-separated: `scalar` (one particle at a time, the
+        /// reference), `lanes4` (SSE2), `lanes8` (AVX2), `lanes16` (AVX-512); a row each,
+        /// with the speed-up over the first. Without it, the widest this CPU runs.
+        #[arg(long, value_delimiter = ',', value_parser = scene_value::<TransferPath>, conflicts_with = "threads")]
+        transfer: Option<Vec<TransferPath>>,
     },
     /// Error of the scenes with analytic answers at a few resolutions.
     Accuracy,
@@ -200,7 +206,17 @@ pub fn run(args: BenchArgs) -> Result<()> {
         BenchCommand::Throughput {
             frames,
             method,
+            transfer: Some(paths),
+            ..
+        } => {
+            let table = throughput::sweep_transfer(frames, method, &paths)?;
+            print_and_write("throughput-transfer", &table, None)
+        }
+        BenchCommand::Throughput {
+            frames,
+            method,
             threads: Some(threads),
+            ..
         } => {
             let threads: Vec<usize> = threads.into_iter().map(usize::from).collect();
             let table = throughput::sweep_threads(frames, method, &threads)?;
@@ -210,8 +226,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
             frames,
             method,
             threads: None,
+            transfer: None,
         } => {
-            let result = throughput::run_seed000(frames, method)?;
+            let result = throughput::run_seed000(frames, method, TransferPath::best())?;
             print_and_write("throughput", &result.table(), None)
         }
         BenchCommand::Scaling {

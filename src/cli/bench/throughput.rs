@@ -1,10 +1,13 @@
 //! Throughput on the seed-000 scene size: ≈24,000 particles, a 64³ grid over the domain,
 //! dt from CFL, a gripper retracting the tissue (SurRoL's benchmark setting); with
 //! `--threads 1,2,4,...` the same run in a pool of each size, with the speed-up over the
-//! first and the efficiency per thread.
+//! first and the efficiency per thread; with `--transfer scalar,lanes16,...` the same run
+//! on each G2P path (see `mpm::cpu::lanes`), with the speed-up over the first.
 
 use anyhow::{bail, Result};
 use dvrk_tissue_sim::config::builders::*;
+use dvrk_tissue_sim::mpm::backend::Backend;
+use dvrk_tissue_sim::mpm::cpu::TransferPath;
 use dvrk_tissue_sim::mpm::Method;
 use dvrk_tissue_sim::world::World;
 use std::time::Instant;
@@ -18,6 +21,8 @@ pub struct ThroughputResult {
     pub substeps: u64,
     pub wall_s: f64,
     pub threads: usize,
+    /// The G2P path the CPU ran.
+    pub transfer: TransferPath,
 }
 
 impl ThroughputResult {
@@ -28,11 +33,12 @@ impl ThroughputResult {
     pub fn table(&self) -> String {
         let ms_per_substep = 1e3 * self.wall_s / self.substeps as f64;
         format!(
-            "| backend | method | threads | particles | grid | frames | substeps | wall (s) | ms/substep | ms per 25-substep frame | M particle-substeps/s |\n\
-             |---|---|---|---|---|---|---|---|---|---|---|\n\
-             | {} | {} | {} | {} | {}×{}×{} | {} | {} | {:.3} | {:.3} | {:.2} | {:.2} |\n",
+            "| backend | method | G2P | threads | particles | grid | frames | substeps | wall (s) | ms/substep | ms per 25-substep frame | M particle-substeps/s |\n\
+             |---|---|---|---|---|---|---|---|---|---|---|---|\n\
+             | {} | {} | {} | {} | {} | {}×{}×{} | {} | {} | {:.3} | {:.3} | {:.2} | {:.2} |\n",
             self.backend,
             self.method.key(),
+            self.transfer.key(),
             self.threads,
             self.particles,
             self.grid[0],
@@ -55,7 +61,7 @@ pub fn sweep_threads(frames: u32, method: Method, threads: &[usize]) -> Result<S
     let mut results = Vec::new();
     for &n in threads {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(n).build()?;
-        let result = pool.install(|| run_seed000(frames, method))?;
+        let result = pool.install(|| run_seed000(frames, method, TransferPath::best()))?;
         eprintln!(
             "{n} threads: {:.2} M particle-substeps/s",
             result.particle_substeps_per_s() / 1e6
@@ -90,9 +96,63 @@ pub fn sweep_threads(frames: u32, method: Method, threads: &[usize]) -> Result<S
     Ok(out)
 }
 
-/// Times `frames` frames of the seed-000 scene stepped by `method` on the CPU backend after
-/// one warm-up frame, in the current rayon pool.
-pub fn run_seed000(frames: u32, method: Method) -> Result<ThroughputResult> {
+/// [`run_seed000`] on each of the G2P `paths`, in that order, and the table of them: M
+/// particle-substeps/s and the speed-up over the first path. Every path gives the same
+/// particles to the bit (`mpm::cpu::lanes`'s test), so the rows time the same work.
+pub fn sweep_transfer(frames: u32, method: Method, paths: &[TransferPath]) -> Result<String> {
+    let available = TransferPath::available();
+    if let Some(missing) = paths.iter().find(|p| !available.contains(p)) {
+        let names: Vec<_> = available.iter().map(|p| p.key()).collect();
+        bail!(
+            "this CPU cannot run G2P path `{}`; it runs {}",
+            missing.key(),
+            names.join(", ")
+        );
+    }
+    let mut results = Vec::new();
+    for &path in paths {
+        let result = run_seed000(frames, method, path)?;
+        eprintln!(
+            "{}: {:.2} M particle-substeps/s",
+            path.key(),
+            result.particle_substeps_per_s() / 1e6
+        );
+        results.push(result);
+    }
+    let Some(first) = results.first() else {
+        bail!("--transfer lists no path");
+    };
+    let base = first.particle_substeps_per_s();
+    let mut out = format!(
+        "the seed-000 scene, method {}, {} threads, {} frames a path\n\n\
+         | G2P | lanes | particles | substeps | wall (s) | M particle-substeps/s | speed-up |\n\
+         |---|---|---|---|---|---|---|\n",
+        method.key(),
+        rayon::current_num_threads(),
+        frames
+    );
+    for r in &results {
+        out += &format!(
+            "| {} | {} | {} | {} | {:.3} | {:.2} | {:.2} |\n",
+            r.transfer.key(),
+            r.transfer.lanes(),
+            r.particles,
+            r.substeps,
+            r.wall_s,
+            r.particle_substeps_per_s() / 1e6,
+            r.particle_substeps_per_s() / base
+        );
+    }
+    Ok(out)
+}
+
+/// Times `frames` frames of the seed-000 scene stepped by `method` on the CPU backend, G2P
+/// on `transfer`, after one warm-up frame, in the current rayon pool.
+pub fn run_seed000(
+    frames: u32,
+    method: Method,
+    transfer: TransferPath,
+) -> Result<ThroughputResult> {
     let mut scene = seed000_scene();
     scene.solver.method = method;
     let errors = dvrk_tissue_sim::config::validate(&scene);
@@ -100,6 +160,9 @@ pub fn run_seed000(frames: u32, method: Method) -> Result<ThroughputResult> {
         bail!("the seed-000 scene with solver.method = {method:?}: {errors:?}");
     }
     let mut world = World::new(&scene);
+    if let Backend::Cpu(cpu) = world.backend_mut() {
+        cpu.solver.transfer_path = transfer;
+    }
     world.step_frame().expect("seed-000 scene is stable");
     let start = Instant::now();
     let mut substeps = 0u64;
@@ -118,6 +181,7 @@ pub fn run_seed000(frames: u32, method: Method) -> Result<ThroughputResult> {
         substeps,
         wall_s: start.elapsed().as_secs_f64(),
         threads: rayon::current_num_threads(),
+        transfer,
     })
 }
 

@@ -1,0 +1,511 @@
+//! G2P across particles in SIMD lanes, with the lane width chosen at run time.
+//!
+//! The reference G2P (`g2p_particle` in the parent module) works one particle at a time on
+//! three-component vectors, which leaves most of a vector register idle and spends its
+//! time shuffling. Here a group of 4, 8 or 16 particles is one step: every quantity is an
+//! array with one lane per particle (structure of arrays), so each line of the arithmetic
+//! is one vector instruction over the group. The stencil's node velocities are gathered per
+//! lane; the rest (weights, the 27-node sums, B, C, the F update, damping, the guard's
+//! tests) runs lane-parallel.
+//!
+//! **Same particles to the bit**: each lane performs exactly the reference's operations in
+//! the reference's order (no fused multiply-add, which would round differently), so every
+//! path agrees with the reference exactly; the test below holds them to that on a deformed,
+//! moving block. A lane whose result the guard would stop (non-finite, or faster than the
+//! limit) is left untouched and redone by the reference, which reports it as before.
+//!
+//! **Runtime dispatch**: one source, compiled three times. [`TransferPath::best`] asks the
+//! CPU once (`is_x86_feature_detected!`): AVX-512 gets 16 lanes in zmm registers, AVX2 8
+//! in ymm, and every x86-64 (SSE2) or other target 4; the kernel is `#[inline(always)]`
+//! into a `#[target_feature]` function per width, so a plain `cargo build --release` binary
+//! runs the widest path the machine has. Particles a crack reaches keep the reference path
+//! (their stencils skip nodes), as do a chunk's last particles short of a whole group.
+
+use super::{G2pStep, G2pTally};
+use crate::mpm::grid::BLOCK;
+use crate::mpm::{Mat3, Vec3};
+
+/// How G2P runs on the CPU (`bench throughput --transfer` names them).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TransferPath {
+    /// One particle at a time: the reference every lane path equals.
+    Scalar,
+    /// Groups of 4 particles (SSE2: every x86-64; other targets' baseline vectors).
+    Lanes4,
+    /// Groups of 8 (AVX2).
+    Lanes8,
+    /// Groups of 16 (AVX-512).
+    Lanes16,
+}
+
+impl TransferPath {
+    /// The widest path this CPU runs.
+    pub fn best() -> Self {
+        *Self::available()
+            .last()
+            .expect("the scalar path always runs")
+    }
+
+    /// Every path this CPU runs, narrowest first.
+    pub fn available() -> Vec<Self> {
+        let mut paths = vec![TransferPath::Scalar, TransferPath::Lanes4];
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2") {
+                paths.push(TransferPath::Lanes8);
+            }
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                paths.push(TransferPath::Lanes16);
+            }
+        }
+        paths
+    }
+
+    /// The name `bench throughput --transfer` takes.
+    pub fn key(self) -> &'static str {
+        match self {
+            TransferPath::Scalar => "scalar",
+            TransferPath::Lanes4 => "lanes4",
+            TransferPath::Lanes8 => "lanes8",
+            TransferPath::Lanes16 => "lanes16",
+        }
+    }
+
+    /// Particles per group.
+    pub fn lanes(self) -> usize {
+        match self {
+            TransferPath::Scalar => 1,
+            TransferPath::Lanes4 => 4,
+            TransferPath::Lanes8 => 8,
+            TransferPath::Lanes16 => 16,
+        }
+    }
+}
+
+/// One chunk of the particle arrays, as G2P writes it.
+pub(super) struct Chunk<'a> {
+    pub xs: &'a mut [Vec3],
+    pub vs: &'a mut [Vec3],
+    pub cs: &'a mut [Mat3],
+    pub fs: &'a mut [Mat3],
+    pub mats: &'a [u16],
+}
+
+/// G2P of the chunk's whole groups on `path`; returns how many particles from the chunk's start it covered. Particles among them that
+/// the reference must redo (the guard would stop them) are pushed to `redo` as chunk
+/// indices, untouched.
+pub(super) fn gather_groups(
+    path: TransferPath,
+    step: &G2pStep,
+    chunk: Chunk,
+    tally: &mut G2pTally,
+    redo: &mut Vec<u32>,
+) -> usize {
+    // Float indices into the grid are kept below 2³¹: the gather instructions take signed
+    // 32-bit indices (so a vector holds as many as it holds floats).
+    if step.grid.len() > (i32::MAX / 4) as usize {
+        return 0;
+    }
+    match path {
+        TransferPath::Scalar => 0,
+        TransferPath::Lanes4 => groups::<4>(load_lanes, step, chunk, tally, redo),
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: `available` lists this path only where the CPU has AVX2.
+        TransferPath::Lanes8 => unsafe { groups_avx2(step, chunk, tally, redo) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: `available` lists this path only where the CPU has AVX-512F.
+        TransferPath::Lanes16 => unsafe { groups_avx512(step, chunk, tally, redo) },
+        #[cfg(not(target_arch = "x86_64"))]
+        _ => groups::<4>(load_lanes, step, chunk, tally, redo),
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn groups_avx2(
+    step: &G2pStep,
+    chunk: Chunk,
+    tally: &mut G2pTally,
+    redo: &mut Vec<u32>,
+) -> usize {
+    groups::<8>(load_avx2, step, chunk, tally, redo)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn groups_avx512(
+    step: &G2pStep,
+    chunk: Chunk,
+    tally: &mut G2pTally,
+    redo: &mut Vec<u32>,
+) -> usize {
+    groups::<16>(load_avx512, step, chunk, tally, redo)
+}
+
+/// Loads `grid[node[l] + k]` into lane l: the stencil's node velocities, one component at a
+/// time. The portable loader reads lane by lane; AVX2 and AVX-512 have gather instructions
+/// (one instruction for the group, where the compiler otherwise inserts lane by lane).
+///
+/// # Safety
+/// Every `node[l] + k` must index a float of the grid `grid` points to.
+type LaneLoad<const L: usize> = unsafe fn(*const f32, &[u32; L], usize) -> [f32; L];
+
+unsafe fn load_lanes<const L: usize>(grid: *const f32, node: &[u32; L], k: usize) -> [f32; L] {
+    // SAFETY: the caller's contract (LaneLoad).
+    std::array::from_fn(|l| unsafe { *grid.add(node[l] as usize + k) })
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn load_avx2(grid: *const f32, node: &[u32; 8], k: usize) -> [f32; 8] {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller's contract (LaneLoad); indices below 2³¹ (`gather_groups`).
+    unsafe {
+        let idx = _mm256_loadu_si256(node.as_ptr() as *const __m256i);
+        std::mem::transmute::<__m256, [f32; 8]>(_mm256_i32gather_ps::<4>(grid.add(k), idx))
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn load_avx512(grid: *const f32, node: &[u32; 16], k: usize) -> [f32; 16] {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller's contract (LaneLoad); indices below 2³¹ (`gather_groups`).
+    unsafe {
+        let idx = _mm512_loadu_si512(node.as_ptr() as *const __m512i);
+        std::mem::transmute::<__m512, [f32; 16]>(_mm512_i32gather_ps::<4>(idx, grid.add(k)))
+    }
+}
+
+/// One value per lane.
+type Lanes<const L: usize> = [f32; L];
+
+/// The kernel: every whole group of `L` particles of the chunk.
+#[inline(always)]
+fn groups<const L: usize>(
+    load: LaneLoad<L>,
+    step: &G2pStep,
+    chunk: Chunk,
+    tally: &mut G2pTally,
+    redo: &mut Vec<u32>,
+) -> usize {
+    let layout = &step.layout;
+    let whole = chunk.xs.len() / L * L;
+    let stride = [
+        (layout.blocks[1] * layout.blocks[2] * BLOCK * BLOCK * BLOCK) as u32,
+        (layout.blocks[2] * BLOCK * BLOCK * BLOCK) as u32,
+        (BLOCK * BLOCK * BLOCK) as u32,
+    ];
+    let local = [(BLOCK * BLOCK) as u32, BLOCK as u32, 1];
+    let bs = BLOCK as u32;
+    let grid = step.grid.as_ptr() as *const f32;
+    let (origin, inv_dx, dx, dt) = (layout.origin, layout.inv_dx, layout.dx, step.dt);
+    for start in (0..whole).step_by(L) {
+        let xs: &mut [Vec3; L] = (&mut chunk.xs[start..start + L]).try_into().unwrap();
+        let vs: &mut [Vec3; L] = (&mut chunk.vs[start..start + L]).try_into().unwrap();
+        let cs: &mut [Mat3; L] = (&mut chunk.cs[start..start + L]).try_into().unwrap();
+        let fs: &mut [Mat3; L] = (&mut chunk.fs[start..start + L]).try_into().unwrap();
+        let mats: &[u16; L] = (&chunk.mats[start..start + L]).try_into().unwrap();
+
+        // Stencil (kernel::Stencil::new per lane): grid position, fx, weights, and each
+        // axis's three storage offsets (super::axis_offsets).
+        let mut g = [[0.0f32; L]; 3];
+        let mut fx = [[0.0f32; L]; 3];
+        let mut w = [[[0.0f32; L]; 3]; 3]; // w[node a][axis][lane]
+        let mut off = [[[0u32; L]; 3]; 3]; // off[axis][node a][lane]
+        for k in 0..3 {
+            for l in 0..L {
+                let gk = (xs[l][k] - origin[k]) * inv_dx;
+                let base_f = (gk - 0.5) as i32 as f32;
+                let f = gk - base_f;
+                let t0 = 1.5 - f;
+                let t1 = f - 1.0;
+                let t2 = f - 0.5;
+                g[k][l] = gk;
+                fx[k][l] = f;
+                w[0][k][l] = 0.5 * t0 * t0;
+                w[1][k][l] = 0.75 - t1 * t1;
+                w[2][k][l] = 0.5 * t2 * t2;
+                let base = base_f as i32 as u32;
+                for (a, off) in off[k].iter_mut().enumerate() {
+                    let n = base.wrapping_add(a as u32);
+                    off[l] = (n / bs) * stride[k] + (n % bs) * local[k];
+                }
+            }
+        }
+        // The stencil's last node has each group's largest index: all inside, or the
+        // reference takes the group (and its bounds checks).
+        let [x_last, y_last, z_last] = [off[0][2], off[1][2], off[2][2]];
+        let inside = (0..L).all(|l| {
+            (x_last[l] as usize + y_last[l] as usize + z_last[l] as usize) < step.grid.len()
+        });
+        if !inside {
+            redo.extend((start..start + L).map(|i| i as u32));
+            continue;
+        }
+
+        // The gather (super::gather): Σ w·v and B's columns [Σ a·wv, Σ b·wv, Σ c·wv].
+        let mut v = [[0.0f32; L]; 3];
+        let mut b = [[[0.0f32; L]; 3]; 3]; // b[column][component][lane]
+        for a in 0..3 {
+            let mut sum_a = [[0.0f32; L]; 3];
+            for bb in 0..3 {
+                let mut wab: Lanes<L> = [0.0; L];
+                for l in 0..L {
+                    wab[l] = w[a][0][l] * w[bb][1][l];
+                }
+                let mut sum_b = [[0.0f32; L]; 3];
+                let mut wv = [[[0.0f32; L]; 3]; 3]; // wv[node c][component][lane]
+                for (c, wv) in wv.iter_mut().enumerate() {
+                    let mut node: [u32; L] = [0; L];
+                    for l in 0..L {
+                        node[l] = (off[0][a][l] + off[1][bb][l] + off[2][c][l]) * 4;
+                    }
+                    // SAFETY: node + 2 < 4·grid.len(): checked above for the stencil's last
+                    // node, and offsets grow with a, b and c.
+                    let node_v: [Lanes<L>; 3] =
+                        std::array::from_fn(|k| unsafe { load(grid, &node, k) });
+                    let mut wc: Lanes<L> = [0.0; L];
+                    for l in 0..L {
+                        wc[l] = wab[l] * w[c][2][l];
+                    }
+                    for k in 0..3 {
+                        for l in 0..L {
+                            wv[k][l] = node_v[k][l] * wc[l];
+                            sum_b[k][l] += wv[k][l];
+                        }
+                    }
+                }
+                for k in 0..3 {
+                    for l in 0..L {
+                        b[2][k][l] = (b[2][k][l] + wv[1][k][l]) + (wv[2][k][l] + wv[2][k][l]);
+                        sum_a[k][l] += sum_b[k][l];
+                        if bb == 1 {
+                            b[1][k][l] += sum_b[k][l];
+                        } else if bb == 2 {
+                            b[1][k][l] += sum_b[k][l] + sum_b[k][l];
+                        }
+                    }
+                }
+            }
+            for k in 0..3 {
+                for l in 0..L {
+                    v[k][l] += sum_a[k][l];
+                    if a == 1 {
+                        b[0][k][l] += sum_a[k][l];
+                    } else if a == 2 {
+                        b[0][k][l] += sum_a[k][l] + sum_a[k][l];
+                    }
+                }
+            }
+        }
+
+        // C = (B − v fxᵀ)·4/dx (APIC), then the move, F and damping (super::g2p_particle).
+        let apic = 4.0 * inv_dx;
+        let mut c_new = [[[0.0f32; L]; 3]; 3]; // c_new[column][row][lane]
+        for (col, c_col) in c_new.iter_mut().enumerate() {
+            for (r, c_rc) in c_col.iter_mut().enumerate() {
+                for l in 0..L {
+                    c_rc[l] = (b[col][r][l] - v[r][l] * fx[col][l]) * apic;
+                }
+            }
+        }
+        let mut f_new = [[[0.0f32; L]; 3]; 3]; // f_new[column][row][lane]
+        let mut clamped = [false; L];
+        if step.integrate {
+            let move_scale = dt * inv_dx;
+            for k in 0..3 {
+                for l in 0..L {
+                    let moved = g[k][l] + v[k][l] * move_scale;
+                    // nalgebra's sup then inf, comparison for comparison.
+                    let above = if moved >= step.lo[k] {
+                        moved
+                    } else {
+                        step.lo[k]
+                    };
+                    let inside = if above <= step.hi[k] {
+                        above
+                    } else {
+                        step.hi[k]
+                    };
+                    clamped[l] |= inside != moved;
+                    g[k][l] = inside;
+                }
+            }
+            // F ← (I + C·dt)·F, summed over the inner index in nalgebra's order.
+            let mut step_m = [[[0.0f32; L]; 3]; 3];
+            for col in 0..3 {
+                for r in 0..3 {
+                    let identity = if r == col { 1.0 } else { 0.0 };
+                    for l in 0..L {
+                        step_m[col][r][l] = identity + c_new[col][r][l] * dt;
+                    }
+                }
+            }
+            for (col, f_col) in f_new.iter_mut().enumerate() {
+                for (r, f_rc) in f_col.iter_mut().enumerate() {
+                    for l in 0..L {
+                        let f = &fs[l];
+                        f_rc[l] = step_m[0][r][l] * f[(0, col)]
+                            + step_m[1][r][l] * f[(1, col)]
+                            + step_m[2][r][l] * f[(2, col)];
+                    }
+                }
+            }
+            for l in 0..L {
+                let damping = step.materials[mats[l] as usize].damping;
+                if damping > 0.0 {
+                    let divisor = 1.0 + damping * dt;
+                    for v in &mut v {
+                        v[l] /= divisor;
+                    }
+                }
+            }
+        }
+
+        // The guard's tests, then the stores of every lane that passes them.
+        for l in 0..L {
+            let speed = (v[0][l] * v[0][l] + v[1][l] * v[1][l] + v[2][l] * v[2][l]).sqrt();
+            let mut finite = speed.is_finite();
+            for col in 0..3 {
+                for r in 0..3 {
+                    finite &= c_new[col][r][l].is_finite();
+                    finite &= if step.integrate {
+                        f_new[col][r][l].is_finite()
+                    } else {
+                        fs[l][(r, col)].is_finite()
+                    };
+                }
+                finite &= g[col][l].is_finite();
+            }
+            if !finite || speed > step.max_speed {
+                redo.push((start + l) as u32);
+                continue;
+            }
+            tally.max_speed = tally.max_speed.max(speed);
+            tally.clamped += clamped[l] as u32;
+            vs[l] = Vec3::new(v[0][l], v[1][l], v[2][l]);
+            cs[l] = Mat3::from_fn(|r, col| c_new[col][r][l]);
+            if step.integrate {
+                xs[l] = origin + Vec3::new(g[0][l], g[1][l], g[2][l]) * dx;
+                fs[l] = Mat3::from_fn(|r, col| f_new[col][r][l]);
+            }
+        }
+    }
+    whole
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mpm::cpu::{CpuSolver, SubstepInput};
+    use crate::mpm::grid::{Boundary, GridLayout};
+    use crate::mpm::material::{Lame, MaterialModel};
+    use crate::mpm::{MaterialParams, Method, Particles, PbMpmParams, SolverSetup};
+
+    /// A block squeezed and spun, so that F, C and the velocities are all far from trivial.
+    fn deformed_block(path: TransferPath, method: Method) -> CpuSolver {
+        let dx = 0.002;
+        let layout = GridLayout::new(Vec3::new(-0.02, -0.02, 0.0), Vec3::repeat(0.04), dx);
+        let mut particles = Particles::default();
+        // 2 per cell over 7 × 6 × 5 cells, 3,360 particles: groups end short of the
+        // 256-particle chunks, so the reference's tail runs too.
+        particles.add_box(
+            Vec3::new(-0.007, -0.006, 0.004),
+            Vec3::new(0.007, 0.006, 0.014),
+            dx,
+            2,
+            1000.0,
+            0,
+        );
+        for (i, (x, v)) in particles.x.iter().zip(&mut particles.v).enumerate() {
+            *v = Vec3::new(-x.y, x.x, 0.1 * x.z) * 20.0 + Vec3::repeat((i % 7) as f32 * 0.01);
+        }
+        for (i, f) in particles.f.iter_mut().enumerate() {
+            let t = (i % 11) as f32 * 0.01;
+            *f = Mat3::new(1.05, t, 0.0, -t, 0.97, 0.02, 0.01, 0.0, 1.02);
+        }
+        let mut solver = CpuSolver::new(SolverSetup {
+            layout,
+            particles,
+            materials: vec![MaterialParams {
+                model: MaterialModel::NeoHookean,
+                lame: Lame::from_young_poisson(5000.0, 0.4),
+                density: 1000.0,
+                damping: 2.0,
+                toughness: 0.0,
+            }],
+            boundary: Boundary { table: None },
+            max_speed: 20.0,
+            max_substeps: 1,
+            tool_count: 0,
+            cutting: false,
+            p2g: Default::default(),
+            method,
+            pb_mpm: PbMpmParams {
+                iterations: 3,
+                relaxation: 1.0,
+            },
+            implicit: Default::default(),
+            split: crate::mpm::split::SplitParams::OFF,
+        });
+        solver.transfer_path = path;
+        solver
+    }
+
+    /// Equal element for element, or a panic naming the first particle that differs.
+    fn same<T: PartialEq + std::fmt::Debug>(got: &[T], want: &[T], at: &str, what: &str) {
+        assert_eq!(got.len(), want.len(), "{at}: {what}");
+        if let Some(i) = (0..got.len()).find(|&i| got[i] != want[i]) {
+            panic!(
+                "{at}: {what} of particle {i}: {:?} against {:?}",
+                got[i], want[i]
+            );
+        }
+    }
+
+    /// MLS-MPM's G2P moves the particles; PB-MPM's iterations also gather without moving
+    /// them (`integrate` false) before the last one does.
+    #[test]
+    fn every_lane_path_equals_the_reference_to_the_bit() {
+        let paths = TransferPath::available();
+        assert!(paths.contains(&TransferPath::Lanes4), "{paths:?}");
+        let input = SubstepInput {
+            dt: 1e-4,
+            gravity: Vec3::new(0.0, 0.0, -9.81),
+            tools: &[],
+        };
+        for method in [Method::MlsMpm, Method::PbMpm] {
+            let run = |path| {
+                let mut solver = deformed_block(path, method);
+                let stats: Vec<_> = (0..20).map(|_| solver.substep(&input)).collect();
+                (solver.particles, stats)
+            };
+            let (reference, reference_stats) = run(TransferPath::Scalar);
+            let start = deformed_block(TransferPath::Scalar, method).particles;
+            // The reference moved the particles and changed F: the comparison is not of
+            // untouched state.
+            let moved =
+                |a: &[Vec3], b: &[Vec3]| a.iter().zip(b).any(|(a, b)| (a - b).norm() > 1e-5);
+            assert!(moved(&reference.x, &start.x), "{method:?}");
+            assert!(reference
+                .f
+                .iter()
+                .zip(&start.f)
+                .any(|(a, b)| (a - b).norm() > 1e-5));
+            for path in &paths {
+                let (parts, stats) = run(*path);
+                let at = format!("{method:?} on {path:?}");
+                same(&parts.x, &reference.x, &at, "positions");
+                same(&parts.v, &reference.v, &at, "velocities");
+                same(&parts.c, &reference.c, &at, "affine velocities");
+                same(&parts.f, &reference.f, &at, "deformation gradients");
+                for (s, r) in stats.iter().zip(&reference_stats) {
+                    assert_eq!(s.max_speed, r.max_speed, "{at}: fastest particle");
+                    assert_eq!(s.clamped_particles, r.clamped_particles, "{at}");
+                }
+            }
+        }
+    }
+}
