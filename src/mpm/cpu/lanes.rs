@@ -20,7 +20,12 @@
 //! into a `#[target_feature]` function per width, so a plain `cargo build --release` binary
 //! runs the widest path the machine has. Particles a crack reaches keep the reference path
 //! (their stencils skip nodes), as do a chunk's last particles short of a whole group.
+//!
+//! Total Lagrangian MPM's G2P (`tl_gather_groups`) runs the same way: its rest stencil's
+//! weights and gradients, and the velocities and FLIP changes of the nodes its cached
+//! stencil names, lane-parallel.
 
+use super::tlmpm::{TlG2pStep, FLIP};
 use super::{G2pStep, G2pTally};
 use crate::mpm::grid::BLOCK;
 use crate::mpm::{Mat3, Vec3};
@@ -145,7 +150,10 @@ unsafe fn groups_avx512(
 
 /// Loads `grid[node[l] + k]` into lane l: the stencil's node velocities, one component at a
 /// time. The portable loader reads lane by lane; AVX2 and AVX-512 have gather instructions
-/// (one instruction for the group, where the compiler otherwise inserts lane by lane).
+/// (one instruction for the group, where the compiler otherwise inserts lane by lane). A
+/// 128-bit load a lane and 4×4 transposes instead measured slower here (10.8–10.9 against
+/// 11.7–11.9 M particle-substeps/s in `bench throughput`), unlike total Lagrangian MPM's
+/// six-float nodes (`NodeLoad`).
 ///
 /// # Safety
 /// Every `node[l] + k` must index a float of the grid `grid` points to.
@@ -176,6 +184,82 @@ unsafe fn load_avx512(grid: *const f32, node: &[u32; 16], k: usize) -> [f32; 16]
         let idx = _mm512_loadu_si512(node.as_ptr() as *const __m512i);
         std::mem::transmute::<__m512, [f32; 16]>(_mm512_i32gather_ps::<4>(idx, grid.add(k)))
     }
+}
+
+/// Loads the six floats of total Lagrangian MPM's node `node[l]` (a float index) into lane
+/// l of six arrays: velocity after the grid update, then its change.
+///
+/// # Safety
+/// Eight floats from every `node[l]` must lie in the array `velocity` points to (the
+/// AVX2 loader reads a whole 256-bit row per lane and transposes).
+type NodeLoad<const L: usize> = unsafe fn(*const f32, &[u32; L]) -> [[f32; L]; 6];
+
+unsafe fn load_nodes<const L: usize>(velocity: *const f32, node: &[u32; L]) -> [[f32; L]; 6] {
+    // SAFETY: the caller's contract (NodeLoad).
+    std::array::from_fn(|k| std::array::from_fn(|l| unsafe { *velocity.add(node[l] as usize + k) }))
+}
+
+/// Eight rows of eight floats, transposed: row l's float k goes to lane l of column k.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn transpose8(r: [std::arch::x86_64::__m256; 8]) -> [std::arch::x86_64::__m256; 8] {
+    use std::arch::x86_64::*;
+    let t0 = _mm256_unpacklo_ps(r[0], r[1]);
+    let t1 = _mm256_unpackhi_ps(r[0], r[1]);
+    let t2 = _mm256_unpacklo_ps(r[2], r[3]);
+    let t3 = _mm256_unpackhi_ps(r[2], r[3]);
+    let t4 = _mm256_unpacklo_ps(r[4], r[5]);
+    let t5 = _mm256_unpackhi_ps(r[4], r[5]);
+    let t6 = _mm256_unpacklo_ps(r[6], r[7]);
+    let t7 = _mm256_unpackhi_ps(r[6], r[7]);
+    let u0 = _mm256_shuffle_ps::<0x44>(t0, t2);
+    let u1 = _mm256_shuffle_ps::<0xEE>(t0, t2);
+    let u2 = _mm256_shuffle_ps::<0x44>(t1, t3);
+    let u3 = _mm256_shuffle_ps::<0xEE>(t1, t3);
+    let u4 = _mm256_shuffle_ps::<0x44>(t4, t6);
+    let u5 = _mm256_shuffle_ps::<0xEE>(t4, t6);
+    let u6 = _mm256_shuffle_ps::<0x44>(t5, t7);
+    let u7 = _mm256_shuffle_ps::<0xEE>(t5, t7);
+    [
+        _mm256_permute2f128_ps::<0x20>(u0, u4),
+        _mm256_permute2f128_ps::<0x20>(u1, u5),
+        _mm256_permute2f128_ps::<0x20>(u2, u6),
+        _mm256_permute2f128_ps::<0x20>(u3, u7),
+        _mm256_permute2f128_ps::<0x31>(u0, u4),
+        _mm256_permute2f128_ps::<0x31>(u1, u5),
+        _mm256_permute2f128_ps::<0x31>(u2, u6),
+        _mm256_permute2f128_ps::<0x31>(u3, u7),
+    ]
+}
+
+/// Eight lanes' nodes: one 256-bit load a lane and a transpose, in place of six gathers
+/// (`bench throughput --method tl_mpm --frames 10`, this AVX-512 machine, against the build
+/// before the lanes: 4.79–4.82 → 5.61–5.65 M particle-substeps/s; with gathers, 4.69–4.78
+/// → 4.99–5.06).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn load_nodes_avx2(velocity: *const f32, node: &[u32; 8]) -> [[f32; 8]; 6] {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller's contract (NodeLoad).
+    let rows = std::array::from_fn(|l| unsafe { _mm256_loadu_ps(velocity.add(node[l] as usize)) });
+    let columns = transpose8(rows);
+    // SAFETY: __m256 and [f32; 8] have the same size, and every bit pattern is a float.
+    std::array::from_fn(|k| unsafe { std::mem::transmute::<__m256, [f32; 8]>(columns[k]) })
+}
+
+/// Sixteen lanes' nodes: the eight-lane loader on each half.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn load_nodes_avx512(velocity: *const f32, node: &[u32; 16]) -> [[f32; 16]; 6] {
+    let (low, high) = node.split_at(8);
+    // SAFETY: the caller's contract (NodeLoad), half by half.
+    let (low, high) = unsafe {
+        (
+            load_nodes_avx2(velocity, low.try_into().unwrap()),
+            load_nodes_avx2(velocity, high.try_into().unwrap()),
+        )
+    };
+    std::array::from_fn(|k| std::array::from_fn(|l| if l < 8 { low[k][l] } else { high[k][l - 8] }))
 }
 
 /// One value per lane.
@@ -396,6 +480,195 @@ fn groups<const L: usize>(
     whole
 }
 
+/// Total Lagrangian MPM's G2P (`tlmpm::tl_g2p_particle`) on the chunk's whole groups on
+/// `path` (particle `first` is the chunk's first): the rest stencil's weights and gradients,
+/// the node velocities and their changes gathered through the cached stencil nodes, then
+/// FLIP/PIC, the move and F. Returns how many particles from the chunk's start it covered;
+/// particles among them the reference must redo are pushed to `redo`, untouched.
+pub(super) fn tl_gather_groups(
+    path: TransferPath,
+    step: &TlG2pStep,
+    first: usize,
+    chunk: Chunk,
+    tally: &mut G2pTally,
+    redo: &mut Vec<u32>,
+) -> usize {
+    // Six floats a node, indexed in 32 bits.
+    if step.velocity.len() > (u32::MAX / 6) as usize {
+        return 0;
+    }
+    match path {
+        TransferPath::Scalar => 0,
+        TransferPath::Lanes4 => tl_groups::<4>(load_nodes, step, first, chunk, tally, redo),
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: `available` lists this path only where the CPU has AVX2.
+        TransferPath::Lanes8 => unsafe { tl_groups_avx2(step, first, chunk, tally, redo) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: `available` lists this path only where the CPU has AVX-512F.
+        TransferPath::Lanes16 => unsafe { tl_groups_avx512(step, first, chunk, tally, redo) },
+        #[cfg(not(target_arch = "x86_64"))]
+        _ => tl_groups::<4>(load_nodes, step, first, chunk, tally, redo),
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn tl_groups_avx2(
+    step: &TlG2pStep,
+    first: usize,
+    chunk: Chunk,
+    tally: &mut G2pTally,
+    redo: &mut Vec<u32>,
+) -> usize {
+    tl_groups::<8>(load_nodes_avx2, step, first, chunk, tally, redo)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn tl_groups_avx512(
+    step: &TlG2pStep,
+    first: usize,
+    chunk: Chunk,
+    tally: &mut G2pTally,
+    redo: &mut Vec<u32>,
+) -> usize {
+    tl_groups::<16>(load_nodes_avx512, step, first, chunk, tally, redo)
+}
+
+/// The total Lagrangian kernel: every whole group of `L` particles of the chunk.
+#[inline(always)]
+fn tl_groups<const L: usize>(
+    load: NodeLoad<L>,
+    step: &TlG2pStep,
+    first: usize,
+    chunk: Chunk,
+    tally: &mut G2pTally,
+    redo: &mut Vec<u32>,
+) -> usize {
+    let layout = &step.layout;
+    let whole = chunk.xs.len() / L * L;
+    let velocity = step.velocity.as_ptr() as *const f32;
+    let (origin, inv_dx, dx, dt) = (layout.origin, layout.inv_dx, layout.dx, step.dt);
+    for start in (0..whole).step_by(L) {
+        let xs: &mut [Vec3; L] = (&mut chunk.xs[start..start + L]).try_into().unwrap();
+        let vs: &mut [Vec3; L] = (&mut chunk.vs[start..start + L]).try_into().unwrap();
+        let cs: &mut [Mat3; L] = (&mut chunk.cs[start..start + L]).try_into().unwrap();
+        let fs: &mut [Mat3; L] = (&mut chunk.fs[start..start + L]).try_into().unwrap();
+        let mats: &[u16; L] = (&chunk.mats[start..start + L]).try_into().unwrap();
+        let at = first + start;
+        let rest: &[Vec3; L] = (&step.rest[at..at + L]).try_into().unwrap();
+        let nodes: &[[u32; 27]; L] = (&step.stencil_nodes[at..at + L]).try_into().unwrap();
+
+        // The rest stencil (kernel::Stencil::new and tlmpm::weight_derivatives per lane).
+        let mut w = [[[0.0f32; L]; 3]; 3]; // w[node a][axis][lane]
+        let mut dw = [[[0.0f32; L]; 3]; 3];
+        for k in 0..3 {
+            for l in 0..L {
+                let gk = (rest[l][k] - origin[k]) * inv_dx;
+                let f = gk - (gk - 0.5) as i32 as f32;
+                let (t0, t1, t2) = (1.5 - f, f - 1.0, f - 0.5);
+                w[0][k][l] = 0.5 * t0 * t0;
+                w[1][k][l] = 0.75 - t1 * t1;
+                w[2][k][l] = 0.5 * t2 * t2;
+                dw[0][k][l] = f - 1.5;
+                dw[1][k][l] = (f - 1.0) * -2.0;
+                dw[2][k][l] = f - 0.5;
+            }
+        }
+
+        // PIC velocity, FLIP's change and the velocity gradient (tlmpm::for_stencil_weights
+        // order: node j = 9a + 3b + c).
+        let mut v_pic = [[0.0f32; L]; 3];
+        let mut dv = [[0.0f32; L]; 3];
+        let mut grad_v = [[[0.0f32; L]; 3]; 3]; // grad_v[column][row][lane]
+        for a in 0..3 {
+            for b in 0..3 {
+                for c in 0..3 {
+                    let j = 9 * a + 3 * b + c;
+                    let mut node: [u32; L] = [0; L];
+                    for l in 0..L {
+                        node[l] = nodes[l][j] * 6;
+                    }
+                    // SAFETY: the stencil nodes index `velocity` (built with it, see
+                    // `tlmpm::ensure_rest`), six floats each and one node more at the end.
+                    let nv: [Lanes<L>; 6] = unsafe { load(velocity, &node) };
+                    let mut weight: Lanes<L> = [0.0; L];
+                    let mut grad = [[0.0f32; L]; 3];
+                    for l in 0..L {
+                        weight[l] = w[a][0][l] * w[b][1][l] * w[c][2][l];
+                        grad[0][l] = dw[a][0][l] * w[b][1][l] * w[c][2][l] * inv_dx;
+                        grad[1][l] = w[a][0][l] * dw[b][1][l] * w[c][2][l] * inv_dx;
+                        grad[2][l] = w[a][0][l] * w[b][1][l] * dw[c][2][l] * inv_dx;
+                    }
+                    for k in 0..3 {
+                        for l in 0..L {
+                            v_pic[k][l] += nv[k][l] * weight[l];
+                            dv[k][l] += nv[3 + k][l] * weight[l];
+                        }
+                    }
+                    for (col, grad_col) in grad.iter().enumerate() {
+                        for r in 0..3 {
+                            for l in 0..L {
+                                grad_v[col][r][l] += nv[r][l] * grad_col[l];
+                            }
+                        }
+                    }
+                }
+            }
+        }
+
+        // FLIP/PIC blend, damping, the move and F.
+        let mut v_new = [[0.0f32; L]; 3];
+        let mut g = [[0.0f32; L]; 3];
+        let mut clamped = [false; L];
+        for l in 0..L {
+            let damping = step.materials[mats[l] as usize].damping;
+            // Dividing by 1 is exact: a material without damping keeps its velocity.
+            let divisor = if damping > 0.0 {
+                1.0 + damping * dt
+            } else {
+                1.0
+            };
+            for k in 0..3 {
+                let blended = (vs[l][k] + dv[k][l]) * FLIP + v_pic[k][l] * (1.0 - FLIP);
+                v_new[k][l] = blended / divisor;
+                let moved = (xs[l][k] + v_pic[k][l] * dt - origin[k]) * inv_dx;
+                let above = if moved >= step.lo[k] {
+                    moved
+                } else {
+                    step.lo[k]
+                };
+                let inside = if above <= step.hi[k] {
+                    above
+                } else {
+                    step.hi[k]
+                };
+                clamped[l] |= inside != moved;
+                g[k][l] = inside;
+            }
+        }
+        for l in 0..L {
+            let f_new = Mat3::from_fn(|r, col| fs[l][(r, col)] + grad_v[col][r][l] * dt);
+            let (vx, vy, vz) = (v_new[0][l], v_new[1][l], v_new[2][l]);
+            let speed = (vx * vx + vy * vy + vz * vz).sqrt();
+            let finite = speed.is_finite()
+                && f_new.iter().all(|e| e.is_finite())
+                && (0..3).all(|k| g[k][l].is_finite());
+            if !finite || speed > step.max_speed {
+                redo.push((start + l) as u32);
+                continue;
+            }
+            tally.max_speed = tally.max_speed.max(speed);
+            tally.clamped += clamped[l] as u32;
+            vs[l] = Vec3::new(vx, vy, vz);
+            cs[l] = Mat3::from_fn(|r, col| grad_v[col][r][l]);
+            xs[l] = origin + Vec3::new(g[0][l], g[1][l], g[2][l]) * dx;
+            fs[l] = f_new;
+        }
+    }
+    whole
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -466,7 +739,8 @@ mod tests {
     }
 
     /// MLS-MPM's G2P moves the particles; PB-MPM's iterations also gather without moving
-    /// them (`integrate` false) before the last one does.
+    /// them (`integrate` false) before the last one does; total Lagrangian MPM has its own
+    /// G2P on the rest configuration.
     #[test]
     fn every_lane_path_equals_the_reference_to_the_bit() {
         let paths = TransferPath::available();
@@ -476,7 +750,7 @@ mod tests {
             gravity: Vec3::new(0.0, 0.0, -9.81),
             tools: &[],
         };
-        for method in [Method::MlsMpm, Method::PbMpm] {
+        for method in [Method::MlsMpm, Method::PbMpm, Method::TlMpm] {
             let run = |path| {
                 let mut solver = deformed_block(path, method);
                 let stats: Vec<_> = (0..20).map(|_| solver.substep(&input)).collect();

@@ -311,6 +311,7 @@ impl CpuSolver {
                     input.dt,
                     input.gravity,
                     self.max_speed,
+                    self.transfer_path,
                 );
             return SubstepStats {
                 tool_impulses,
