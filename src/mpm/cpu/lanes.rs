@@ -18,8 +18,9 @@
 //! CPU once (`is_x86_feature_detected!`): AVX-512 gets 16 lanes in zmm registers, AVX2 8
 //! in ymm, and every x86-64 (SSE2) or other target 4; the kernel is `#[inline(always)]`
 //! into a `#[target_feature]` function per width, so a plain `cargo build --release` binary
-//! runs the widest path the machine has. Particles a crack reaches keep the reference path
-//! (their stencils skip nodes), as do a chunk's last particles short of a whole group.
+//! runs the widest path the machine has. Once a slicer has cut (the particles carry
+//! cracks, and a stencil a crack crosses skips nodes), G2P runs the reference throughout;
+//! so do a chunk's last particles short of a whole group.
 //!
 //! Total Lagrangian MPM's G2P (`tl_gather_groups`) runs the same way: its rest stencil's
 //! weights and gradients, and the velocities and FLIP changes of the nodes its cached
