@@ -79,6 +79,21 @@ pub struct GuardEvent {
 }
 
 impl GuardEvent {
+    /// The event of a particle G2P stopped: non-finite unless `finite` (its speed then NaN),
+    /// a runaway at `speed` otherwise; `position` is where it was before the substep.
+    pub fn stopped(finite: bool, particle: usize, position: Vec3, speed: f32) -> Self {
+        GuardEvent {
+            kind: if finite {
+                GuardKind::Runaway
+            } else {
+                GuardKind::NonFinite
+            },
+            particle: particle as u32,
+            position,
+            speed: if finite { speed } else { f32::NAN },
+        }
+    }
+
     /// Keeps the event with the lowest particle index.
     pub fn first(a: Option<GuardEvent>, b: Option<GuardEvent>) -> Option<GuardEvent> {
         match (a, b) {

@@ -29,7 +29,9 @@
 use super::tlmpm::{TlG2pStep, FLIP};
 use super::{G2pStep, G2pTally};
 use crate::mpm::grid::BLOCK;
+use crate::mpm::Particles;
 use crate::mpm::{Mat3, Vec3};
+use rayon::prelude::*;
 
 /// How G2P runs on the CPU (`bench throughput --transfer` names them).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
@@ -98,9 +100,9 @@ pub(super) struct Chunk<'a> {
     pub mats: &'a [u16],
 }
 
-/// G2P of the chunk's whole groups on `path`; returns how many particles from the chunk's start it covered. Particles among them that
-/// the reference must redo (the guard would stop them) are pushed to `redo` as chunk
-/// indices, untouched.
+/// G2P of the chunk's whole groups on `path`; returns how many particles from the chunk's
+/// start it covered. Particles among them that the reference must redo (the guard would
+/// stop them) are pushed to `redo` as chunk indices, untouched.
 pub(super) fn gather_groups(
     path: TransferPath,
     step: &G2pStep,
@@ -266,6 +268,70 @@ unsafe fn load_nodes_avx512(velocity: *const f32, node: &[u32; 16]) -> [[f32; 16
 /// One value per lane.
 type Lanes<const L: usize> = [f32; L];
 
+/// `moved` held within [lo, hi] the way the reference's nalgebra `sup` then `inf` do it,
+/// comparison for comparison.
+#[inline(always)]
+fn keep_inside(moved: f32, lo: f32, hi: f32) -> f32 {
+    let above = if moved >= lo { moved } else { lo };
+    if above <= hi {
+        above
+    } else {
+        hi
+    }
+}
+
+/// Particles per parallel task of G2P.
+const CHUNK: usize = 256;
+
+/// One particle as G2P writes it: position, velocity, affine velocity, F.
+pub(super) type ParticleMut<'a> = (&'a mut Vec3, &'a mut Vec3, &'a mut Mat3, &'a mut Mat3);
+
+/// G2P over all particles in parallel chunks: `groups(first, chunk, tally, redo)` takes the
+/// whole lane groups of the chunk whose first particle is `first` and returns how many
+/// particles from its start it covered, pushing those it leaves to the reference into
+/// `redo`; `one(index, particle, material, tally)` is the reference for one particle, run
+/// for those and for the chunk's tail.
+pub(super) fn in_chunks(
+    particles: &mut Particles,
+    groups: impl Fn(usize, Chunk, &mut G2pTally, &mut Vec<u32>) -> usize + Sync + Send,
+    one: impl Fn(usize, ParticleMut, u16, &mut G2pTally) + Sync + Send,
+) -> G2pTally {
+    particles
+        .x
+        .par_chunks_mut(CHUNK)
+        .zip(particles.v.par_chunks_mut(CHUNK))
+        .zip(particles.c.par_chunks_mut(CHUNK))
+        .zip(particles.f.par_chunks_mut(CHUNK))
+        .zip(particles.material.par_chunks(CHUNK))
+        .enumerate()
+        .fold(
+            G2pTally::default,
+            |mut tally, (chunk, ((((xs, vs), cs), fs), mats))| {
+                let first = chunk * CHUNK;
+                // Empty unless the guard stops a particle: nothing is allocated otherwise.
+                let mut redo = Vec::new();
+                let arrays = Chunk {
+                    xs,
+                    vs,
+                    cs,
+                    fs,
+                    mats,
+                };
+                let grouped = groups(first, arrays, &mut tally, &mut redo);
+                for i in redo
+                    .into_iter()
+                    .map(|i| i as usize)
+                    .chain(grouped..xs.len())
+                {
+                    let particle = (&mut xs[i], &mut vs[i], &mut cs[i], &mut fs[i]);
+                    one(first + i, particle, mats[i], &mut tally);
+                }
+                tally
+            },
+        )
+        .reduce(G2pTally::default, G2pTally::merge)
+}
+
 /// The kernel: every whole group of `L` particles of the chunk.
 #[inline(always)]
 fn groups<const L: usize>(
@@ -403,17 +469,7 @@ fn groups<const L: usize>(
             for k in 0..3 {
                 for l in 0..L {
                     let moved = g[k][l] + v[k][l] * move_scale;
-                    // nalgebra's sup then inf, comparison for comparison.
-                    let above = if moved >= step.lo[k] {
-                        moved
-                    } else {
-                        step.lo[k]
-                    };
-                    let inside = if above <= step.hi[k] {
-                        above
-                    } else {
-                        step.hi[k]
-                    };
+                    let inside = keep_inside(moved, step.lo[k], step.hi[k]);
                     clamped[l] |= inside != moved;
                     g[k][l] = inside;
                 }
@@ -634,16 +690,7 @@ fn tl_groups<const L: usize>(
                 let blended = (vs[l][k] + dv[k][l]) * FLIP + v_pic[k][l] * (1.0 - FLIP);
                 v_new[k][l] = blended / divisor;
                 let moved = (xs[l][k] + v_pic[k][l] * dt - origin[k]) * inv_dx;
-                let above = if moved >= step.lo[k] {
-                    moved
-                } else {
-                    step.lo[k]
-                };
-                let inside = if above <= step.hi[k] {
-                    above
-                } else {
-                    step.hi[k]
-                };
+                let inside = keep_inside(moved, step.lo[k], step.hi[k]);
                 clamped[l] |= inside != moved;
                 g[k][l] = inside;
             }

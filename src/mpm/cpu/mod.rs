@@ -41,7 +41,7 @@ pub mod thread_contact;
 pub mod tlmpm;
 
 use super::grid::{Boundary, GridLayout, Node, NODES_PER_BLOCK};
-use super::guard::{GuardEvent, GuardKind};
+use super::guard::GuardEvent;
 use super::kernel::Stencil;
 use super::material::kirchhoff_stress;
 use super::{crack, damage};
@@ -682,54 +682,17 @@ impl CpuSolver {
         } else {
             self.transfer_path
         };
-        let parts = &mut self.particles;
-        let cracks = SharedMut(parts.crack.as_mut_ptr());
-        const CHUNK: usize = 256;
-        let tally = parts
-            .x
-            .par_chunks_mut(CHUNK)
-            .zip(parts.v.par_chunks_mut(CHUNK))
-            .zip(parts.c.par_chunks_mut(CHUNK))
-            .zip(parts.f.par_chunks_mut(CHUNK))
-            .zip(parts.material.par_chunks(CHUNK))
-            .enumerate()
-            .fold(
-                G2pTally::default,
-                |mut tally, (chunk, ((((xs, vs), cs), fs), mats))| {
-                    let first = chunk * CHUNK;
-                    let mut redo = Vec::new();
-                    let grouped = lanes::gather_groups(
-                        path,
-                        &step,
-                        lanes::Chunk {
-                            xs,
-                            vs,
-                            cs,
-                            fs,
-                            mats,
-                        },
-                        &mut tally,
-                        &mut redo,
-                    );
-                    for i in redo
-                        .into_iter()
-                        .map(|i| i as usize)
-                        .chain(grouped..xs.len())
-                    {
-                        // SAFETY: with CUT the crack vector has one entry per particle, and
-                        // each particle index belongs to one chunk.
-                        let crack = if CUT {
-                            Some(unsafe { &mut *cracks.ptr().add(first + i) })
-                        } else {
-                            None
-                        };
-                        let (x, v, c, f) = (&mut xs[i], &mut vs[i], &mut cs[i], &mut fs[i]);
-                        g2p_particle(&step, first + i, (x, v, c, f), mats[i], crack, &mut tally);
-                    }
-                    tally
-                },
-            )
-            .reduce(G2pTally::default, G2pTally::merge);
+        let cracks = SharedMut(self.particles.crack.as_mut_ptr());
+        let tally = lanes::in_chunks(
+            &mut self.particles,
+            |_, chunk, tally, redo| lanes::gather_groups(path, &step, chunk, tally, redo),
+            |p, particle, material, tally| {
+                // SAFETY: with CUT the crack vector has one entry per particle, and G2P
+                // visits each particle once.
+                let crack = CUT.then(|| unsafe { &mut *cracks.ptr().add(p) });
+                g2p_particle(&step, p, particle, material, crack, tally);
+            },
+        );
         (tally.max_speed, tally.clamped, tally.guard)
     }
 }
@@ -775,7 +738,7 @@ impl G2pTally {
 fn g2p_particle(
     step: &G2pStep,
     index: usize,
-    (x, v_stored, c, f): (&mut Vec3, &mut Vec3, &mut Mat3, &mut Mat3),
+    (x, v_stored, c, f): lanes::ParticleMut,
     material: u16,
     crack: Option<&mut Vec3>,
     tally: &mut G2pTally,
@@ -823,16 +786,7 @@ fn g2p_particle(
         && f_new.iter().all(|e| e.is_finite())
         && g_new.iter().all(|e| e.is_finite());
     if !finite || speed > step.max_speed {
-        let event = GuardEvent {
-            kind: if finite {
-                GuardKind::Runaway
-            } else {
-                GuardKind::NonFinite
-            },
-            particle: index as u32,
-            position: x0,
-            speed: if finite { speed } else { f32::NAN },
-        };
+        let event = GuardEvent::stopped(finite, index, x0, speed);
         tally.guard = GuardEvent::first(tally.guard, Some(event));
         // Leave this particle as it was: nothing non-finite is stored.
         return;

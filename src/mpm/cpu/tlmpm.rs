@@ -54,7 +54,7 @@
 //! substep, is what fails.
 
 use super::super::grid::{Boundary, GridLayout, TableHold, WALL_NODES};
-use super::super::guard::{GuardEvent, GuardKind};
+use super::super::guard::GuardEvent;
 use super::super::kernel::Stencil;
 use super::super::material::kirchhoff_stress;
 use super::super::particles::Particles;
@@ -93,7 +93,8 @@ pub(super) struct TotalLagrangian {
     /// Per particle this substep, what the nodes gather from it, in one cache line.
     sources: Vec<Source>,
     /// Per node this substep: the velocity after the grid update, and its change there;
-    /// one more, always zero, for the stencil nodes without mass.
+    /// one more, always zero, for the stencil nodes without mass, and another that the lane
+    /// loader's reads past the last node land in.
     velocity: Vec<NodeVelocity>,
     /// Per chunk of [`CHUNK`] nodes, the tools' impulses of its grid update; summed in
     /// chunk order, so the sum does not depend on the thread count.
@@ -137,7 +138,7 @@ pub(super) struct NodeVelocity {
 /// Quadratic B-spline weight derivatives along one axis (grid units), matching
 /// [`Stencil`]'s weights.
 #[inline(always)]
-pub(super) fn weight_derivatives(fx: Vec3) -> [Vec3; 3] {
+fn weight_derivatives(fx: Vec3) -> [Vec3; 3] {
     [
         (fx - Vec3::repeat(1.5)),
         (fx - Vec3::repeat(1.0)) * -2.0,
@@ -323,47 +324,13 @@ impl TotalLagrangian {
             hi,
             max_speed: max_speed_limit,
         };
-        const PARTICLES: usize = 256;
-        let tally = particles
-            .x
-            .par_chunks_mut(PARTICLES)
-            .zip(particles.v.par_chunks_mut(PARTICLES))
-            .zip(particles.c.par_chunks_mut(PARTICLES))
-            .zip(particles.f.par_chunks_mut(PARTICLES))
-            .zip(particles.material.par_chunks(PARTICLES))
-            .enumerate()
-            .fold(
-                G2pTally::default,
-                |mut tally, (chunk, ((((xs, vs), cs), fs), mats))| {
-                    let first = chunk * PARTICLES;
-                    let mut redo = Vec::new();
-                    let chunk_arrays = lanes::Chunk {
-                        xs,
-                        vs,
-                        cs,
-                        fs,
-                        mats,
-                    };
-                    let grouped = lanes::tl_gather_groups(
-                        transfer,
-                        &step,
-                        first,
-                        chunk_arrays,
-                        &mut tally,
-                        &mut redo,
-                    );
-                    for i in redo
-                        .into_iter()
-                        .map(|i| i as usize)
-                        .chain(grouped..xs.len())
-                    {
-                        let particle = (&mut xs[i], &mut vs[i], &mut cs[i], &mut fs[i]);
-                        tl_g2p_particle(&step, first + i, particle, mats[i], &mut tally);
-                    }
-                    tally
-                },
-            )
-            .reduce(G2pTally::default, G2pTally::merge);
+        let tally = lanes::in_chunks(
+            particles,
+            |first, chunk, tally, redo| {
+                lanes::tl_gather_groups(transfer, &step, first, chunk, tally, redo)
+            },
+            |p, particle, material, tally| tl_g2p_particle(&step, p, particle, material, tally),
+        );
         let (max_speed, clamped, guard) = (tally.max_speed, tally.clamped, tally.guard);
         (impulses, max_speed, clamped, guard)
     }
@@ -434,7 +401,7 @@ pub(super) struct TlG2pStep<'a> {
 pub(super) fn tl_g2p_particle(
     step: &TlG2pStep,
     p: usize,
-    (x, v, c, f): (&mut Vec3, &mut Vec3, &mut Mat3, &mut Mat3),
+    (x, v, c, f): lanes::ParticleMut,
     material: u16,
     tally: &mut G2pTally,
 ) {
@@ -465,16 +432,7 @@ pub(super) fn tl_g2p_particle(
     let finite =
         speed.is_finite() && f_new.iter().all(|e| e.is_finite()) && g.iter().all(|e| e.is_finite());
     if !finite || speed > step.max_speed {
-        let event = GuardEvent {
-            kind: if finite {
-                GuardKind::Runaway
-            } else {
-                GuardKind::NonFinite
-            },
-            particle: p as u32,
-            position: *x,
-            speed: if finite { speed } else { f32::NAN },
-        };
+        let event = GuardEvent::stopped(finite, p, *x, speed);
         // Leave this particle as it was: nothing non-finite is stored.
         tally.guard = GuardEvent::first(tally.guard, Some(event));
         return;
