@@ -61,9 +61,10 @@ pub enum BenchCommand {
         /// cores.
         #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u16).range(1..))]
         threads: Option<Vec<u16>>,
-        /// G2P paths to compare, comma-separated: `scalar` (one particle at a time, the
-        /// reference), `lanes4` (SSE2), `lanes8` (AVX2), `lanes16` (AVX-512); a row each,
-        /// with the speed-up over the first. Without it, the widest this CPU runs.
+        /// Transfer paths to compare (G2P, and total Lagrangian P2G's node sums),
+        /// comma-separated: `scalar` (one particle at a time, the reference), `lanes4`
+        /// (SSE2), `lanes8` (AVX2), `lanes16` (AVX-512); a row each, with the speed-up over
+        /// the first. Without it, the widest this CPU runs.
         #[arg(long, value_delimiter = ',', value_parser = scene_value::<TransferPath>, conflicts_with = "threads")]
         transfer: Option<Vec<TransferPath>>,
     },

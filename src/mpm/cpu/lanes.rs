@@ -33,7 +33,8 @@ use crate::mpm::Particles;
 use crate::mpm::{Mat3, Vec3};
 use rayon::prelude::*;
 
-/// How G2P runs on the CPU (`bench throughput --transfer` names them).
+/// How G2P, and total Lagrangian P2G's node sums (see [`super::tl_node_sums`]), run on
+/// the CPU (`bench throughput --transfer` names them).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum TransferPath {
@@ -262,7 +263,13 @@ unsafe fn load_nodes_avx512(velocity: *const f32, node: &[u32; 16]) -> [[f32; 16
             load_nodes_avx2(velocity, high.try_into().unwrap()),
         )
     };
-    std::array::from_fn(|k| std::array::from_fn(|l| if l < 8 { low[k][l] } else { high[k][l - 8] }))
+    // Copied half by half: a per-lane choice here was left as a call per element.
+    let mut out = [[0.0f32; 16]; 6];
+    for (column, (low, high)) in out.iter_mut().zip(low.iter().zip(&high)) {
+        column[..8].copy_from_slice(low);
+        column[8..].copy_from_slice(high);
+    }
+    out
 }
 
 /// One value per lane.

@@ -38,6 +38,7 @@ pub mod lanes;
 mod node_contact;
 pub mod pbmpm;
 pub mod thread_contact;
+pub mod tl_node_sums;
 pub mod tlmpm;
 
 use super::grid::{Boundary, GridLayout, Node, NODES_PER_BLOCK};
@@ -100,8 +101,9 @@ pub struct CpuSolver {
     /// Suture threads in the tissue (see [`thread_contact`]); the world loads them each
     /// frame and reads their impulses back.
     pub thread_contact: thread_contact::ThreadContact,
-    /// How G2P runs: the widest SIMD lanes this CPU offers unless set otherwise (see
-    /// [`lanes`]); every path gives the same particles to the bit.
+    /// How G2P (and total Lagrangian P2G's node sums) run: the widest SIMD lanes this CPU
+    /// offers unless set otherwise (see [`lanes`], [`tl_node_sums`]); every path gives the
+    /// same particles to the bit.
     pub transfer_path: TransferPath,
 }
 

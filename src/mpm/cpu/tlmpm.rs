@@ -27,17 +27,18 @@
 //! chunk away between 10.4 and 12.9 mm (0.91 N falling to 0.014 N; `run --headless
 //! --backend cpu --print-every 6` on the scene with `method = "mls_mpm"`).
 //!
-//! Speed on the CPU (`bench throughput --method tl_mpm --frames 5`, the seed-000 scene,
-//! 24,000 particles, 2 cores shared with other builds, load average 4.8–5.5; the build
-//! before the compact node arrays run alternately in the same sitting): 1.44–1.57 M
-//! particle-substeps/s before, 1.50–1.60 M after (MLS-MPM 2.8 M at `--frames 20`, load
-//! 5.7–7.3). P2G reads each particle as one 64-byte `Source`, the nodes are stored
-//! compactly in the order of `active` (the default scene's few thousand stay in cache), G2P
-//! finds its nodes through the cached `stencil_nodes` (108 bytes a particle) and the grid
-//! update runs in parallel over chunks of nodes. G2P runs in SIMD lanes (see
-//! [`super::lanes`], equal to the one-particle reference to the bit): `run --headless` on
-//! `config/default.toml` for 0.5 s, the build before beside the one after, twice in turn,
-//! 15.73 and 15.52 s against 13.30 and 13.42 s (real-time factor 0.032 → 0.037–0.038).
+//! Speed on the CPU: P2G computes each particle's share once (one 64-byte
+//! `Source`), then each node sums its rest stencil's particles in vector
+//! registers (see [`tl_node_sums`]); the nodes are stored compactly in the order of
+//! `active` (the default scene's few thousand stay in cache), G2P runs in SIMD lanes
+//! through the cached `stencil_nodes` (108 bytes a particle; see [`super::lanes`]), and
+//! the grid update runs in parallel over chunks of nodes. Every width gives the same
+//! particles to the bit. Measured on a 2-core Intel Xeon with AVX-512, the build before
+//! the vector node sums beside the one after, in turn: `bench throughput --method tl_mpm
+//! --frames 10` 6.31 and 6.35 against 8.37 and 8.24 M particle-substeps/s (1.31×);
+//! `run --headless --scene config/default.toml --seconds 0.5` 10.78 and 11.06 s against
+//! 8.19 and 8.58 s wall (real-time factor 0.046 → 0.060), and 13.66 s for the build
+//! before G2P's lanes.
 //!
 //! What it does not do: cut (a crack would have to be carried back to the rest
 //! configuration) or tear; contact between separate pieces of tissue is not seen (their
@@ -62,6 +63,7 @@ use super::super::MaterialParams;
 use super::super::{Mat3, ToolImpulse, Vec3, MAX_TOOLS};
 use super::captured::{self, Captured};
 use super::node_contact::apply_tools;
+use super::tl_node_sums::{self, Entry, NodeSums, Source};
 use super::{lanes, G2pTally, TransferPath};
 use crate::mpm::stiffening::{inverse_stretch_bound, StiffeningBounds};
 use crate::tools::{contact, ToolKinematics};
@@ -80,12 +82,12 @@ pub(super) struct TotalLagrangian {
     active: Vec<u32>,
     /// Node mass (kg), fixed.
     mass: Vec<f32>,
-    /// For each node, its particles and their weight and weight gradient (grid units) at
-    /// rest: `gathers[starts[k]..starts[k + 1]]` for `active[k]`. P2G gathers along it, in
-    /// parallel over nodes and in a fixed order (the result does not depend on the thread
-    /// count).
+    /// For each node, its particles and their weight times mass and weight gradient (grid
+    /// units) at rest: `entries[starts[k]..starts[k + 1]]` for `active[k]`. P2G gathers
+    /// along it, in parallel over nodes and in a fixed order (the result does not depend on
+    /// the thread count).
     starts: Vec<u32>,
-    gathers: Vec<(u32, f32, Vec3)>,
+    entries: Vec<Entry>,
     /// For each particle, the place in `active` of each node of its rest stencil, in
     /// [`for_stencil`]'s order (108 bytes a particle): G2P reads the compact node arrays
     /// through it instead of locating the nodes again every substep.
@@ -103,28 +105,6 @@ pub(super) struct TotalLagrangian {
 
 /// Nodes per parallel task of the grid update.
 const CHUNK: usize = 256;
-
-/// What a particle gives its nodes in P2G: velocity, place, mass and −V⁰P / dx (scaled so
-/// that the force is `stress · ∇N`).
-#[derive(Clone, Copy)]
-#[repr(C, align(64))]
-struct Source {
-    v: Vec3,
-    x: Vec3,
-    mass: f32,
-    stress: Mat3,
-}
-
-impl Default for Source {
-    fn default() -> Self {
-        Source {
-            v: Vec3::zeros(),
-            x: Vec3::zeros(),
-            mass: 0.0,
-            stress: Mat3::zeros(),
-        }
-    }
-}
 
 /// A node's velocity after the grid update and its change in the grid update and P2G's
 /// forces (what FLIP adds to a particle).
@@ -156,25 +136,29 @@ impl TotalLagrangian {
         self.rest = particles.x.clone();
         let n = layout.node_count();
         let mut mass = vec![0.0f32; n];
-        let mut by_node: Vec<Vec<(u32, f32, Vec3)>> = vec![Vec::new(); n];
+        let mut by_node: Vec<Vec<Entry>> = vec![Vec::new(); n];
         for (p, x) in self.rest.iter().enumerate() {
             let s = Stencil::new((x - layout.origin) * layout.inv_dx);
             for_stencil(layout, &s, |node, w, grad| {
                 mass[node] += w * particles.mass[p];
-                by_node[node].push((p as u32, w, grad));
+                by_node[node].push(Entry {
+                    particle: p as u32,
+                    weighted_mass: w * particles.mass[p],
+                    grad: grad.into(),
+                });
             });
         }
         self.active = (0..n as u32).filter(|&i| mass[i as usize] > 0.0).collect();
         self.mass = self.active.iter().map(|&i| mass[i as usize]).collect();
         let mut place = vec![u32::MAX; n];
         self.starts = Vec::with_capacity(self.active.len() + 1);
-        self.gathers.clear();
+        self.entries.clear();
         for (k, &i) in self.active.iter().enumerate() {
             place[i as usize] = k as u32;
-            self.starts.push(self.gathers.len() as u32);
-            self.gathers.extend_from_slice(&by_node[i as usize]);
+            self.starts.push(self.entries.len() as u32);
+            self.entries.extend_from_slice(&by_node[i as usize]);
         }
-        self.starts.push(self.gathers.len() as u32);
+        self.starts.push(self.entries.len() as u32);
         // A stencil node where the particle's weight is zero may carry no mass at all: it
         // points at the zero velocity kept after the active nodes.
         let still = self.active.len() as u32;
@@ -255,21 +239,15 @@ impl TotalLagrangian {
             .zip(particles.volume0.par_iter())
             .zip(particles.v.par_iter())
             .zip(particles.x.par_iter())
-            .zip(particles.mass.par_iter())
-            .for_each(|((((((source, f), mat), volume0), v), x), mass)| {
+            .for_each(|(((((source, f), mat), volume0), v), x)| {
                 let mat = materials[*mat as usize];
                 let tau = kirchhoff_stress(mat.model, mat.lame, f);
                 let f_inv_t = f.try_inverse().unwrap_or_else(Mat3::identity).transpose();
-                *source = Source {
-                    v: *v,
-                    x: *x,
-                    mass: *mass,
-                    stress: tau * f_inv_t * (-volume0 * inv_dx),
-                };
+                *source = Source::new(*v, *x, &(tau * f_inv_t * (-volume0 * inv_dx)));
             });
         // Each node gathers, then the grid update at the node's current place, in parallel
         // over chunks of nodes.
-        let (starts, gathers, sources) = (&self.starts, &self.gathers, &self.sources);
+        let (starts, entries, sources) = (&self.starts, &self.entries, &self.sources);
         let (active, mass, captured) = (&self.active, &self.mass, &*captured);
         let nodes = self.active.len();
         self.velocity[..nodes]
@@ -278,18 +256,24 @@ impl TotalLagrangian {
             .enumerate()
             .for_each(|(chunk, (velocity, impulses))| {
                 *impulses = [ToolImpulse::default(); MAX_TOOLS];
-                for (j, node) in velocity.iter_mut().enumerate() {
-                    let k = chunk * CHUNK + j;
+                let first = chunk * CHUNK;
+                let mut sums = [[0.0f32; 16]; CHUNK];
+                let sums = &mut sums[..velocity.len()];
+                tl_node_sums::node_sums(
+                    transfer,
+                    &starts[first..=first + velocity.len()],
+                    entries,
+                    sources,
+                    sums,
+                );
+                for (j, (node, sum)) in velocity.iter_mut().zip(sums.iter()).enumerate() {
+                    let k = first + j;
                     let m = mass[k];
-                    let (mut momentum, mut place, mut force) =
-                        (Vec3::zeros(), Vec3::zeros(), Vec3::zeros());
-                    for &(p, w, grad) in &gathers[starts[k] as usize..starts[k + 1] as usize] {
-                        let source = &sources[p as usize];
-                        let wm = w * source.mass;
-                        momentum += source.v * wm;
-                        place += source.x * wm;
-                        force += source.stress * grad;
-                    }
+                    let NodeSums {
+                        momentum,
+                        place,
+                        force,
+                    } = NodeSums::of(sum);
                     let (x, v_before) = (place / m, momentum / m);
                     let i = active[k] as usize;
                     let mut v = v_before + (force / m + gravity) * dt;
