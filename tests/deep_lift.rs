@@ -1,7 +1,8 @@
 //! A surgeon's retraction, headless, on the shipped `config/default.toml`: its own keyframes
 //! grasp the liver and lift it 25 mm above the grasp, hold, and open the jaws. Total
 //! Lagrangian MPM must keep the liver one piece all the way up, the wrench must rise with the
-//! lift, and opening must let the liver fall back.
+//! lift, and opening must let the liver fall back. With a toughness the same lift tears a
+//! chunk out, at a force that follows G_c.
 
 use dvrk_tissue_sim::config;
 use dvrk_tissue_sim::mpm::pieces;
@@ -115,4 +116,57 @@ fn total_lagrangian_tissue_counts_its_rest_pieces_however_far_it_is_pulled() {
     };
     assert_eq!(pieces_pulled_apart(Method::MlsMpm), 2);
     assert_eq!(pieces_pulled_apart(Method::TlMpm), 1);
+}
+
+/// The shipped grasp and lift with a toughness G_c, to the top of the lift: the largest
+/// |F_z| on the way, |F_z| at the top and the pieces there.
+fn lift_with_toughness(toughness: f64) -> (f64, f64, usize) {
+    let path = format!("{}/config/default.toml", env!("CARGO_MANIFEST_DIR"));
+    let mut scene = config::load(std::path::Path::new(&path)).unwrap();
+    scene.tissues[0].material.toughness = Some(toughness);
+    let top = scene.tools[0]
+        .keyframes
+        .iter()
+        .filter(|k| k.jaw_deg <= 0.0)
+        .max_by(|a, b| a.position[2].total_cmp(&b.position[2]))
+        .unwrap()
+        .t;
+    let mut world = World::new(&scene);
+    let (mut peak, mut last) = (0.0f64, 0.0f64);
+    while world.time() < top - 1e-9 {
+        last = -world.step_frame().unwrap().wrenches[0].force.z;
+        peak = peak.max(last);
+    }
+    (peak, last, world.pieces())
+}
+
+/// With a toughness, total Lagrangian MPM tears where the material says so: the same 25 mm
+/// lift pulls a chunk out of the liver around the jaws (two pieces at the top, the force
+/// fallen to a fraction of its peak), and the force the tear takes follows G_c. The crack
+/// band's onset is an energy density, Y₀ = G_c/(2·dx) (`mpm::damage`), and the tissue's
+/// energy density grows as the square of the pull, so four times the toughness takes
+/// twice the force: √4.
+#[test]
+fn with_a_toughness_the_same_lift_tears_the_liver_at_a_force_that_follows_it() {
+    let (low, high) = (7.5, 30.0);
+    let (peak_low, top_low, pieces_low) = lift_with_toughness(low);
+    let (peak_high, top_high, pieces_high) = lift_with_toughness(high);
+    let ratio = peak_high / peak_low;
+    let report = format!(
+        "G_c {low} J/m²: peak |F_z| {peak_low:.3} N, {top_low:.3} N at the top, {pieces_low} \
+         pieces; G_c {high} J/m²: peak {peak_high:.3} N, {top_high:.3} N at the top, \
+         {pieces_high} pieces; peak ratio {ratio:.3} (√4 = 2)"
+    );
+    println!("{report}");
+    for (pieces, peak, top) in [
+        (pieces_low, peak_low, top_low),
+        (pieces_high, peak_high, top_high),
+    ] {
+        assert_eq!(pieces, 2, "not torn by the lift: {report}");
+        assert!(top < 0.5 * peak, "the force did not fall: {report}");
+    }
+    assert!(
+        (1.6..2.4).contains(&ratio),
+        "the tearing force does not follow √G_c: {report}"
+    );
 }

@@ -321,12 +321,15 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
                 "J/m² (G_c: energy per unit area of tear)",
             );
             c.require(
-                matches!(scene.solver.method, Method::MlsMpm | Method::PicMpm),
+                matches!(
+                    scene.solver.method,
+                    Method::MlsMpm | Method::PicMpm | Method::TlMpm
+                ),
                 "solver.method",
                 scene.solver.method,
                 format!(
-                    "mls_mpm or pic_mpm: tissue[{i}].material.toughness (tearing) is stepped by \
-                     the explicit methods only"
+                    "mls_mpm, pic_mpm or tl_mpm: tissue[{i}].material.toughness (tearing) is \
+                     stepped by the explicit methods only"
                 ),
             );
         }

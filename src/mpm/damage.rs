@@ -28,8 +28,9 @@
 //! energy density of about G/h, and it begins to fail when that reaches Y₀ (G ≈ G_c/2) and
 //! is through when G reaches G_c.
 //!
-//! **GPU.** `gpu/damage.wgsl` is this module line for line; MLS-MPM's P2G calls it for a
-//! material with toughness and keeps the damage in each particle's position w.
+//! **GPU.** `gpu/damage.wgsl` is this module line for line; MLS-MPM's and total Lagrangian
+//! MPM's P2G call it for a material with toughness and keep the damage in each particle's
+//! position w.
 //!
 //! **Torn material** (d ≥ 0.99) carries no tension and no shear but still resists
 //! compression; its deformation gradient keeps only a volume compression (its stretch costs
@@ -45,7 +46,8 @@
 //! its nearest intact neighbour), so a flap torn off counts in `summary: pieces N`; a scene
 //! with toughness gets the isosurface instead of the constant-topology mesh. `check` refuses
 //! a toughness outside 0 < G_c ≤ 1e6 and toughness with the PB-MPM or implicit method (only
-//! MLS-MPM and PIC step damage). On the GPU the damage lives in each particle's position w,
+//! MLS-MPM, PIC and total Lagrangian MPM step damage; under total Lagrangian MPM the pieces
+//! are counted on the rest configuration, torn particles linking none). On the GPU the damage lives in each particle's position w,
 //! so it is saved and restored with the frame-start snapshot and comes back with every
 //! frame's positions at no extra readback.
 //!

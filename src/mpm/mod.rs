@@ -260,7 +260,7 @@ pub enum Method {
     Implicit,
     /// Total Lagrangian MPM (de Vaucorbeil et al. 2020): shape functions on the rest
     /// configuration, so tissue pulled however far stays one piece; explicit, substeps as
-    /// MLS-MPM's. CPU only; no cutting or tearing (see [`cpu::tlmpm`]).
+    /// MLS-MPM's. CPU and GPU; tears with a toughness, does not cut (see [`cpu::tlmpm`]).
     TlMpm,
 }
 

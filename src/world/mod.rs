@@ -45,6 +45,9 @@ pub struct World {
     /// Under total Lagrangian MPM, the pieces of the rest configuration (see
     /// [`World::pieces`]); `None` for the other methods.
     rest_pieces: Option<usize>,
+    /// Under total Lagrangian MPM with a material that tears, the rest positions, on which
+    /// [`World::pieces`] links the particles that are not torn; empty otherwise.
+    rest_positions: Vec<Vec3>,
     warned_fixed_dt: bool,
     /// This frame's tool kinematics, substep-major (capacity reused across frames).
     kinematics: Vec<ToolKinematics>,
@@ -142,8 +145,15 @@ impl World {
             dx,
         );
         let particles = rest_particles(scene);
-        let rest_pieces = (scene.solver.method == Method::TlMpm)
-            .then(|| crate::mpm::pieces::count(&particles.x, &[], dx));
+        let total_lagrangian = scene.solver.method == Method::TlMpm;
+        let rest_pieces =
+            total_lagrangian.then(|| crate::mpm::pieces::count(&particles.x, &[], dx));
+        let tears = scene.tissues.iter().any(|t| t.material.toughness.is_some());
+        let rest_positions = if total_lagrangian && tears {
+            particles.x.clone()
+        } else {
+            Vec::new()
+        };
         let mut materials = Vec::new();
         let mut wave_speed: f64 = 0.0;
         for t in &scene.tissues {
@@ -243,6 +253,7 @@ impl World {
         };
         Ok(World {
             rest_pieces,
+            rest_positions,
             scene: scene.clone(),
             params: StepParams::new(scene, wave_speed),
             last_max_speed: 0.0,
@@ -339,15 +350,20 @@ impl World {
     }
 
     /// Separate tissue pieces: particles linked through neighbours within a cell, not
-    /// across a cut (see [`crate::mpm::pieces`]). Under total Lagrangian MPM, the pieces of
-    /// the rest configuration: two particles that share grid nodes at rest interact
-    /// however far they are pulled apart, so tissue stretched past a cell per particle is
-    /// still one piece (it neither cuts nor tears).
+    /// across a cut and not through torn particles (see [`crate::mpm::pieces`]). Under
+    /// total Lagrangian MPM, the pieces of the rest configuration: two particles that share
+    /// grid nodes at rest interact however far they are pulled apart, so tissue stretched
+    /// past a cell per particle is still one piece; only a tear, which takes the tension out
+    /// of the particles between them, parts two neighbours at rest.
     pub fn pieces(&self) -> usize {
+        let p = self.particles();
+        if !self.rest_positions.is_empty() {
+            let dx = self.layout().dx;
+            return crate::mpm::pieces::count_torn(&self.rest_positions, &[], &p.damage, dx);
+        }
         if let Some(pieces) = self.rest_pieces {
             return pieces;
         }
-        let p = self.particles();
         crate::mpm::pieces::count_torn(&p.x, &p.crack, &p.damage, self.layout().dx)
     }
 

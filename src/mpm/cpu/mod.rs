@@ -307,6 +307,7 @@ impl CpuSolver {
                     &self.layout,
                     &self.boundary,
                     &self.materials,
+                    &self.damage_onset,
                     &mut self.particles,
                     &mut self.captured,
                     input.tools,

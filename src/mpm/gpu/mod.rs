@@ -19,9 +19,9 @@
 //!   G2P turns it with the material (see [`crate::mpm::crack`]). Without a slicer the crack
 //!   buffer is a placeholder, nothing is dispatched and the side tests compile away;
 //! - `damage.wgsl` (no stage of its own): with a material that has toughness, MLS-MPM's
-//!   P2G advances each particle's damage (kept in its position's w) and scatters the
-//!   degraded stress (see [`crate::mpm::damage`]); PB-MPM has no stress to degrade and
-//!   `check` refuses toughness with it;
+//!   and total Lagrangian MPM's P2G advance each particle's damage (kept in its position's
+//!   w) and take the degraded stress (see [`crate::mpm::damage`]); PB-MPM has no stress to
+//!   degrade and `check` refuses toughness with it;
 //! - `pbmpm`: PB-MPM's elastic constraint on C, momentum-only P2G and the inner
 //!   iterations' G2P; a PB-MPM substep records the stages above once per iteration, each
 //!   iteration with its own parameter entry (gravity in the first only), integrating in

@@ -33,7 +33,8 @@ fn p2g(@builtin(global_invocation_id) gid: vec3<u32>) {
 // particle scatters its mass and momentum into the node's accumulators and, into its total
 // Lagrangian words (`tl_words`), dt times its force −V⁰·P·∇N, its mass-weighted offset from
 // the node (the node's current place is its grid position plus their sum over its mass),
-// and, for a captured particle, its mass and its gripper (captured.rs `scatter_at`).
+// and, for a captured particle, its mass and its gripper (captured.rs `scatter_at`). A
+// material with toughness tears as in MLS-MPM's P2G.
 @compute @workgroup_size(WG)
 fn p2g_tl(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = gid.x;
@@ -48,8 +49,20 @@ fn p2g_tl(@builtin(global_invocation_id) gid: vec3<u32>) {
     let s = make_stencil(grid_pos(rest.xyz));
     let dw = weight_derivatives(s.fx);
     let offs = node_offsets(s.base);
+    // A material with toughness advances the damage and degrades the tension, as above.
+    var tau: mat3x3<f32>;
+    var f = part.f;
+    if (mat.onset > 0.0) {
+        let degraded = degraded_stress(mat, part.f, part.x.w);
+        tau = degraded.tau;
+        f = degraded.f;
+        particles[p].x.w = degraded.d;
+        particles[p].f = f;
+    } else {
+        tau = kirchhoff_stress(mat, part.f);
+    }
     // dt·(−V⁰·P)/dx with P = τ·F⁻ᵀ: the node's dt·force is this times ∇N in grid units.
-    let stress = kirchhoff_stress(mat, part.f) * inverse_transpose(part.f) * (-pc.y * sim.inv_dx * st.dt);
+    let stress = tau * inverse_transpose(f) * (-pc.y * sim.inv_dx * st.dt);
     let momentum = part.v.xyz * m;
     let g = grid_pos(part.x.xyz);
     let holder = u32(rest.w);
