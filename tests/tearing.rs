@@ -180,13 +180,14 @@ fn opposed_grips(
     ]
 }
 
-/// The CPU solver of the trouser and notched-strip specimens (explicit MLS-MPM, no table, one
-/// substep a step: the tests step it themselves), with room for `tool_count` grips.
+/// The CPU solver of the trouser and notched-strip specimens (explicit, `method`, no table,
+/// one substep a step: the tests step it themselves), with room for `tool_count` grips.
 fn specimen_solver(
     layout: GridLayout,
     particles: Particles,
     materials: Vec<MaterialParams>,
     tool_count: usize,
+    method: Method,
 ) -> CpuSolver {
     CpuSolver::new(SolverSetup {
         layout,
@@ -198,7 +199,7 @@ fn specimen_solver(
         tool_count,
         cutting: false,
         p2g: P2gAtomics::Auto,
-        method: Method::MlsMpm,
+        method,
         pb_mpm: PbMpmParams {
             iterations: 1,
             relaxation: 1.0,
@@ -209,8 +210,15 @@ fn specimen_solver(
 }
 
 /// Runs the trouser tear at cell size `dx` (m) with toughness `toughness` (0: none) and
-/// Young's modulus `young` (Pa).
+/// Young's modulus `young` (Pa), by MLS-MPM with the tear's line a cell wide.
 fn trouser(dx: f32, toughness: f32, young: f64) -> Trouser {
+    trouser_by(Method::MlsMpm, 1.0, dx, toughness, young)
+}
+
+/// [`trouser`] stepped by `method`, the tear's line `line_cells` cells wide. Under total
+/// Lagrangian MPM, which does not cut, the slit between the legs is the legs' particles as
+/// near the plane y = 0 as the line, torn through from the start.
+fn trouser_by(method: Method, line_cells: f32, dx: f32, toughness: f32, young: f64) -> Trouser {
     let (t, w) = (THICKNESS, LEG_WIDTH);
     let origin = Vec3::new(-0.006, -0.008, -0.016);
     let layout = GridLayout::new(origin, Vec3::new(0.026, 0.016, 0.034), dx);
@@ -244,6 +252,10 @@ fn trouser(dx: f32, toughness: f32, young: f64) -> Trouser {
         1000.0,
         0,
     );
+    let on_line = |x: &Vec3| x.y.abs() < 0.5 * line_cells * dx;
+    let slit: Vec<usize> = (tail..particles.len())
+        .filter(|&i| on_line(&particles.x[i]))
+        .collect();
     // The slit: where the legs meet (x < 0), each side's crack is the plane y = 0.
     particles.crack = particles
         .x
@@ -256,9 +268,10 @@ fn trouser(dx: f32, toughness: f32, young: f64) -> Trouser {
             }
         })
         .collect();
-    // The tear's line: the tail's particles within half a cell of y = 0 (material 1).
+    // The tear's line: the tail's particles within half the line's width of y = 0
+    // (material 1).
     for (i, x) in particles.x.iter().enumerate().take(tail) {
-        if x.y.abs() < 0.5 * dx {
+        if on_line(x) {
             particles.material[i] = 1;
         }
     }
@@ -272,7 +285,15 @@ fn trouser(dx: f32, toughness: f32, young: f64) -> Trouser {
     };
     let line = MaterialParams { toughness, ..sheet };
     let wave_speed = sheet.lame.p_wave_speed(1000.0);
-    let mut solver = specimen_solver(layout, particles, vec![sheet, line], 3);
+    if method == Method::TlMpm {
+        particles.crack.clear();
+    }
+    let mut solver = specimen_solver(layout, particles, vec![sheet, line], 3, method);
+    if method == Method::TlMpm && toughness > 0.0 {
+        for &i in &slit {
+            solver.particles.damage[i] = 1.0;
+        }
+    }
     let dt = (0.5 * dx as f64 / wave_speed) as f32;
     let substeps = (PULL / SPEED / dt as f64).ceil() as usize;
     let grip = 0.002;
@@ -536,6 +557,47 @@ fn trouser_without_toughness_does_not_tear() {
     assert!(r.force.iter().all(|&f| f > 2.0 * expected), "{:?}", r.force);
 }
 
+/// Total Lagrangian MPM tears where the toughness is, but two particles that share a grid
+/// node at rest stay coupled through it, torn or not: its legs part only where the torn
+/// band is about as wide as the stencil. A tear's line one cell wide (as MLS-MPM's) holds:
+/// the tear barely runs and the legs pull many times G_c·t/2. Three cells wide, it runs as
+/// far as the grips move, each leg's force a few times G_c·t/2 as MLS-MPM's, and the
+/// damage law takes more than G_c per unit area (the band is wider than the crack band's
+/// cell). Measured: a line 1 cell wide, 31 × G_c·t/2 and an advance of 1.25 mm for a 6 mm
+/// pull; 3 cells wide, 5.2 × and 5.75 mm, the damage law taking 2.3 G_c per unit area
+/// (MLS-MPM with its one-cell line: 4.1 ×).
+#[test]
+fn trouser_under_total_lagrangian_mpm_tears_through_a_band_as_wide_as_the_stencil() {
+    let expected = TOUGHNESS as f64 * THICKNESS as f64 / 2.0;
+    let narrow = trouser_by(Method::TlMpm, 1.0, 0.001, TOUGHNESS, YOUNG);
+    report(0.001, &narrow);
+    assert!(
+        narrow.advance < 0.3 * PULL && narrow.force.iter().all(|&f| f > 15.0 * expected),
+        "a one-cell line tore under total Lagrangian MPM: {:?}, {} m",
+        narrow.force,
+        narrow.advance
+    );
+    let wide = trouser_by(Method::TlMpm, 3.0, 0.001, TOUGHNESS, YOUNG);
+    report(0.001, &wide);
+    for f in wide.force {
+        assert!(
+            (1.0..7.0).contains(&(f / expected)),
+            "steady tearing force {f} N vs G_c·t/2 = {expected} N"
+        );
+    }
+    assert!(
+        (wide.advance / PULL - 1.0).abs() < 0.3,
+        "tear advance {} m for a pull of {PULL} m",
+        wide.advance
+    );
+    let e = &wide.energy;
+    let per_area = e.damage / (TOUGHNESS as f64 * THICKNESS as f64 * e.advance);
+    assert!(
+        (1.0..4.0).contains(&per_area),
+        "damage dissipated {per_area} G_c per unit area"
+    );
+}
+
 /// Notched strip (mode I): a strip of width `NOTCH_STRIP_WIDTH` (x), thickness
 /// `NOTCH_STRIP_THICKNESS` (z) and length along the pull (y) from `NOTCH_STRIP_Y` (m), with an
 /// edge notch `NOTCH_DEPTH` deep in the plane y = 0, gripped at both ends and pulled apart.
@@ -620,7 +682,7 @@ fn notched_strip(dx: f32) -> NotchedTear {
         toughness: NOTCH_TOUGHNESS,
     };
     let wave_speed = strip.lame.p_wave_speed(1000.0);
-    let mut solver = specimen_solver(layout, particles, vec![strip], 2);
+    let mut solver = specimen_solver(layout, particles, vec![strip], 2, Method::MlsMpm);
     let dt = (0.5 * dx as f64 / wave_speed) as f32;
     let substeps = (NOTCH_PULL / NOTCH_SPEED / dt as f64).ceil() as usize;
     let half = Vec3::new(0.5 * w + dx, 0.5 * NOTCH_GRIP, 0.5 * t + dx);
