@@ -23,6 +23,9 @@ use crate::mpm::{Mat3, Vec3};
 /// Floats per source and per sum.
 const WIDTH: usize = 16;
 
+/// One node's sums, lane for lane as a [`Source`]'s (read by [`NodeSums::of`]).
+pub(super) type Sum = [f32; WIDTH];
+
 /// What a particle gives its nodes in P2G, as sixteen floats: velocity (0..3), place
 /// (3..6), an unused lane (6), and the columns of S = −V⁰P/dx (7..16), so that the force is
 /// `S · ∇N`.
@@ -65,7 +68,7 @@ pub(super) fn node_sums(
     starts: &[u32],
     entries: &[Entry],
     sources: &[Source],
-    out: &mut [[f32; WIDTH]],
+    out: &mut [Sum],
 ) {
     match path {
         #[cfg(target_arch = "x86_64")]
@@ -89,10 +92,10 @@ const PARTIALS: usize = 4;
 fn sums_with<A: Copy>(
     starts: &[u32],
     entries: &[Entry],
-    out: &mut [[f32; WIDTH]],
+    out: &mut [Sum],
     zero: impl Fn() -> A,
     add: impl Fn(A, &Entry) -> A,
-    finish: impl Fn([A; PARTIALS], &mut [f32; WIDTH]),
+    finish: impl Fn([A; PARTIALS], &mut Sum),
 ) {
     for (j, sum) in out.iter_mut().enumerate() {
         let list = &entries[starts[j] as usize..starts[j + 1] as usize];
@@ -112,7 +115,7 @@ fn sums_with<A: Copy>(
 
 /// The reference: sixteen floats in an array (the baseline build's vectors: four lanes on
 /// x86-64).
-fn sums(starts: &[u32], entries: &[Entry], sources: &[Source], out: &mut [[f32; WIDTH]]) {
+fn sums(starts: &[u32], entries: &[Entry], sources: &[Source], out: &mut [Sum]) {
     sums_with(
         starts,
         entries,
@@ -156,7 +159,7 @@ fn entry_factors(entry: &Entry) -> std::arch::x86_64::__m128 {
 /// 0..6, the force in a third register's lanes 0..3.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn sums_avx2(starts: &[u32], entries: &[Entry], sources: &[Source], out: &mut [[f32; 16]]) {
+unsafe fn sums_avx2(starts: &[u32], entries: &[Entry], sources: &[Source], out: &mut [Sum]) {
     use std::arch::x86_64::*;
     let low = _mm256_setr_epi32(0, 0, 0, 0, 0, 0, 0, 1);
     let high = _mm256_setr_epi32(1, 1, 2, 2, 2, 3, 3, 3);
@@ -208,12 +211,7 @@ unsafe fn sums_avx2(starts: &[u32], entries: &[Entry], sources: &[Source], out: 
 /// Sixteen lanes in one 512-bit register.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-unsafe fn sums_avx512(
-    starts: &[u32],
-    entries: &[Entry],
-    sources: &[Source],
-    out: &mut [[f32; 16]],
-) {
+unsafe fn sums_avx512(starts: &[u32], entries: &[Entry], sources: &[Source], out: &mut [Sum]) {
     use std::arch::x86_64::*;
     let spread = _mm512_setr_epi32(0, 0, 0, 0, 0, 0, 0, 1, 1, 1, 2, 2, 2, 3, 3, 3);
     // Columns 1 and 2 of S brought onto column 0's lanes 7..10 (lanes 0..7 masked to zero,
@@ -249,7 +247,7 @@ unsafe fn sums_avx512(
 
 impl NodeSums {
     /// The momentum, place and force a node's sixteen lane sums hold.
-    pub fn of(sum: &[f32; WIDTH]) -> Self {
+    pub fn of(sum: &Sum) -> Self {
         let v = |i: usize| Vec3::new(sum[i], sum[i + 1], sum[i + 2]);
         NodeSums {
             momentum: v(0),

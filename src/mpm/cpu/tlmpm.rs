@@ -88,7 +88,7 @@ use super::super::MaterialParams;
 use super::super::{Mat3, ToolImpulse, Vec3, MAX_TOOLS};
 use super::captured::{self, Captured};
 use super::node_contact::apply_tools;
-use super::tl_node_sums::{self, Entry, NodeSums, Source};
+use super::tl_node_sums::{self, Entry, NodeSums, Source, Sum};
 use super::{lanes, G2pTally, TransferPath};
 use crate::mpm::stiffening::{inverse_stretch_bound, StiffeningBounds};
 use crate::tools::{contact, ToolKinematics};
@@ -301,7 +301,7 @@ impl TotalLagrangian {
             .for_each(|(chunk, (velocity, impulses))| {
                 *impulses = [ToolImpulse::default(); MAX_TOOLS];
                 let first = chunk * CHUNK;
-                let mut sums = [[0.0f32; 16]; CHUNK];
+                let mut sums = [Sum::default(); CHUNK];
                 let sums = &mut sums[..velocity.len()];
                 tl_node_sums::node_sums(
                     transfer,
