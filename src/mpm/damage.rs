@@ -47,9 +47,9 @@
 //! with toughness gets the isosurface instead of the constant-topology mesh. `check` refuses
 //! a toughness outside 0 < G_c ≤ 1e6 and toughness with the PB-MPM or implicit method (only
 //! MLS-MPM, PIC and total Lagrangian MPM step damage; under total Lagrangian MPM the pieces
-//! are counted on the rest configuration, torn particles linking none). On the GPU the damage lives in each particle's position w,
-//! so it is saved and restored with the frame-start snapshot and comes back with every
-//! frame's positions at no extra readback.
+//! are counted on the rest configuration, torn particles linking none). On the GPU the
+//! damage lives in each particle's position w, so it is saved and restored with the
+//! frame-start snapshot and comes back with every frame's positions at no extra readback.
 //!
 //! `config/tearing.toml`: a 40 × 16 × 4 mm sheet (E = 5 kPa, G_c = 1 J/m², dx = 2 mm) clamped
 //! at its base; a gripper with dVRK's jaw gains closes on the free end, waits until the jaws

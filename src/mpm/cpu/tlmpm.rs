@@ -45,13 +45,14 @@
 //! tension in its `Source`, and a torn particle's F keeps only its compression. Torn
 //! particles carry no tension, so once a band of them has torn through (see below) the
 //! material on either side moves apart however far the pull goes, and `World::pieces`
-//! links only the particles that are not torn, on the rest configuration. Measured on `config/default.toml` with a toughness
-//! (`tests/deep_lift.rs`): the same 25 mm lift pulls a chunk out around the jaws, two
-//! pieces at the top, the force at its peak 0.865 N with G_c = 7.5 J/m² and 1.637 N with
-//! 30 J/m² (1.89×, where the crack band's energy-density onset Y₀ = G_c/(2·dx) predicts
-//! √4 = 2); `config/tearing.toml` run headless with `method = "tl_mpm"` ends in two
-//! pieces as under MLS-MPM, its highest particle 20.7 mm up against MLS-MPM's 23.8 mm.
-//! The GPU tears the same particles (`tests/tearing.rs`).
+//! links only the particles that are not torn, on the rest configuration. Measured on
+//! `config/default.toml` with a toughness (`tests/deep_lift.rs`): the same 25 mm lift
+//! pulls a chunk out around the jaws, two pieces at the top, the force at its peak
+//! 0.865 N with G_c = 7.5 J/m² and 1.637 N with 30 J/m² (1.89×, where the crack band's
+//! energy-density onset Y₀ = G_c/(2·dx) predicts √4 = 2); `config/tearing.toml` run
+//! headless with `method = "tl_mpm"` ends in two pieces as under MLS-MPM, its highest
+//! particle 20.7 mm up against MLS-MPM's 23.8 mm. The GPU tears the same particles
+//! (`tests/tearing.rs`).
 //!
 //! Two particles that share a node at rest stay coupled through it, torn or not: the
 //! material on either side of a tear parts only where the torn band is about as wide as
@@ -237,8 +238,9 @@ impl TotalLagrangian {
     }
 
     /// One explicit step of `dt`, G2P on `transfer`, with `onsets` each material's damage
-    /// onset energy (empty when nothing tears, see [`damage`]): returns the tools' impulses, the
-    /// largest speed, the particles clamped at the domain's edge and the guard's first event.
+    /// onset energy (empty when nothing tears, see [`damage`]): returns the tools'
+    /// impulses, the largest speed, the particles clamped at the domain's edge and the
+    /// guard's first event.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn substep(
         &mut self,
