@@ -148,7 +148,7 @@ pub fn solve(
     // Block elimination down the chain: D̃ₖ = Dₖ − Aₖ₋₁ᵀ·D̃ₖ₋₁⁻¹·Aₖ₋₁, factorised.
     for k in 0..n {
         if k > 0 {
-            let schur = transpose_times(&s.coupling[k - 1], &s.upper[k - 1]);
+            let schur = coupling_transpose_times(&s.coupling[k - 1], &s.upper[k - 1]);
             sub_assign(&mut s.factor[k], &schur);
         }
         if !cholesky(&mut s.factor[k]) {
@@ -219,13 +219,7 @@ fn substitute(s: &mut DirectScratch, n: usize) -> bool {
     for k in 0..n {
         if k > 0 {
             let above = s.rhs[k - 1];
-            let lower = &s.coupling[k - 1];
-            let rhs = &mut s.rhs[k];
-            for (r, row) in lower.iter().enumerate() {
-                for c in 0..6 {
-                    rhs[c] -= row[c] * above[r];
-                }
-            }
+            subtract_coupling_transpose_times(&mut s.rhs[k], &s.coupling[k - 1], &above);
         }
         cholesky_solve(&s.factor[k], &mut s.rhs[k]);
     }
@@ -286,17 +280,41 @@ fn put3(m: &mut Block, row: usize, col: usize, block: &Mat3d) {
     }
 }
 
-/// aᵀ·b.
-fn transpose_times(a: &Block, b: &Block) -> Block {
+/// aᵀ·b for a coupling block `a` (see [`solve`]): its stretch rows (0..3) are diagonal in
+/// the stretch columns and zero in the bend columns, so row i < 3 of the product takes one
+/// stretch row and the three bend rows, row i ≥ 3 the bend rows alone. The terms it
+/// skips are exact zeros and the others are added in the order of the full product, so
+/// the result is the full product's to the bit.
+fn coupling_transpose_times(a: &Block, b: &Block) -> Block {
     let mut out = ZERO;
-    for (a_row, b_row) in a.iter().zip(b) {
-        for (i, &a_ri) in a_row.iter().enumerate() {
+    for i in 0..6 {
+        let row = &mut out[i];
+        if i < 3 {
             for c in 0..6 {
-                out[i][c] += a_ri * b_row[c];
+                row[c] += a[i][i] * b[i][c];
+            }
+        }
+        for r in 3..6 {
+            let a_ri = a[r][i];
+            for c in 0..6 {
+                row[c] += a_ri * b[r][c];
             }
         }
     }
     out
+}
+
+/// y −= aᵀ·x for a coupling block `a`, its zero terms skipped as in
+/// [`coupling_transpose_times`] and the others subtracted in the full product's order.
+fn subtract_coupling_transpose_times(y: &mut [f64; 6], a: &Block, x: &[f64; 6]) {
+    for r in 0..3 {
+        y[r] -= a[r][r] * x[r];
+    }
+    for r in 3..6 {
+        for c in 0..6 {
+            y[c] -= a[r][c] * x[r];
+        }
+    }
 }
 
 fn sub_assign(m: &mut Block, other: &Block) {
@@ -386,6 +404,47 @@ mod tests {
     use super::*;
     use crate::rod::constraints::stretch_shear;
     use crate::rod::ThreadMaterial;
+
+    /// The coupling products skip only exact zeros: on blocks shaped as `solve` builds
+    /// them (stretch rows diagonal in the stretch columns, zero in the bend columns), they
+    /// equal the full products to the bit.
+    #[test]
+    fn coupling_products_equal_the_full_products() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for _ in 0..100 {
+            let mut a = ZERO;
+            for r in 0..6 {
+                for c in 0..6 {
+                    let stretch_row = r < 3;
+                    if !stretch_row || c == r {
+                        a[r][c] = next() * 1e6;
+                    }
+                }
+            }
+            let b: Block = std::array::from_fn(|_| std::array::from_fn(|_| next()));
+            let x: [f64; 6] = std::array::from_fn(|_| next());
+            let mut full = ZERO;
+            let mut y_full: [f64; 6] = std::array::from_fn(|i| b[0][i]);
+            for r in 0..6 {
+                for i in 0..6 {
+                    for c in 0..6 {
+                        full[i][c] += a[r][i] * b[r][c];
+                    }
+                    y_full[i] -= a[r][i] * x[r];
+                }
+            }
+            let mut y = b[0];
+            subtract_coupling_transpose_times(&mut y, &a, &x);
+            assert_eq!(coupling_transpose_times(&a, &b), full);
+            assert_eq!(y, y_full);
+        }
+    }
 
     /// Points moved along a straight rod's axis change only the (linear) stretch: one solve
     /// must leave every constraint satisfied, C + α̃·λ = 0.
