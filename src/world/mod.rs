@@ -42,12 +42,9 @@ pub struct World {
     last_max_speed: f32,
     /// Particles the scene's tissue starts with (splitting adds to them).
     scene_particles: usize,
-    /// Under total Lagrangian MPM, the pieces of the rest configuration (see
-    /// [`World::pieces`]); `None` for the other methods.
-    rest_pieces: Option<usize>,
-    /// Under total Lagrangian MPM with a material that tears, the rest positions, on which
-    /// [`World::pieces`] links the particles that are not torn; empty otherwise.
-    rest_positions: Vec<Vec3>,
+    /// Under total Lagrangian MPM, the rest positions, on which [`World::pieces`] links the
+    /// particles; `None` for the other methods, whose pieces are linked where they are now.
+    rest_positions: Option<Vec<Vec3>>,
     warned_fixed_dt: bool,
     /// This frame's tool kinematics, substep-major (capacity reused across frames).
     kinematics: Vec<ToolKinematics>,
@@ -145,15 +142,7 @@ impl World {
             dx,
         );
         let particles = rest_particles(scene);
-        let total_lagrangian = scene.solver.method == Method::TlMpm;
-        let rest_pieces =
-            total_lagrangian.then(|| crate::mpm::pieces::count(&particles.x, &[], dx));
-        let tears = scene.tissues.iter().any(|t| t.material.toughness.is_some());
-        let rest_positions = if total_lagrangian && tears {
-            particles.x.clone()
-        } else {
-            Vec::new()
-        };
+        let rest_positions = (scene.solver.method == Method::TlMpm).then(|| particles.x.clone());
         let mut materials = Vec::new();
         let mut wave_speed: f64 = 0.0;
         for t in &scene.tissues {
@@ -252,7 +241,6 @@ impl World {
             None => Backend::Cpu(Box::new(CpuBackend::new(CpuSolver::new(setup)))),
         };
         Ok(World {
-            rest_pieces,
             rest_positions,
             scene: scene.clone(),
             params: StepParams::new(scene, wave_speed),
@@ -357,14 +345,12 @@ impl World {
     /// of the particles between them, parts two neighbours at rest.
     pub fn pieces(&self) -> usize {
         let p = self.particles();
-        if !self.rest_positions.is_empty() {
-            let dx = self.layout().dx;
-            return crate::mpm::pieces::count_torn(&self.rest_positions, &[], &p.damage, dx);
-        }
-        if let Some(pieces) = self.rest_pieces {
-            return pieces;
-        }
-        crate::mpm::pieces::count_torn(&p.x, &p.crack, &p.damage, self.layout().dx)
+        // Total Lagrangian MPM does not cut: its particles carry no crack.
+        let (x, crack) = match &self.rest_positions {
+            Some(rest) => (&rest[..], &[][..]),
+            None => (&p.x[..], &p.crack[..]),
+        };
+        crate::mpm::pieces::count_torn(x, crack, &p.damage, self.layout().dx)
     }
 
     /// The grid's origin, spacing and size.
