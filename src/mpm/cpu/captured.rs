@@ -14,6 +14,14 @@ use super::super::particles::Particles;
 use super::super::{ToolImpulse, Vec3, MAX_TOOLS};
 use crate::tools::ToolKinematics;
 
+/// The share of a node's mass its captured particles must carry for the node to be held:
+/// half, less a thousandth. A node on the grip region's edge of a regular lattice of
+/// particles often has exactly half its mass inside, and the rounding of its two sums
+/// (f32 here, fixed point or f32 atomics on the GPU) would decide such a tie differently
+/// on each backend; seen as 2 % of the held mass differing between the CPU and the GPU's
+/// fixed point. The GPU's grid update uses the same share.
+pub const HELD_SHARE: f32 = 0.499;
+
 /// Which particles each gripper holds, and the held mass they put on the grid this substep.
 #[derive(Default)]
 pub(super) struct Captured {
@@ -107,12 +115,12 @@ impl Captured {
     }
 
     /// The gripper holding node `n` of mass `m`: the one whose captured particles carry at
-    /// least half of it. All or nothing, so that how firmly a node is held does not depend
-    /// on how many substeps hold it.
+    /// least half of it ([`HELD_SHARE`]). All or nothing, so that how firmly a node is held
+    /// does not depend on how many substeps hold it.
     #[inline(always)]
     pub(super) fn holder(&self, n: usize, m: f32) -> Option<usize> {
         let t = *self.node_tool.get(n)?;
-        (t != 0 && self.node_mass[n] >= 0.5 * m).then(|| t as usize - 1)
+        (t != 0 && self.node_mass[n] >= HELD_SHARE * m).then(|| t as usize - 1)
     }
 
     /// The gripper holding particle `p`, if one does.

@@ -91,7 +91,7 @@ fn update_block(wid: vec3<u32>, lid: u32, settled_by_solve: bool, total_lagrangi
         var jaw = 0u;
         if (total_lagrangian) {
             let holder = atomicLoad(&tl_nodes[node]);
-            if (holder != 0u && acc_load_m(tl + 6u) >= 0.5 * m) {
+            if (holder != 0u && acc_load_m(tl + 6u) >= HELD_SHARE * m) {
                 grip_tool = holder - 1u;
                 let tool = tools[st.substep * sim.n_tools + grip_tool];
                 let local = transpose(tool.rot) * (x - tool.trans.xyz);

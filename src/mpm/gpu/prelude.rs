@@ -22,6 +22,7 @@ use super::readback::word;
 use super::resources::{Binding, ARGS_GROUP};
 use super::tlmpm::TL_WORDS;
 use super::WG;
+use crate::mpm::cpu::captured::HELD_SHARE;
 use crate::mpm::crack::MIN_OFFSET_CELLS;
 use crate::mpm::damage::TORN;
 use crate::mpm::grid::{Node, BLOCK, NODES_PER_BLOCK, WALL_NODES};
@@ -51,6 +52,7 @@ fn prelude(float_p2g: bool, cutting: bool, total_lagrangian: bool) -> String {
     writeln!(out, "const J_MIN: f32 = {J_MIN:?};").unwrap();
     writeln!(out, "const TORN: f32 = {TORN:?};").unwrap();
     writeln!(out, "const SLIP_THRESHOLD: f32 = {SLIP_THRESHOLD:?};").unwrap();
+    writeln!(out, "const HELD_SHARE: f32 = {HELD_SHARE:?};").unwrap();
     // Cutting: whether particles carry cracks, and the constants of crack.rs / slicer.rs.
     writeln!(out, "const CUTTING: bool = {cutting};").unwrap();
     // Total Lagrangian MPM: the blocks come from the rest configuration, and the nodes
