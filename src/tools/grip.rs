@@ -1,22 +1,31 @@
 //! The grip: tissue pinched between a gripper's closed jaws moves with them, with Coulomb
 //! friction on the grip as a whole at the squeeze the jaw's controller applies.
 //!
-//! The model is sticky jaw contact on grid nodes, switched on by the squeeze:
+//! The model is sticky jaw contact on grid nodes, switched on by the jaw's controller:
 //!
-//! - while the controller presses the jaws closed and they have stopped closing (on the
-//!   tissue or on each other: [`crate::tools::jaw::JawServo::pressing`]) with their tips at
-//!   most a grid cell apart, every grid node in the *grip region* moves with the jaws: along
-//!   the jaw normal always, across the faces at the grip ratio (jaws that stop wider apart,
-//!   on stiff tissue, hold it by contact and its friction, which resolves such a gap);
+//! - while the controller drives the jaws closed
+//!   ([`crate::tools::jaw::JawServo::driving_closed`]) with their tips at most a grid cell
+//!   apart, every grid node in the *grip region* moves with the jaws: along the jaw normal
+//!   always, across the faces at the grip ratio (jaws that stop wider apart, on stiff
+//!   tissue, hold it by contact and its friction, which resolves such a gap);
 //! - the grip region is the jaws' footprint from one outer face to the other (the gap and the
-//!   jaws themselves, where closing jaws leave the tissue they caught), widened by one grid
-//!   cell on every side;
+//!   jaws themselves, where closing jaws leave the tissue they caught), widened on every
+//!   side by [`grip_reach`]: half the jaw thickness, at least a grid cell;
 //! - the grip ratio is Coulomb's law on the grip as a whole: the tangential force holding
 //!   every node in full took over the last frame, against μ × the jaws' total normal force,
 //!   2·squeeze/lever (two faces; the lever is the held mass's mean distance from the
 //!   hinge). Held in full below that; above it the grip slips with the friction force;
 //! - opening the jaws (or any command that stops the press) ends the grip, and the jaws are
 //!   ordinary contact again.
+//!
+//! Why from the moment the tips come within a cell, not once the jaws have stopped: the
+//! jaw's effort limit (0.16 N·m) is far above what soft tissue resists, so the jaws close
+//! through it at their free speed, and tissue caught between faces less than a cell apart
+//! is crushed, not squeezed out. At dx 1 mm the default liver's bite reached a least
+//! stretch of 1/20 and ran away at 11.8 m/s just before the jaws met; held from the moment
+//! the grid can no longer resolve the tips' gap, it is lifted as at dx 2 mm
+//! (`tests/deep_lift.rs`). While they still close, the squeeze that pays for friction is
+//! the effort left over from the closing motion (see [`crate::tools::jaw::JawServo::squeeze`]).
 //!
 //! Why nodes and why the extra cell: a closed jaw gap is a fraction of a cell, so contact
 //! alone cannot hold tissue between the faces at dx = 2 mm (the jaws close through it and
@@ -28,6 +37,13 @@
 //! nodes, the same reach as the jaws' contact, spreads the pull over a stencil, and the
 //! tissue around follows as a tent. Particles are not touched: they take the held nodes'
 //! motion through G2P, so their deformation gradient stays consistent with the grid.
+//!
+//! Why half the jaw thickness and not one cell: the held tissue, and with it what a lift
+//! pulls, must not shrink with the cell. The region reaches as far beyond the faces at
+//! dx 1 mm as at dx 2 mm on the default 4 mm jaws (`tests/deep_lift.rs` lifts the same
+//! liver at both). A scene's jaws are at least two cells thick (`check`), so the reach is
+//! never less than a cell, and every shipped gripper scene's jaws are exactly two cells
+//! thick: one cell there, as before.
 //!
 //! The momentum the held nodes receive goes to the tool's wrench like contact's; its part
 //! along the jaw normal pushes the jaws apart (the tissue's torque on the opening).
@@ -47,6 +63,13 @@ pub struct Held {
     pub lever: f32,
     /// Which jaw's side of the midplane the node is on (1 or 2, as the SDF's parts).
     pub jaw: u8,
+}
+
+/// How far a gripper of `jaw_thickness` holds beyond its jaws on a grid of spacing `dx`:
+/// half the jaw thickness (a physical reach, the same on every grid), at least a cell (the
+/// stencil the pull spreads over; see the module doc).
+pub fn grip_reach(jaw_thickness: f32, dx: f32) -> f32 {
+    dx.max(0.5 * jaw_thickness)
 }
 
 impl ToolKinematics {
@@ -171,6 +194,34 @@ mod tests {
         let mut sphere = k;
         sphere.shape = Shape::Sphere { radius: 0.01 };
         assert!(sphere.grip_region(Vec3::zeros()).is_none());
+    }
+
+    #[test]
+    fn thick_jaws_hold_half_their_thickness_beyond_their_faces_on_a_fine_grid() {
+        assert_eq!(grip_reach(0.002, DX), DX);
+        assert_eq!(grip_reach(0.004, DX), DX);
+        assert_eq!(grip_reach(0.004, 0.5 * DX), 0.002);
+        let shape = Shape::Gripper {
+            jaw_length: 0.01,
+            jaw_width: 0.006,
+            jaw_thickness: 0.004,
+        };
+        let fine = |dx: f32| {
+            ToolKinematics::new(
+                shape,
+                ContactModel::default(),
+                &ToolPose::default(),
+                &ToolVelocity::default(),
+                dx,
+            )
+        };
+        // 1.5 mm beyond the side of the closed jaws: held at dx 2 mm and at dx 1 mm alike.
+        let beside = Vec3::new(0.0045, 0.0, 0.005);
+        assert!(fine(DX).grip_region(beside).is_some());
+        assert!(fine(0.5 * DX).grip_region(beside).is_some());
+        assert!(fine(0.5 * DX)
+            .grip_region(Vec3::new(0.0055, 0.0, 0.005))
+            .is_none());
     }
 
     #[test]

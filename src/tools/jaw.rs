@@ -147,12 +147,19 @@ impl JawServo {
         (-self.effort - closing_motion).max(0.0)
     }
 
-    /// Whether the controller presses the jaws onto something that has stopped them: its
-    /// closing effort is at least a tenth of the limit (a command to close, not the small
-    /// effort that holds an open jaw against the tissue it rests on) and at least half of
-    /// it goes into the squeeze. The grip holds while it does (see [`crate::tools::grip`]).
+    /// Whether the controller drives the jaws closed: its closing effort is at least a tenth
+    /// of the limit (a command to close, not the small effort that holds an open jaw
+    /// against the tissue it rests on). The grip holds while it does and the tips are
+    /// within a cell (see [`crate::tools::grip`]).
+    pub fn driving_closed(&self) -> bool {
+        self.effort <= -0.1 * self.gains.effort_max
+    }
+
+    /// Whether the controller presses the jaws onto something that has stopped them: it
+    /// drives them closed and at least half of its effort goes into the squeeze. A thread
+    /// is grasped while it does ([`crate::world::thread_body`]).
     pub fn pressing(&self) -> bool {
-        self.effort <= -0.1 * self.gains.effort_max && self.squeeze() >= -0.5 * self.effort
+        self.driving_closed() && self.squeeze() >= -0.5 * self.effort
     }
 }
 

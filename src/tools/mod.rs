@@ -76,7 +76,7 @@ pub struct ToolKinematics {
     /// along the jaw normal, and across the faces at this ratio: 1 while friction holds it,
     /// less when it slips.
     pub grip: f32,
-    /// How far a gripper's grip region reaches beyond its jaws (one grid cell; see [`grip`]).
+    /// How far a gripper's grip region reaches beyond its jaws ([`grip::grip_reach`]).
     pub grip_reach: f32,
     /// Lower corner of the world-frame bounding box, m (contact threshold included).
     pub aabb_min: Vec3,
@@ -130,7 +130,7 @@ impl ToolKinematics {
             contact_threshold,
             grip: -1.0,
             grip_reach: match shape {
-                Shape::Gripper { .. } => dx,
+                Shape::Gripper { jaw_thickness, .. } => grip::grip_reach(jaw_thickness, dx),
                 _ => 0.0,
             },
             aabb_min: translation - reach,

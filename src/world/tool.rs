@@ -82,8 +82,8 @@ impl Jaws {
 
     /// Coulomb on the grip as a whole: the share of the tangential hold the squeeze can
     /// pay for, from the force holding took over the last frame; negative (no hold) while
-    /// the controller does not press the jaws onto what they closed on, or while their tips
-    /// are more than a cell apart.
+    /// the controller does not drive the jaws closed, or while their tips are more than a
+    /// cell apart.
     pub(super) fn grip_ratio(&self, shape: Shape, contact: ContactModel, dx: f64) -> f32 {
         let Shape::Gripper { jaw_length, .. } = shape else {
             return -1.0;
@@ -92,7 +92,7 @@ impl Jaws {
         // apart, contact and its friction act on the tissue between the faces (and stop
         // the jaws on it).
         let tip_gap = 2.0 * jaw_length as f64 * (0.5 * self.servo.angle).sin();
-        if !self.servo.pressing() || tip_gap > dx {
+        if !self.servo.driving_closed() || tip_gap > dx {
             return -1.0;
         }
         let squeeze = self.servo.squeeze();

@@ -48,10 +48,10 @@
 //! links only the particles that are not torn, on the rest configuration. Measured on
 //! `config/default.toml` with a toughness (`tests/deep_lift.rs`): the same 25 mm lift
 //! pulls a chunk out around the jaws, two pieces at the top, the force at its peak
-//! 0.865 N with G_c = 7.5 J/m² and 1.637 N with 30 J/m² (1.89×, where the crack band's
+//! 0.967 N with G_c = 7.5 J/m² and 1.821 N with 30 J/m² (1.88×, where the crack band's
 //! energy-density onset Y₀ = G_c/(2·dx) predicts √4 = 2); `config/tearing.toml` run
 //! headless with `method = "tl_mpm"` ends in two pieces as under MLS-MPM, its highest
-//! particle 20.7 mm up against MLS-MPM's 23.8 mm. The GPU tears the same particles
+//! particle 20.7 mm up against MLS-MPM's 22.1 mm. The GPU tears the same particles
 //! (`tests/tearing.rs`).
 //!
 //! Two particles that share a node at rest stay coupled through it, torn or not: the
@@ -69,15 +69,13 @@
 //! configuration); contact between separate pieces of tissue is not seen (their nodes
 //! never meet). The GPU runs the same math (`mpm::gpu`'s `tlmpm`).
 //!
-//! Not yet resolution-independent under the jaws: the default liver's half-size copy
-//! (20 × 20 × 10 mm, the same grasp 5 mm deep, jaws closing from 50° to −20° over 0.5 s)
-//! lifts at dx 2 mm (4,000 particles, one piece), but at dx 1 mm (32,000 particles) the
-//! closing jaws crush the free tissue between their faces before the grip holds any of it:
-//! its smallest stretch falls to 1/24.7 (J = 0.06) at t = 0.48 s and to 1/133 within the
-//! next frame, faster than cutting the frame's substeps by the bound taken at its start
-//! can follow, and a particle there runs away at 11–15 m/s. `cfl = 0.25`, a cap of 64
-//! pieces and a grip taking over at two cells' gap each leave it so: the crush, not the
-//! substep, is what fails.
+//! Resolution-independent under the jaws: the default liver's half-size copy (20 × 20 ×
+//! 10 mm, the same grasp 5 mm deep, the jaws closing from 50°, a 25 mm lift over 1 s)
+//! pulls 1.68 N halfway up and 3.00 N at the top at dx 2 mm (4,000 particles), 1.96 N and
+//! 3.26 N at dx 1 mm (32,000 particles): 14 % and 8 % apart (`tests/deep_lift.rs`). That
+//! takes the grip holding from the moment the tips come within a cell, before the jaws
+//! stop (see [`crate::tools::grip`]): jaws that must first stop crush the tissue between
+//! them at dx 1 mm, and it ran away at 11.8 m/s.
 
 use super::super::damage;
 use super::super::grid::{Boundary, GridLayout, TableHold, WALL_NODES};

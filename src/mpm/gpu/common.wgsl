@@ -640,13 +640,13 @@ fn hold_at(tool: Tool, x: vec3<f32>, v: vec3<f32>, m: f32, lever: f32, jaw: u32)
 
 // Gripper `t`'s grip region at `x` (ToolKinematics::grip_region in tools/grip.rs): x the
 // distance from the hinge and y the jaw on whose side it is (1 or 2); x < 0 outside it.
-// The region reaches one grid cell beyond the jaws (the CPU's `grip_reach`).
+// The region reaches `grip_reach` (tools/grip.rs) beyond the jaws, in the tool's kind.w.
 fn grip_region(t: Tool, x: vec3<f32>) -> vec2<f32> {
     let outside = vec2<f32>(-1.0, 0.0);
     if (t.kind.x != GRIPPER_KIND || !in_aabb(t, x)) {
         return outside;
     }
-    let reach = sim.origin_dx.w;
+    let reach = bitcast<f32>(t.kind.w);
     let p = transpose(t.rot) * (x - t.trans.xyz);
     let len = t.shape.x + reach;
     let thickness = t.shape.z + reach;

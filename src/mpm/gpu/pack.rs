@@ -131,7 +131,7 @@ shared_struct! {
         /// The shape's dimensions; a gripper's w: its grip ratio.
         pub shape: [f32; 4],
         /// x: shape (`*_KIND`); y: [`STICKY`] or 0; z: a mesh slicer's blade record in
-        /// `blades` (`blade.rs`).
+        /// `blades` (`blade.rs`); w: a gripper's grip reach (f32 bits).
         pub kind: [u32; 4],
     }
 }
@@ -245,7 +245,7 @@ impl From<&ToolKinematics> for GpuTool {
             aabb_min: v4(t.aabb_min, friction),
             aabb_max: v4(t.aabb_max, drag),
             shape,
-            kind: [kind, sticky, 0, 0],
+            kind: [kind, sticky, 0, t.grip_reach.to_bits()],
         }
     }
 }
