@@ -206,15 +206,16 @@ mod tests {
             jaw_width: 0.006,
             jaw_thickness: 0.004,
         };
-        let fine = |dx: f32| {
+        let at = |dx: f32, pose: &ToolPose| {
             ToolKinematics::new(
                 shape,
                 ContactModel::default(),
-                &ToolPose::default(),
+                pose,
                 &ToolVelocity::default(),
                 dx,
             )
         };
+        let fine = |dx: f32| at(dx, &ToolPose::default());
         // 1.5 mm beyond the side of the closed jaws: held at dx 2 mm and at dx 1 mm alike.
         let beside = Vec3::new(0.0045, 0.0, 0.005);
         assert!(fine(DX).grip_region(beside).is_some());
@@ -222,6 +223,15 @@ mod tests {
         assert!(fine(0.5 * DX)
             .grip_region(Vec3::new(0.0055, 0.0, 0.005))
             .is_none());
+        // The region's far corner, 2 mm beyond a face and the tips, is in the tool's
+        // bounding box however the tool is turned (here 45° about its hinge).
+        let turned = ToolPose {
+            rotation: UnitQuaternion::from_euler_angles(std::f64::consts::FRAC_PI_4, 0.0, 0.0),
+            ..ToolPose::default()
+        };
+        let k = at(0.5 * DX, &turned);
+        let corner = k.rotation * Vec3::new(0.0, 0.0059, 0.0119);
+        assert!(k.grip_region(corner).is_some());
     }
 
     #[test]

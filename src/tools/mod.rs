@@ -117,7 +117,12 @@ impl ToolKinematics {
             _ => 0.0,
         };
         let translation: Vec3 = pose.position.cast();
-        let reach = Vec3::repeat(shape.bounding_radius() + contact_threshold + dx);
+        let grip_reach = match shape {
+            Shape::Gripper { jaw_thickness, .. } => grip::grip_reach(jaw_thickness, dx),
+            _ => 0.0,
+        };
+        // The box holds the contact's reach (a cell) and the grip region's.
+        let reach = Vec3::repeat(shape.bounding_radius() + contact_threshold + dx.max(grip_reach));
         ToolKinematics {
             shape,
             contact,
@@ -129,10 +134,7 @@ impl ToolKinematics {
             jaw_rate: velocity.jaw_rate as f32,
             contact_threshold,
             grip: -1.0,
-            grip_reach: match shape {
-                Shape::Gripper { jaw_thickness, .. } => grip::grip_reach(jaw_thickness, dx),
-                _ => 0.0,
-            },
+            grip_reach,
             aabb_min: translation - reach,
             aabb_max: translation + reach,
         }
