@@ -1249,11 +1249,10 @@ fn gpu_tear_agrees(method: Method, p2g: P2gAtomics, bounds: Agreement) {
 #[test]
 fn gpu_tearing_agrees_with_cpu_f32_atomics() {
     // f32 atomics add in no fixed order, so the run varies: over nine runs on llvmpipe the
-    // damage agreed within 4.4e-4 to 1.03e-3 over the whole run. With the grip holding
-    // from the moment the tips come within a cell (tools/grip.rs): damage within 3.4e-4
-    // and positions within 2.8e-7 m before the first tear, positions within 1.4e-5 m after
-    // it, damage within 7.3e-4 at the end. The damage bound is about twice the largest
-    // seen.
+    // damage agreed within 4.4e-4 to 1.03e-3 over the whole run. Split at the first tear:
+    // damage within 3.4e-4 and positions within 2.8e-7 m before it, positions within
+    // 1.4e-5 m after it, damage within 7.3e-4 at the end. The damage bound is about twice
+    // the largest seen.
     gpu_tear_agrees(
         Method::MlsMpm,
         P2gAtomics::Float,
@@ -1285,13 +1284,11 @@ fn gpu_tearing_agrees_with_cpu_fixed_point() {
 #[test]
 fn gpu_tearing_agrees_with_cpu_tl_f32_atomics() {
     // Total Lagrangian MPM: the nodes gather on the CPU in a fixed order and take atomic
-    // adds in no fixed order on the GPU. Measured on llvmpipe over four runs before the grip
-    // held from the tips coming within a cell: damage within 2.4e-3 and positions within
-    // 2.1e-6 m before the first tear, positions within 2.95e-5 m after it, damage within
-    // 2.95e-2 at the end (one partly damaged particle at the tear's edge, where 3e-5 m is
-    // 1.5 % of a cell's strain). With it: 9.2e-4 and 1.9e-6 m before, 8.8e-6 m after, the
-    // same damage at the end and the same 128 particles torn through on both. Bounds:
-    // about twice the largest seen.
+    // adds in no fixed order on the GPU. Measured on llvmpipe: damage within 9.2e-4 and
+    // positions within 1.9e-6 m before the first tear, positions within 8.8e-6 m after it,
+    // the same damage at the end and the same 128 particles torn through on both. The
+    // bounds allow a partly damaged particle at the tear's edge to differ (seen at 2.95e-2,
+    // where 3e-5 m is 1.5 % of a cell's strain).
     gpu_tear_agrees(
         Method::TlMpm,
         P2gAtomics::Float,
@@ -1308,11 +1305,8 @@ fn gpu_tearing_agrees_with_cpu_tl_f32_atomics() {
 fn gpu_tearing_agrees_with_cpu_tl_fixed_point() {
     // Measured on llvmpipe: damage within 3.7e-4 and positions within 1.5e-6 m before the
     // first tear, positions within 8.3e-6 m after it, the same damage at the end and the
-    // same 128 particles torn through. Before the grip held from the tips coming within a
-    // cell: 1.45e-3, 1.3e-6 m, 9.8e-4 m (a particle tearing through a substep apart on the
-    // two backends) and 1.3e-3, 132 particles. A node with exactly half its mass captured
-    // had been held on one backend only (2 % of the held mass) until both took the same
-    // share (`captured::HELD_SHARE`).
+    // same 128 particles torn through. The position bound after the tear allows a particle
+    // tearing through a substep apart on the two backends (seen at 9.8e-4 m).
     gpu_tear_agrees(
         Method::TlMpm,
         P2gAtomics::Fixed,
