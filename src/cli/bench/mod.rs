@@ -89,7 +89,7 @@ pub enum BenchCommand {
     },
     /// What a scene does not need costs nothing: resting tissue asleep against stepped, the
     /// same tissue in a 4× larger domain, tools parked out of reach against none; and what
-    /// the grip costs while it holds the default scene's liver up.
+    /// the grip, cutting, the damage model and a suture thread through the tissue cost.
     Skip {
         /// Timed frames per case (at most 15 for the grip cases: the hold lasts 0.3 s).
         #[arg(long, default_value_t = 10)]

@@ -8,7 +8,10 @@
 //! - a scalpel parked out of reach against no tools, and the cutting scene mid-cut against
 //!   a blunt tool on the blade's path (the cost of cutting when on);
 //! - the resting tissue with a toughness it never reaches against none (the cost of the
-//!   damage model when on; off, the CPU compiles it out and the GPU branches past it).
+//!   damage model when on; off, the CPU compiles it out and the GPU branches past it);
+//! - the resting tissue with a 100-segment suture thread through it against none (the
+//!   thread's contact on the grid each substep and its rod each frame; CPU only, as the
+//!   thread in tissue is).
 
 use dvrk_tissue_sim::config::builders::seed000_scene;
 use dvrk_tissue_sim::config::Scene;
@@ -69,6 +72,22 @@ fn parked_tools(mut s: Scene) -> Scene {
         ContactModel::default(),
         park(0.02),
     ));
+    s
+}
+
+/// The resting tissue without tools, a 100-segment 3-0 thread through its middle along x,
+/// pinned at both ends 10 mm outside the block: every substep the grid's nodes within a
+/// cell of each segment take the thread's contact, and every frame the rod steps with the
+/// tissue's momentum (see `mpm::cpu::thread_contact`).
+fn thread_through(mut s: Scene) -> Scene {
+    use dvrk_tissue_sim::config::{PinnedEnds, Thread};
+    let block = &s.tissues[0];
+    let (centre, half) = (block.center, 0.5 * block.size[0]);
+    let mut thread = Thread::nylon_3_0([centre[0] - half - 0.01, centre[1], centre[2]]);
+    thread.length = 2.0 * (half + 0.01);
+    thread.segments = 100;
+    thread.pinned = PinnedEnds::Both;
+    s.threads.push(thread);
     s
 }
 
@@ -183,6 +202,8 @@ fn cases() -> Vec<Case> {
     let mut bare = resting_scene();
     bare.tools.clear();
     const BARE: &str = "no tools";
+    let mut threaded = resting_scene();
+    threaded.tools.clear();
     let mut tough = resting_scene();
     // Damage computed every substep, never started: the same motion as the baseline.
     tough.tissues[0].material.toughness = Some(1e5);
@@ -213,6 +234,13 @@ fn cases() -> Vec<Case> {
             "gripper, needle, probe parked",
             parked_tools(resting_scene()),
             Some((BARE, 1.05)),
+            false,
+            None,
+        ),
+        case(
+            "a 100-segment thread through the tissue",
+            thread_through(threaded),
+            Some((BARE, 1.15)),
             false,
             None,
         ),
@@ -270,7 +298,14 @@ pub fn run(
             warm_until,
         } = c;
         scene.solver.backend = backend;
-        let mut world = World::try_new(&scene)?;
+        let mut world = match World::try_new(&scene) {
+            // A thread in tissue runs on the CPU alone (`check` refuses it on the GPU).
+            Err(e) if !scene.threads.is_empty() => {
+                eprintln!("{name}: skipped: {e}");
+                continue;
+            }
+            made => made?,
+        };
         if settle {
             // Step (untimed) until the tissue has come to rest and fallen asleep.
             while !world.is_asleep() {
@@ -291,6 +326,12 @@ pub fn run(
         };
         let frame_s = time_frames(&mut world, 1, frames);
         eprintln!("{name}: {:.3} ms per frame", 1e3 * frame_s);
+        if !scene.threads.is_empty() {
+            // The row measures a thread in contact, not one the grid never meets.
+            let (_, contacts) = world.backend().thread_grid_loss().unwrap_or_default();
+            anyhow::ensure!(contacts > 0, "{name}: the thread touched no node");
+            eprintln!("{name}: {contacts} node contacts in the last frame");
+        }
         let ratio = baseline.and_then(|(base, _)| {
             rows.iter()
                 .find(|r| r.case == base)
