@@ -5,7 +5,7 @@
 //! statistics. The CPU backend loops its `substep`; the GPU backend records every substep
 //! into one submission and reads back only what the frame's outputs need.
 
-use super::cpu::thread_contact::ThreadProxy;
+use super::cpu::thread_contact::{ThreadProxy, ThreadStepper};
 use super::cpu::{CpuSolver, SubstepInput};
 use super::frame_plan::{FramePlan, FrameStats};
 use super::gpu::GpuSolver;
@@ -87,7 +87,7 @@ impl Backend {
     /// Runs a planned frame. The state at the frame start is kept for `restore_frame_start`.
     pub fn step_frame(&mut self, plan: &FramePlan) -> FrameStats {
         self.begin_frame(plan);
-        self.finish_frame(plan)
+        self.finish_frame(plan, None)
     }
 
     /// Starts a planned frame: the GPU backend submits it and returns at once; the CPU
@@ -109,11 +109,21 @@ impl Backend {
         }
     }
 
-    /// The momentum each point of thread `thread` received from the grid since the frame
-    /// began, N·s; `None` on the GPU or for a thread not loaded.
-    pub fn thread_impulses(&self, thread: usize) -> Option<&[Vector3<f64>]> {
+    /// Thread `thread` as the grid left it (its frame's sums of contact impulse and bound
+    /// tissue's push among them); `None` on the GPU or for a thread not loaded.
+    pub fn thread_proxy(&self, thread: usize) -> Option<&ThreadProxy> {
         match self {
-            Backend::Cpu(c) => c.solver.thread_contact.impulses(thread),
+            Backend::Cpu(c) => c.solver.thread_contact.proxy(thread),
+            Backend::Gpu(_) => None,
+        }
+    }
+
+    /// The momentum the bound tissue's push gave the grid's nodes since the frame began,
+    /// N·s, summed node by node, and how many points had tissue bound, summed over substeps;
+    /// `None` on the GPU.
+    pub fn thread_grid_push(&self) -> Option<(Vector3<f64>, u64)> {
+        match self {
+            Backend::Cpu(c) => Some(c.solver.thread_contact.grid_push()),
             Backend::Gpu(_) => None,
         }
     }
@@ -127,8 +137,14 @@ impl Backend {
         }
     }
 
-    /// Completes the frame `begin_frame` started (the same plan is passed to both).
-    pub fn finish_frame(&mut self, plan: &FramePlan) -> FrameStats {
+    /// Completes the frame `begin_frame` started (the same plan is passed to both); the CPU
+    /// steps the threads loaded by [`Backend::load_threads`] through `threads` inside its
+    /// substeps.
+    pub fn finish_frame(
+        &mut self,
+        plan: &FramePlan,
+        mut threads: Option<&mut (dyn ThreadStepper + '_)>,
+    ) -> FrameStats {
         match self {
             Backend::Cpu(c) => {
                 c.frame_start.copy_state_from(&c.solver.particles);
@@ -142,11 +158,14 @@ impl Backend {
                 let steps = stiffening::cut(plan, pieces, &mut cut_tools);
                 let mut out = FrameStats::default();
                 for s in 0..steps.substeps as usize {
-                    let stats = c.solver.substep(&SubstepInput {
+                    let input = SubstepInput {
                         dt: steps.dt,
                         gravity: steps.gravity,
                         tools: steps.substep_tools(s),
-                    });
+                    };
+                    let stats = c
+                        .solver
+                        .substep_with_threads(&input, threads.as_deref_mut());
                     if stats.guard.is_some() {
                         out.guard = stats.guard;
                         break;

@@ -51,6 +51,10 @@ pub struct DirectScratch {
     rotation: Vec<Vec3d>,
     /// The factorisation is that of the last successful [`solve`] of this many segments.
     factored: Option<usize>,
+    /// Whether the last [`solve`] had tissue bound to points (`Rod::bindings`): their
+    /// inverse masses are full 3×3 blocks, and so are the couplings' point blocks (w·I
+    /// otherwise, whose zero terms the products skip).
+    bound: bool,
 }
 
 /// One direct solve; `lambda` (stretch-shear in rows 0..3, bend-twist in 3..6 of each group)
@@ -67,6 +71,7 @@ pub fn solve(
 ) -> bool {
     let n = rod.segments();
     s.factored = None;
+    s.bound = !rod.bindings.is_empty();
     s.coupling.resize(n, ZERO);
     s.factor.resize(n, ZERO);
     s.upper.resize(n, ZERO);
@@ -107,7 +112,9 @@ pub fn solve(
     }
     // J·W·Jᵀ blocks.
     for j in 0..n {
-        let (w0, w1) = (rod.inv_mass[j] as f64, rod.inv_mass[j + 1] as f64);
+        // The points' inverse masses, matrices where tissue is bound across the thread
+        // (`Rod::inverse_mass_matrix`; w·I otherwise, which rounds as the scalar did).
+        let (w0, w1) = (rod.inverse_mass_matrix(j), rod.inverse_mass_matrix(j + 1));
         let wq = rod.inv_inertia[j] as f64;
         let il = s.inv_length[j];
         let d3x = s.d3[j].cross_matrix();
@@ -117,7 +124,7 @@ pub fn solve(
         // inverse inertia of ~1e13 is a negative axial term beside axial compliances of
         // ~1e5. A piece of chain held at both ends has no point mass to give along its axis,
         // so its axial pivot is that compliance alone, and the factorisation failed there.
-        let ss = Mat3d::identity() * ((w0 + w1) * il * il) + d3x * d3x.transpose() * wq;
+        let ss = (w0 + w1) * il * il + d3x * d3x.transpose() * wq;
         let sb = -(d3x * e.transpose()) * wq;
         let wq_next = if j + 1 < n {
             rod.inv_inertia[j + 1] as f64
@@ -135,7 +142,7 @@ pub fn solve(
         if j + 1 < n {
             let il_next = s.inv_length[j + 1];
             // Sⱼ·Sⱼ₊₁ share pⱼ₊₁; Bⱼ shares qⱼ₊₁ with Sⱼ₊₁ and Bⱼ₊₁.
-            put3(upper, 0, 0, &(Mat3d::identity() * (-w1 * il * il_next)));
+            put3(upper, 0, 0, &(-w1 * il * il_next));
             put3(upper, 3, 0, &(-(e * s.d3[j + 1].cross_matrix()) * wq_next));
             put3(
                 upper,
@@ -148,7 +155,7 @@ pub fn solve(
     // Block elimination down the chain: D̃ₖ = Dₖ − Aₖ₋₁ᵀ·D̃ₖ₋₁⁻¹·Aₖ₋₁, factorised.
     for k in 0..n {
         if k > 0 {
-            let schur = coupling_transpose_times(&s.coupling[k - 1], &s.upper[k - 1]);
+            let schur = coupling_transpose_times(&s.coupling[k - 1], &s.upper[k - 1], s.bound);
             sub_assign(&mut s.factor[k], &schur);
         }
         if !cholesky(&mut s.factor[k]) {
@@ -219,7 +226,7 @@ fn substitute(s: &mut DirectScratch, n: usize) -> bool {
     for k in 0..n {
         if k > 0 {
             let above = s.rhs[k - 1];
-            subtract_coupling_transpose_times(&mut s.rhs[k], &s.coupling[k - 1], &above);
+            subtract_coupling_transpose_times(&mut s.rhs[k], &s.coupling[k - 1], &above, s.bound);
         }
         cholesky_solve(&s.factor[k], &mut s.rhs[k]);
     }
@@ -249,10 +256,17 @@ fn apply(rod: &mut Rod, lambda: &mut [V6], s: &mut DirectScratch, n: usize) {
         *lam += dl;
         let (dls, dlb) = (dl.fixed_rows::<3>(0).into_owned(), dl.fixed_rows::<3>(3));
         let dp = dls * s.inv_length[j];
-        let dp = Vec3::new(dp.x as f32, dp.y as f32, dp.z as f32);
-        let (w0, w1) = (rod.inv_mass[j], rod.inv_mass[j + 1]);
-        rod.points[j] -= dp * w0;
-        rod.points[j + 1] += dp * w1;
+        if rod.bindings.is_empty() {
+            let dp = Vec3::new(dp.x as f32, dp.y as f32, dp.z as f32);
+            let (w0, w1) = (rod.inv_mass[j], rod.inv_mass[j + 1]);
+            rod.points[j] -= dp * w0;
+            rod.points[j + 1] += dp * w1;
+        } else {
+            let to_f32 = |v: Vec3d| Vec3::new(v.x as f32, v.y as f32, v.z as f32);
+            let (w0, w1) = (rod.inverse_mass_matrix(j), rod.inverse_mass_matrix(j + 1));
+            rod.points[j] -= to_f32(w0 * dp);
+            rod.points[j + 1] += to_f32(w1 * dp);
+        }
         let torque = s.bend_jacobian[j].transpose() * dlb;
         s.rotation[j] += dls.cross(&s.d3[j]) - torque;
         if j + 1 < n {
@@ -285,11 +299,18 @@ fn put3(m: &mut Block, row: usize, col: usize, block: &Mat3d) {
 /// stretch row and the three bend rows, row i ≥ 3 the bend rows alone. The terms it
 /// skips are exact zeros and the others are added in the order of the full product, so
 /// the result is the full product's to the bit.
-fn coupling_transpose_times(a: &Block, b: &Block) -> Block {
+fn coupling_transpose_times(a: &Block, b: &Block, bound: bool) -> Block {
     let mut out = ZERO;
     for i in 0..6 {
         let row = &mut out[i];
-        if i < 3 {
+        if bound {
+            for r in 0..3 {
+                let a_ri = a[r][i];
+                for c in 0..6 {
+                    row[c] += a_ri * b[r][c];
+                }
+            }
+        } else if i < 3 {
             for c in 0..6 {
                 row[c] += a[i][i] * b[i][c];
             }
@@ -306,9 +327,15 @@ fn coupling_transpose_times(a: &Block, b: &Block) -> Block {
 
 /// y −= aᵀ·x for a coupling block `a`, its zero terms skipped as in
 /// [`coupling_transpose_times`] and the others subtracted in the full product's order.
-fn subtract_coupling_transpose_times(y: &mut [f64; 6], a: &Block, x: &[f64; 6]) {
+fn subtract_coupling_transpose_times(y: &mut [f64; 6], a: &Block, x: &[f64; 6], bound: bool) {
     for r in 0..3 {
-        y[r] -= a[r][r] * x[r];
+        if bound {
+            for c in 0..6 {
+                y[c] -= a[r][c] * x[r];
+            }
+        } else {
+            y[r] -= a[r][r] * x[r];
+        }
     }
     for r in 3..6 {
         for c in 0..6 {
@@ -417,12 +444,14 @@ mod tests {
                 .wrapping_add(1442695040888963407);
             (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
         };
-        for _ in 0..100 {
+        // Unbound, a stretch row couples only through its own coordinate of the shared
+        // point (w·I); bound, through all three (a 3×3 inverse mass).
+        for bound in (0..200).map(|k| k % 2 == 1) {
             let mut a = ZERO;
             for r in 0..6 {
                 for c in 0..6 {
                     let stretch_row = r < 3;
-                    if !stretch_row || c == r {
+                    if !stretch_row || c == r || (bound && c < 3) {
                         a[r][c] = next() * 1e6;
                     }
                 }
@@ -440,8 +469,8 @@ mod tests {
                 }
             }
             let mut y = b[0];
-            subtract_coupling_transpose_times(&mut y, &a, &x);
-            assert_eq!(coupling_transpose_times(&a, &b), full);
+            subtract_coupling_transpose_times(&mut y, &a, &x, bound);
+            assert_eq!(coupling_transpose_times(&a, &b, bound), full);
             assert_eq!(y, y_full);
         }
     }

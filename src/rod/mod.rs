@@ -150,4 +150,4 @@ pub mod state;
 pub use environment::{RodAttachment, RodCollider, RodEnvironment, RodFrameReport};
 pub use material::ThreadMaterial;
 pub use solver::RodSolver;
-pub use state::Rod;
+pub use state::{Binding, Rod};

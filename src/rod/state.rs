@@ -3,7 +3,7 @@
 //! the rest shape the elastic constraints return to.
 
 use super::material::ThreadMaterial;
-use crate::math::Vec3;
+use crate::math::{Mat3d, Vec3};
 use nalgebra::{Quaternion, UnitQuaternion};
 
 /// Frame quaternions are kept unit length by the solver; stored raw so that the constraint
@@ -37,9 +37,45 @@ pub struct Rod {
     pub external_forces: Vec<Vec3>,
     /// Axial force per segment from the last substep's distance multipliers (N, + = tension).
     pub tension: Vec<f32>,
+    /// Tissue bound to each point across the thread (one per point, or empty for none): the
+    /// world sets it for a tissue substep where the thread runs through tissue (see
+    /// [`crate::mpm::cpu::thread_contact`]).
+    pub bindings: Vec<Binding>,
+}
+
+/// Tissue a point carries across the thread: across `axis` the point moves with `mass` added
+/// to its own, along it with its own mass alone (the thread slides along its channel through
+/// the tissue, but cannot leave it sideways without taking the tissue along).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Binding {
+    /// The thread's direction at the point, unit.
+    pub axis: Vec3,
+    /// The tissue's mass bound to the point, kg; 0 for none.
+    pub mass: f32,
 }
 
 impl Rod {
+    /// Point `i`'s inverse mass as a matrix: 1/m along its binding's axis and 1/(m + M)
+    /// across it where tissue of mass M is bound to it (see [`Binding`]), 1/m·I otherwise; 0
+    /// for a held point.
+    pub fn inverse_mass_matrix(&self, i: usize) -> Mat3d {
+        let w = self.inv_mass[i] as f64;
+        match self.bindings.get(i) {
+            Some(b) if b.mass > 0.0 && w > 0.0 => {
+                let t = b.axis.cast::<f64>();
+                let along = t * t.transpose();
+                let across = 1.0 / (1.0 / w + b.mass as f64);
+                along * w + (Mat3d::identity() - along) * across
+            }
+            _ => Mat3d::identity() * w,
+        }
+    }
+
+    /// Whether point `i` carries tissue across the thread (see [`Binding`]).
+    pub fn is_bound(&self, i: usize) -> bool {
+        self.inv_mass[i] > 0.0 && self.bindings.get(i).is_some_and(|b| b.mass > 0.0)
+    }
+
     /// A straight rod from `start` along `direction` of `length`, split into `segments` equal
     /// segments, at rest in that shape.
     pub fn straight(
@@ -109,6 +145,7 @@ impl Rod {
             frames,
             inv_inertia,
             tension: vec![0.0; segments],
+            bindings: Vec::new(),
             rest_lengths,
             rest_darboux,
         }

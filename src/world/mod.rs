@@ -11,6 +11,7 @@ mod tool;
 use crate::config::{Hold, Scene};
 use crate::math::Vec3;
 use crate::mpm::backend::{Backend, BackendChoice, CpuBackend};
+use crate::mpm::cpu::thread_contact::{ThreadProxy, ThreadStepper};
 use crate::mpm::cpu::CpuSolver;
 use crate::mpm::frame_plan::FramePlan;
 use crate::mpm::gpu::{self, GpuError, GpuSolver};
@@ -53,6 +54,8 @@ pub struct World {
     in_flight: Option<InFlight>,
     /// Suture threads, scene order; stepped with every frame, the tissue asleep or not.
     threads: Vec<ThreadBody>,
+    /// Whether the frame being finished stepped the threads inside the tissue's substeps.
+    threads_stepped_in_tissue: bool,
     /// Start time of the frame in flight (a skipped frame advances `time` when it begins).
     frame_start: f64,
 }
@@ -259,6 +262,7 @@ impl World {
                 .iter()
                 .map(|t| ThreadBody::new(scene, t))
                 .collect(),
+            threads_stepped_in_tissue: false,
         })
     }
 
@@ -531,9 +535,7 @@ impl World {
             // grows in heap blocks (an allocation every few dozen calls from outside the pool).
             InFlight::Stepped(planned) => rayon::scope(|_| self.finish_stepped(planned)),
         };
-        if let Ok(r) = &report {
-            let stepped = r.substeps > 0 && r.tissue_reset.is_none();
-            self.hand_tissue_impulses(stepped);
+        if report.is_ok() && !std::mem::take(&mut self.threads_stepped_in_tissue) {
             self.step_threads(self.frame_start, self.time);
         }
         report
@@ -548,25 +550,13 @@ impl World {
         let Some(proxies) = self.backend.load_threads(self.threads.len()) else {
             return;
         };
-        for (thread, proxy) in self.threads.iter().zip(proxies) {
+        for (thread, proxy) in self.threads.iter_mut().zip(proxies) {
             thread.load_proxy(proxy);
         }
     }
 
-    /// Gives each thread the momentum the grid gave it over the frame (`stepped`: the tissue
-    /// stepped it; otherwise none), as a force over its frame solve.
-    fn hand_tissue_impulses(&mut self, stepped: bool) {
-        let elapsed = self.time - self.frame_start;
-        let backend = &self.backend;
-        for (i, thread) in self.threads.iter_mut().enumerate() {
-            let impulse = (stepped && elapsed > 0.0)
-                .then(|| backend.thread_impulses(i))
-                .flatten();
-            thread.receive_tissue_impulse(impulse, elapsed.max(1e-12));
-        }
-    }
-
-    /// Advances every thread over [t_start, t_end] with the grippers as they move then.
+    /// Advances every thread over [t_start, t_end] with the grippers as they move then, in a
+    /// frame the tissue did not step them.
     fn step_threads(&mut self, t_start: f64, t_end: f64) {
         if self.threads.is_empty() || t_end <= t_start {
             return;
@@ -701,7 +691,26 @@ impl World {
 
     fn finish_stepped(&mut self, planned: PlannedFrame) -> Result<FrameReport, StepError> {
         let plan = planned.plan(self.params.gravity, self.tools.len(), &self.kinematics);
-        let stats = self.backend.finish_frame(&plan);
+        // Threads the grid meets step inside its substeps; a guard event puts them back.
+        let in_tissue = !self.threads.is_empty() && self.backend.thread_proxy(0).is_some();
+        let threads_at_start = in_tissue.then(|| self.threads.clone());
+        let count = if in_tissue { self.threads.len() } else { 0 };
+        let stats = {
+            let mut stepper = ThreadsInTissue {
+                threads: &mut self.threads,
+                tools: &self.tools,
+                t_start: planned.t_start,
+                frame_dt: planned.t_end - planned.t_start,
+                elapsed: vec![0.0; count],
+            };
+            let threads = in_tissue.then_some(&mut stepper as &mut dyn ThreadStepper);
+            self.backend.finish_frame(&plan, threads)
+        };
+        self.threads_stepped_in_tissue =
+            in_tissue && stats.guard.is_none() && stats.substeps_done > 0;
+        if let (Some(threads), Some(_)) = (threads_at_start, &stats.guard) {
+            self.threads = threads;
+        }
         let PlannedFrame {
             t_start,
             t_end,
@@ -778,6 +787,11 @@ impl World {
             })
             .collect();
         report.contact_nodes = impulses.iter().map(|i| i.contact_nodes).collect();
+        if self.threads_stepped_in_tissue {
+            for thread in &mut self.threads {
+                thread.end_frame(elapsed);
+            }
+        }
         for (tool, imp) in self.tools.iter_mut().zip(impulses) {
             if let Some(jaws) = &mut tool.jaws {
                 jaws.tissue_torque = imp.jaw_opening / elapsed;
@@ -786,5 +800,44 @@ impl World {
             }
         }
         Ok(report)
+    }
+}
+
+/// The world's threads as the CPU's tissue substeps step them (see
+/// [`crate::mpm::cpu::thread_contact`]), with the tools moving over each substep.
+struct ThreadsInTissue<'a> {
+    threads: &'a mut [ThreadBody],
+    tools: &'a [WorldTool],
+    /// The frame's start and length, s.
+    t_start: f64,
+    frame_dt: f64,
+    /// Seconds of the frame each thread has stepped.
+    elapsed: Vec<f64>,
+}
+
+impl ThreadStepper for ThreadsInTissue<'_> {
+    fn step(&mut self, thread: usize, proxy: &mut ThreadProxy, dt: f32) {
+        let t0 = self.t_start + self.elapsed[thread];
+        let t1 = t0 + dt as f64;
+        self.elapsed[thread] += dt as f64;
+        let fraction = |t: f64| ((t - self.t_start) / self.frame_dt).clamp(0.0, 1.0) as f32;
+        let grippers: Vec<GripperView> = self
+            .tools
+            .iter()
+            .enumerate()
+            .filter_map(|(i, t)| GripperView::of(i, t, t0, t1))
+            .collect();
+        let colliders: Vec<RodCollider> = self
+            .tools
+            .iter()
+            .map(|t| tool_collider(t, t0, t1))
+            .collect();
+        self.threads[thread].step_in_tissue(
+            proxy,
+            dt,
+            (fraction(t0), fraction(t1)),
+            &colliders,
+            &grippers,
+        );
     }
 }

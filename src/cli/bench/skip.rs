@@ -325,10 +325,13 @@ pub fn run(
         let frame_s = time_frames(&mut world, 1, frames);
         eprintln!("{name}: {:.3} ms per frame", 1e3 * frame_s);
         if !scene.threads.is_empty() {
-            // The row measures a thread in contact, not one the grid never meets.
+            // The row measures a thread in the tissue, not one the grid never meets.
             let (_, contacts) = world.backend().thread_grid_loss().unwrap_or_default();
-            anyhow::ensure!(contacts > 0, "{name}: the thread touched no node");
-            eprintln!("{name}: {contacts} node contacts in the last frame");
+            let (_, bound) = world.backend().thread_grid_push().unwrap_or_default();
+            anyhow::ensure!(contacts + bound > 0, "{name}: the thread met no tissue");
+            eprintln!(
+                "{name}: in the last frame {contacts} node contacts, {bound} points bound to tissue"
+            );
         }
         let ratio = baseline.and_then(|(base, _)| {
             rows.iter()

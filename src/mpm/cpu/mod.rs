@@ -295,6 +295,17 @@ impl CpuSolver {
     /// Advances the particles by one substep of `input.dt` and reports impulses, speed and guard
     /// events.
     pub fn substep(&mut self, input: &SubstepInput) -> SubstepStats {
+        self.substep_with_threads(input, None)
+    }
+
+    /// [`CpuSolver::substep`] with the threads loaded into `thread_contact` in the tissue,
+    /// their rods stepped by `threads` inside the substep (see [`thread_contact`]); without
+    /// a stepper the grid does not meet them.
+    pub fn substep_with_threads(
+        &mut self,
+        input: &SubstepInput,
+        threads: Option<&mut (dyn thread_contact::ThreadStepper + '_)>,
+    ) -> SubstepStats {
         assert!(input.tools.len() <= MAX_TOOLS, "at most {MAX_TOOLS} tools");
         if self.method == Method::Implicit {
             // The implicit substep bins the particles itself: its marking tests them all.
@@ -333,13 +344,21 @@ impl CpuSolver {
         let stress_scale = -input.dt * 4.0 * self.layout.inv_dx * self.layout.inv_dx;
         self.particle_to_grid(Some(stress_scale), self.method.affine_transfer());
         let tool_impulses = self.update_grid(input);
-        if !self.thread_contact.is_empty() {
+        if let (false, Some(stepper)) = (self.thread_contact.is_empty(), threads) {
+            let dx = self.layout.dx;
+            let full_node_mass = self
+                .materials
+                .iter()
+                .map(|m| m.density * dx * dx * dx)
+                .fold(f32::MAX, f32::min);
             self.thread_contact.apply(
                 &self.layout,
                 &self.boundary,
                 &mut self.grid,
                 &self.bins,
                 input.dt,
+                full_node_mass,
+                stepper,
             );
         }
         let (max_speed, clamped_particles, guard) = self.grid_to_particle(input.dt, true);

@@ -1,19 +1,59 @@
-//! A suture thread as contact geometry on the MPM grid (seed 002 §IV-C, its eq. 19 for the
-//! needle generalised to a chain of segments), on the CPU's explicit update-Lagrangian path
-//! (MLS-MPM and PIC share it; the other methods and the GPU backend refuse a thread in
+//! A suture thread in the tissue, two-way, on the MPM grid (seed 002 §IV-C, its eq. 19 for
+//! the needle generalised to a chain of segments), on the CPU's explicit update-Lagrangian
+//! path (MLS-MPM and PIC share it; the other methods and the GPU backend refuse a thread in
 //! tissue, see `config/README.md`).
 //!
-//! # Contact law
+//! # Coupling scheme
+//!
+//! The rod steps inside every tissue substep, between the grid update and G2P: the nodes
+//! near the thread are coupled to it (below), the world's [`ThreadStepper`] steps each rod
+//! by one substep of the tissue's `dt` with what the grid gave it, and the grid takes back
+//! what the rod's step gave the tissue. Tension, grasps and pinned ends thus act on the
+//! tissue within the substep they arise in, and the tissue's inertia and elasticity act on
+//! the rod's solve. (Exchanging momentum once a frame cannot drag tissue: the rod's frame
+//! solve saw the tissue only as a constant force, and a thread pulled 10 mm sideways
+//! through a 3 kPa block slid through it, moving its centre 0.001 mm.)
+//!
+//! # Binding: the thread inside the tissue
+//!
+//! A free point whose segments' capsules (radius r + dx, below) are full of tissue carries
+//! the tissue across the thread: the point gathers the tissue's mass M and velocity from
+//! the nodes of its quadratic B-spline stencil as an MPM particle would, each node's share
+//! being the point's weight over the sum of the weights all bound points give that node (so
+//! the shares of a node add to one and no tissue is bound twice). For the rod's step the
+//! point's inverse mass becomes 1/m along the thread and 1/(m + M) across it
+//! ([`crate::rod::Binding`]): point and tissue meet at their common velocity across the
+//! thread and move as one body, while the thread slides freely along its channel. After the
+//! step the momentum the tissue gained across the thread, M·Δv, goes back to the same nodes
+//! in the same shares (each gains the same velocity), then the table and walls act on them.
+//!
+//! How full a capsule is decides how much: its nodes' mass over that of as many nodes
+//! inside tissue at rest; a point carries none of its stencil's tissue below a fill of 0.6
+//! (a thread lying on a surface fills its capsule about half), all of it above 0.85, and a
+//! linear share between. Each bound point keeps a material anchor, where the tissue it is
+//! bound to carried it (moved with the grid's velocity like a particle), and the bound
+//! velocity takes a tenth of the point's slip from it each substep: without it a soft block
+//! held sideways crept off the thread (the tissue near it fell back from 9.3 mm to 4.7 mm in
+//! 0.5 s).
+//!
+//! Measured (`tests/thread_tissue.rs`): a 7 cm thread through a 4 × 3 × 2 cm, 3 kPa block
+//! bonded to the table, both ends pulled 10 mm sideways over 0.5 s: the thread's middle
+//! moves 6.8 mm and the tissue around it 6.9 mm at dx 4 mm, 5.2 mm and 4.8 mm at dx 2 mm;
+//! pulled 10 mm along itself it slides through and the tissue moves 0.02 mm along it.
+//!
+//! # Contact law: the thread on the tissue
 //!
 //! Every segment of every thread is a capsule of radius r + dx (the thread's radius plus one
-//! cell): a grid node with mass within it is in contact with the segment, the nearest segment
-//! winning where two reach a node. One cell because the nearest node of any cell the thread
-//! crosses is at most √3/2·dx ≈ 0.87·dx from it, so no cell lets tissue slip past the thread
-//! unseen, while the tissue a stencil away (1.5 cells) still moves freely. Relative to the
-//! segment's velocity s = (1 − θ)·u_a + θ·u_b at the node's closest-point parameter θ
-//! (u_a, u_b the velocities of the segment's two points), a node keeps only its velocity
-//! along the segment's tangent t (bilateral: the tissue the thread passes through can
-//! neither cross it nor leave it sideways):
+//! cell): a grid node with mass within it, and in no bound point's stencil, is in contact
+//! with the segment, the nearest segment winning where two reach a node. One cell because
+//! the nearest node of any cell the thread crosses is at most √3/2·dx ≈ 0.87·dx from it, so
+//! no cell lets tissue slip past the thread unseen, while the tissue a stencil away (1.5
+//! cells) still moves freely. Bound nodes are left out because the binding moves them with
+//! the thread already: acting on them twice fed energy into the free points by the block's
+//! face (at dx 2 mm their contact force doubled every two frames until a particle ran away).
+//! Relative to the segment's velocity s = (1 − θ)·u_a + θ·u_b at the node's closest-point
+//! parameter θ (u_a, u_b the velocities of the segment's two points), a node keeps only its
+//! velocity along the segment's tangent t:
 //!
 //! - the node and the segment at θ (inverse mass w_s = (1 − θ)²·w_a + θ²·w_b; 0 for a held,
 //!   grasped or pinned, point) meet at one velocity across the segment: with
@@ -27,60 +67,73 @@
 //! Nodes are visited segment by segment and each node's impulse changes its segment's points
 //! at once (u_a += (1 − θ)·w_a·Δp, u_b += θ·w_b·Δp; Gauss–Seidel), so the next node sees them.
 //! The momentum each node loses, mₖ·(vₖ − vₖ'), goes to the segment's points, (1 − θ) of it to
-//! a and θ to b; the table and the walls then act on the node as in the grid update.
+//! a and θ to b, and the rod's step takes it as a force over the substep; the table and the
+//! walls then act on the node as in the grid update. The grid and the rod exchange the same
+//! momentum, contact and binding alike (`tests/thread_tissue.rs`: to a relative 2e-8).
 //!
-//! # Coupling scheme
-//!
-//! The grid and the rod step one after the other in a frame: the tissue's substeps first,
-//! then the rod's frame solve. Over the tissue's substeps each thread is a light body of its
-//! own (a *proxy*): it starts from the rod's points and velocities at the frame's start; in
-//! each substep its free points accelerate by their *drive* (the rod's acceleration over its
-//! last frame less the tissue's share of it: gravity, tension, table, grasps), take the
-//! momentum the contact gives them, and move by their velocity. The momentum the grid lost over the frame, summed per point,
-//! is applied to the rod in its frame solve as a constant force J/T
-//! ([`crate::rod::RodEnvironment::point_forces`]); the momentum the grid loses equals what
-//! the rod receives, in f64 sums (`tests/thread_tissue.rs`: to a relative 7e-9). Explicit
-//! exchange of a stiff tissue's momentum with a rod point hundreds of times lighter than a
-//! node rings (a node simply taking the segment's velocity, its momentum given to the rod,
-//! ran away in the first frame): the two-body impulse bounds what a point receives to what
-//! brings it to the tissue's velocity.
-//!
-//! **Limit**: within the tissue's frame only the drive carries the rod's tension, so a
-//! thread whose held ends are pulled sideways slides through the tissue instead of dragging
-//! it (measured: 10 mm sideways through a 3 kPa block moved its centre 0.001 mm, the tissue's
-//! force on the thread peaked at 0.09 mN). Holding the proxy's segments to their rest
-//! lengths within the frame does not change that (measured: the same 0.001 mm): the proxy
-//! restarts from the rod every frame, so it lags the held ends by at most one frame's pull
-//! (0.33 mm there), whose stretch is second order in the lag, and the rod's frame solve,
-//! which sees the tissue only as the constant force J/T, then carries the thread through.
-//! Dragging needs the tissue inside the rod's solve (the rod's constraint solve stepped
-//! within the tissue's substeps, or an implicit coupling).
+//! **Limit**: inside the tissue the thread slides along its channel without friction
+//! (`tissue_friction` and `tissue_drag` act through the contact law, on the surface and at
+//! the block's faces): pulled along itself it slides through the tissue, as a coated suture
+//! does; friction along a bound point is not modelled yet.
 //!
 //! # Cost
 //!
 //! Only nodes near segments are visited: each segment tests the nodes of its capsule's
 //! bounding box (about (2(r + dx)/dx + 1)³ ≈ 27–64 nodes), skipping blocks the substep did not
-//! touch; the claims are sorted by node (nearest segment wins) and by segment. Serial, a few
-//! microseconds per segment and substep, and nothing is allocated once the buffers grew.
+//! touch, and each bound point its 27-node stencil; the claims are sorted by node (nearest
+//! segment wins) and by segment. The rod steps once per tissue substep, one direct solve
+//! per iteration: its iterations follow the stretch residual, up to 16 while tissue is bound
+//! (see [`crate::rod::solver`]). `bench skip --only thread` measures a 100-segment thread
+//! through the resting seed-000 block against none.
 
 use super::binning::Binning;
 use super::node_contact::apply_boundary;
 use crate::mpm::grid::{Boundary, GridLayout, Node, NODES_PER_BLOCK};
+use crate::mpm::kernel::Stencil;
 use crate::mpm::{Mat3, Vec3};
 use nalgebra::Vector3;
+use std::collections::HashMap;
 
 /// How far beyond the thread's radius a node is in contact, in cells (see the module doc).
 pub const REACH_CELLS: f32 = 1.0;
 
-/// One thread as the grid sees it over a frame (the proxy of the module doc).
+/// How full of tissue a segment's capsule is (its nodes' mass over that of as many nodes
+/// inside tissue at rest) where a point starts to carry tissue across the thread, and where
+/// it carries all its stencil's share. A thread lying on a surface fills its capsule about
+/// half (the nodes below are full, those above hold the kernel's tail of the top particles:
+/// 0.50 measured on a block of 8 particles a cell); one a cell inside fills it whole.
+const FILL_UNBOUND: f32 = 0.6;
+const FILL_BOUND: f32 = 0.85;
+
+/// The fraction of a bound point's slip from its material anchor taken back per substep
+/// (module doc, binding). Without it a thread held sideways in a soft block crept through
+/// it: the tissue near the thread fell back from 9.3 mm to 4.7 mm in 0.5 s while the
+/// thread stayed put.
+const ANCHOR_PULL: f32 = 0.1;
+
+/// The share of its stencil's tissue a point carries across the thread at capsule fill
+/// `fill`: none on a surface, all inside, linear between.
+fn binding_share(fill: f32) -> f32 {
+    ((fill - FILL_UNBOUND) / (FILL_BOUND - FILL_UNBOUND)).clamp(0.0, 1.0)
+}
+
+/// What steps the threads' rods inside a tissue substep (the world, which holds them).
+pub trait ThreadStepper {
+    /// Steps thread `thread`'s rod over the substep of `dt` seconds: the rod takes the
+    /// proxy's `impulse` (what the contact gave each point this substep) as a force and its
+    /// bound tissue (`bound_mass`, `bound_velocity`), steps, and leaves in the proxy its
+    /// points, velocities and inverse masses (0 where held) after the step and in `push` the
+    /// momentum each bound tissue gained across the thread.
+    fn step(&mut self, thread: usize, proxy: &mut ThreadProxy, dt: f32);
+}
+
+/// One thread as the grid sees it within a frame: the rod's state after its latest step.
 #[derive(Clone, Debug, Default)]
 pub struct ThreadProxy {
-    /// The points, m; moved by their velocities after every substep.
+    /// The points, m.
     pub points: Vec<Vec3>,
     /// The points' velocities, m/s.
     pub velocities: Vec<Vec3>,
-    /// Each point's acceleration without the tissue, m/s² (gravity on a rod at rest).
-    pub drive: Vec<Vec3>,
     /// Inverse masses, 1/kg; 0 for a point held kinematically.
     pub inv_mass: Vec<f32>,
     /// The thread's radius, m.
@@ -89,8 +142,76 @@ pub struct ThreadProxy {
     pub friction: f32,
     /// Fraction of the slip along the thread removed per substep.
     pub drag: f32,
-    /// Momentum each point received from the grid since the frame began, N·s.
+    /// Momentum each point received from the contact in the current substep, N·s; the
+    /// stepper takes it.
     pub impulse: Vec<Vector3<f64>>,
+    /// Momentum each point received from the contact since the frame began, N·s.
+    pub frame_impulse: Vec<Vector3<f64>>,
+    /// The tissue's mass bound to each point across the thread this substep, kg (0: the
+    /// point is not inside the tissue).
+    pub bound_mass: Vec<f32>,
+    /// The bound tissue's velocity at each point, anchor pull included, m/s.
+    pub bound_velocity: Vec<Vec3>,
+    /// Momentum each point's bound tissue gained across the thread in the rod's step, N·s;
+    /// set by the stepper, pushed into the grid.
+    pub push: Vec<Vec3>,
+    /// Momentum the bound tissue took since the frame began, N·s, summed per point.
+    pub frame_push: Vec<Vector3<f64>>,
+    /// Each bound point's material anchor: where the tissue it is bound to carried it.
+    anchor: Vec<Option<Vec3>>,
+    /// Each bound point's stencil share of the grid's mass, kg (the push divides by it).
+    stencil_mass: Vec<f32>,
+    /// Where each point was when its stencil was gathered (the push returns there).
+    stencil_at: Vec<Vec3>,
+    /// Per segment: the mass of every node within reach and how many there are, with mass
+    /// or not (how full of tissue its capsule is); reused each substep.
+    reach_fill: Vec<(f32, u32)>,
+}
+
+impl ThreadProxy {
+    /// Empties the frame's sums and this substep's state for a frame starting from the
+    /// points, velocities and inverse masses just loaded (anchors are kept: the tissue still
+    /// holds the thread where it held it).
+    pub fn start_frame(&mut self) {
+        let n = self.points.len();
+        for v in [
+            &mut self.impulse,
+            &mut self.frame_impulse,
+            &mut self.frame_push,
+        ] {
+            v.clear();
+            v.resize(n, Vector3::zeros());
+        }
+        self.push.clear();
+        self.push.resize(n, Vec3::zeros());
+        self.bound_mass.clear();
+        self.bound_mass.resize(n, 0.0);
+        self.bound_velocity.clear();
+        self.bound_velocity.resize(n, Vec3::zeros());
+        self.stencil_mass.clear();
+        self.stencil_mass.resize(n, 0.0);
+        self.stencil_at.clear();
+        self.stencil_at.resize(n, Vec3::zeros());
+        self.anchor.resize(n, None);
+    }
+
+    /// The share of its stencil's tissue point `i` carries: the mean binding share of its
+    /// segments' fill; none for a held point. `full_node_mass`: a node inside tissue at rest.
+    fn binding_share(&self, i: usize, full_node_mass: f32) -> f32 {
+        if self.inv_mass[i] <= 0.0 || full_node_mass <= 0.0 {
+            return 0.0;
+        }
+        let fill = |j: usize| {
+            let (mass, count) = self.reach_fill[j];
+            if count == 0 {
+                0.0
+            } else {
+                mass / (count as f32 * full_node_mass)
+            }
+        };
+        let last = self.reach_fill.len() - 1;
+        binding_share(0.5 * (fill(i.saturating_sub(1)) + fill(i.min(last))))
+    }
 }
 
 /// A node within reach of a segment.
@@ -108,12 +229,19 @@ struct Claim {
 pub struct ThreadContact {
     /// The threads, scene order; empty when the scene has none.
     threads: Vec<ThreadProxy>,
-    /// Momentum the grid's nodes lost to the threads since the frame began, N·s, summed node
-    /// by node (what the threads' `impulse`s add up to).
+    /// Momentum the grid's nodes lost to the contact since the frame began, N·s, summed node
+    /// by node (what the threads' `frame_impulse`s add up to).
     grid_loss: Vector3<f64>,
     /// Node contacts since the frame began, summed over substeps.
     contacts: u64,
+    /// Points with tissue bound across them since the frame began, summed over substeps.
+    bound_points: u64,
+    /// Momentum the bound tissue's push gave the grid's nodes since the frame began, N·s,
+    /// summed node by node (what the threads' `frame_push`es add up to).
+    grid_push: Vector3<f64>,
     claims: Vec<Claim>,
+    /// Per node in a bound point's stencil: the sum of the weights the bound points give it.
+    stencil_sums: HashMap<u32, f32>,
 }
 
 impl ThreadContact {
@@ -122,30 +250,40 @@ impl ThreadContact {
         self.threads.is_empty()
     }
 
-    /// Keeps `count` proxies for the caller to load for the coming frame and forgets the
-    /// last frame's momentum and contacts.
+    /// Keeps `count` proxies for the caller to load for the coming frame (then
+    /// [`ThreadProxy::start_frame`]) and forgets the last frame's sums.
     pub fn load(&mut self, count: usize) -> &mut [ThreadProxy] {
         self.threads.resize_with(count, Default::default);
         self.grid_loss = Vector3::zeros();
+        self.grid_push = Vector3::zeros();
         self.contacts = 0;
+        self.bound_points = 0;
         &mut self.threads
     }
 
-    /// The momentum each point of thread `thread` received from the grid since the frame
-    /// began, N·s; `None` for a thread not loaded.
-    pub fn impulses(&self, thread: usize) -> Option<&[Vector3<f64>]> {
-        self.threads.get(thread).map(|p| &p.impulse[..])
+    /// Thread `thread` as the grid left it; `None` for a thread not loaded.
+    pub fn proxy(&self, thread: usize) -> Option<&ThreadProxy> {
+        self.threads.get(thread)
     }
 
-    /// The momentum the grid's nodes lost to the threads since the frame began, N·s, summed
+    /// The momentum the grid's nodes lost to the contact since the frame began, N·s, summed
     /// node by node, and how many node contacts gave it.
     pub fn grid_loss(&self) -> (Vector3<f64>, u64) {
         (self.grid_loss, self.contacts)
     }
 
-    /// One substep of `dt` after the grid update: the proxies accelerate by their drive, the
-    /// nodes near their segments take the contact (module doc), the proxies take the
-    /// momentum and move.
+    /// The momentum the bound tissue's push gave the grid's nodes since the frame began,
+    /// N·s, summed node by node, and how many points had tissue bound, summed over substeps.
+    pub fn grid_push(&self) -> (Vector3<f64>, u64) {
+        (self.grid_push, self.bound_points)
+    }
+
+    /// One substep of `dt` after the grid update (module doc): the tissue across each point
+    /// inside it is bound, the other nodes near segments take the contact, `stepper` steps
+    /// the rods, the bound tissue takes its push and the anchors move with the grid.
+    /// `full_node_mass` is the mass of a node inside tissue at rest (density · dx³; the
+    /// least dense material's).
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn apply(
         &mut self,
         layout: &GridLayout,
@@ -153,20 +291,16 @@ impl ThreadContact {
         grid: &mut [Node],
         bins: &Binning,
         dt: f32,
+        full_node_mass: f32,
+        stepper: &mut dyn ThreadStepper,
     ) {
-        for thread in &mut self.threads {
-            for ((v, a), &w) in thread
-                .velocities
-                .iter_mut()
-                .zip(&thread.drive)
-                .zip(&thread.inv_mass)
-            {
-                if w > 0.0 {
-                    *v += a * dt;
-                }
-            }
-        }
         self.claim_nodes(layout, grid, bins);
+        self.bind_tissue(layout, grid, dt, full_node_mass);
+        // Bound tissue moves with its point across the thread: the contact law would act on
+        // those nodes a second time (measured at dx 2 mm: the contact's force on the free
+        // points by the block's face doubled every two frames until a particle ran away).
+        let sums = &self.stencil_sums;
+        self.claims.retain(|c| !sums.contains_key(&c.node));
         let mut start = 0;
         while start < self.claims.len() {
             let (t, j) = (self.claims[start].thread, self.claims[start].segment);
@@ -187,9 +321,109 @@ impl ThreadContact {
             start = end;
         }
         self.contacts += self.claims.len() as u64;
+        for (i, thread) in self.threads.iter_mut().enumerate() {
+            for (sum, j) in thread.frame_impulse.iter_mut().zip(&thread.impulse) {
+                *sum += j;
+            }
+            thread.push.fill(Vec3::zeros());
+            stepper.step(i, thread, dt);
+            thread.impulse.fill(Vector3::zeros());
+        }
+        self.push_bound_tissue(layout, boundary, grid, dt);
+    }
+
+    /// Binds the tissue across every free point inside it, as an MPM particle gathers it:
+    /// each node of the point's quadratic B-spline stencil gives its mass and momentum in
+    /// proportion to the point's weight over the weights all bound points give that node
+    /// (so that a node's shares add up to one), times the point's binding share. The bound
+    /// velocity takes `ANCHOR_PULL` of the point's slip from its material anchor.
+    fn bind_tissue(&mut self, layout: &GridLayout, grid: &[Node], dt: f32, full_node_mass: f32) {
+        self.stencil_sums.clear();
         for thread in &mut self.threads {
-            for (x, v) in thread.points.iter_mut().zip(&thread.velocities) {
-                *x += v * dt;
+            for i in 0..thread.points.len() {
+                let share = thread.binding_share(i, full_node_mass);
+                thread.bound_mass[i] = share;
+                if share <= 0.0 {
+                    continue;
+                }
+                let sums = &mut self.stencil_sums;
+                stencil_nodes(layout, thread.points[i], |n, w| {
+                    *sums.entry(n).or_insert(0.0) += w
+                });
+            }
+        }
+        for thread in &mut self.threads {
+            for i in 0..thread.points.len() {
+                let share = thread.bound_mass[i];
+                if share <= 0.0 {
+                    thread.bound_mass[i] = 0.0;
+                    thread.stencil_mass[i] = 0.0;
+                    thread.anchor[i] = None;
+                    continue;
+                }
+                let point = thread.points[i];
+                let (mut mass, mut momentum) = (0.0f32, Vec3::zeros());
+                stencil_nodes(layout, point, |n, w| {
+                    let node = grid[n as usize];
+                    let m = w / self.stencil_sums[&n] * node[3];
+                    mass += m;
+                    momentum += Vec3::new(node[0], node[1], node[2]) * m;
+                });
+                self.bound_points += 1;
+                thread.stencil_mass[i] = mass;
+                thread.stencil_at[i] = point;
+                thread.bound_mass[i] = share * mass;
+                let anchor = *thread.anchor[i].get_or_insert(point);
+                thread.bound_velocity[i] = if mass > 0.0 {
+                    momentum / mass + (anchor - point) * (ANCHOR_PULL / dt)
+                } else {
+                    Vec3::zeros()
+                };
+            }
+        }
+    }
+
+    /// Gives each bound point's push to the nodes it gathered its tissue from, in the same
+    /// shares (each node gains the same velocity, and the momenta add up to the push), then
+    /// moves every anchor with the grid's velocity there, as a particle moves.
+    fn push_bound_tissue(
+        &mut self,
+        layout: &GridLayout,
+        boundary: &Boundary,
+        grid: &mut [Node],
+        dt: f32,
+    ) {
+        for thread in &mut self.threads {
+            for i in 0..thread.points.len() {
+                let mass = thread.stencil_mass[i];
+                if thread.bound_mass[i] <= 0.0 || mass <= 0.0 {
+                    continue;
+                }
+                let dv = thread.push[i] / mass;
+                thread.frame_push[i] += thread.push[i].cast::<f64>();
+                stencil_nodes(layout, thread.stencil_at[i], |n, w| {
+                    let index = n as usize;
+                    let [vx, vy, vz, m] = grid[index];
+                    let dv = dv * (w / self.stencil_sums[&n]);
+                    self.grid_push += (dv * m).cast::<f64>();
+                    // The table and the walls act on the node after the push as after the
+                    // grid update.
+                    let block = index / NODES_PER_BLOCK;
+                    let ijk = layout.node_coords(block, index % NODES_PER_BLOCK);
+                    let x = layout.node_position(ijk);
+                    let v = apply_boundary(layout, boundary, ijk, x, Vec3::new(vx, vy, vz) + dv);
+                    grid[index] = [v.x, v.y, v.z, m];
+                });
+            }
+        }
+        for thread in &mut self.threads {
+            for anchor in thread.anchor.iter_mut().flatten() {
+                let mut v = Vec3::zeros();
+                stencil_nodes(layout, *anchor, |n, w| {
+                    let node = grid[n as usize];
+                    v += Vec3::new(node[0], node[1], node[2]) * w;
+                });
+                *anchor += v * dt;
             }
         }
     }
@@ -199,8 +433,10 @@ impl ThreadContact {
     fn claim_nodes(&mut self, layout: &GridLayout, grid: &[Node], bins: &Binning) {
         self.claims.clear();
         let last = layout.nodes.map(|n| n as i64 - 1);
-        for (t, thread) in self.threads.iter().enumerate() {
+        for (t, thread) in self.threads.iter_mut().enumerate() {
             let reach = thread.radius + REACH_CELLS * layout.dx;
+            thread.reach_fill.clear();
+            thread.reach_fill.resize(thread.points.len() - 1, (0.0, 0));
             for (j, pair) in thread.points.windows(2).enumerate() {
                 let (a, b) = (pair[0], pair[1]);
                 let ab = b - a;
@@ -220,13 +456,21 @@ impl ThreadContact {
                         for k in range(2) {
                             let ijk = [i as usize, jj as usize, k as usize];
                             let node = layout.node_index(ijk[0], ijk[1], ijk[2]);
-                            if !bins.is_touched(node / NODES_PER_BLOCK) || grid[node][3] <= 0.0 {
-                                continue;
-                            }
                             let x = layout.node_position(ijk);
                             let theta = ((x - a).dot(&ab) / length2).clamp(0.0, 1.0);
                             let distance2 = (x - (a + ab * theta)).norm_squared();
-                            if distance2 <= reach * reach {
+                            if distance2 > reach * reach {
+                                continue;
+                            }
+                            let mass = if bins.is_touched(node / NODES_PER_BLOCK) {
+                                grid[node][3]
+                            } else {
+                                0.0
+                            };
+                            let fill = &mut thread.reach_fill[j];
+                            fill.1 += 1;
+                            if mass > 0.0 {
+                                fill.0 += mass;
                                 self.claims.push(Claim {
                                     node: node as u32,
                                     thread: t as u32,
@@ -301,4 +545,24 @@ fn resolve_segment(
         grid[index] = [v_final.x, v_final.y, v_final.z, m];
     }
     loss
+}
+
+/// Calls `f` with each node of the quadratic B-spline stencil of position `p` (the MPM
+/// particle's) inside the grid and its weight, skipping zero weights (a point on a node
+/// plane has some; dividing by their sum gave NaN).
+fn stencil_nodes(layout: &GridLayout, p: Vec3, mut f: impl FnMut(u32, f32)) {
+    let stencil = Stencil::new((p - layout.origin) * layout.inv_dx);
+    for a in 0..3 {
+        for b in 0..3 {
+            for c in 0..3 {
+                let w = stencil.weight(a, b, c);
+                let ijk = stencil.base + nalgebra::Vector3::new(a as i32, b as i32, c as i32);
+                let inside = (0..3).all(|k| ijk[k] >= 0 && (ijk[k] as usize) < layout.nodes[k]);
+                if w > 0.0 && inside {
+                    let node = layout.node_index(ijk[0] as usize, ijk[1] as usize, ijk[2] as usize);
+                    f(node as u32, w);
+                }
+            }
+        }
+    }
 }

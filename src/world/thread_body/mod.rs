@@ -1,7 +1,8 @@
 //! A suture thread in the world: the rod (see [`crate::rod`]) with its solver, the ends the
 //! scene holds, the table, domain walls and tools it meets, and the grippers holding it
-//! ([`grasp`]). The world steps each thread once per frame alongside the tissue, through
-//! [`RodSolver::step_frame_in`] with one [`RodEnvironment`] per frame.
+//! ([`grasp`]). The world steps each thread once per frame through
+//! [`RodSolver::step_frame_in`] with one [`RodEnvironment`] per frame, or, where the CPU's
+//! tissue steps, once per tissue substep inside it ([`ThreadBody::step_in_tissue`]).
 //!
 //! [`crate::rod::knot`] tells whether its centreline is knotted.
 //!
@@ -14,13 +15,14 @@
 //!   at the frame's start and end; friction from its `contact`, 1.0 for `sticky`), the grasped
 //!   and pinned points as attachments, and self-contact. The thread is stepped also while the
 //!   tissue sleeps, and a scene without tissue skips the grid and runs on the CPU.
-//! - **Tissue** ([`crate::mpm::cpu::thread_contact`]): in a scene with tissue every segment is
-//!   contact geometry on the MPM grid, two-way. Over the tissue's substeps the grid sees the
-//!   thread as it was at the frame's start, moving with its velocity and its last frame's
-//!   acceleration; nodes near a segment keep, relative to it, only their velocity along it
-//!   (Coulomb `tissue_friction`, `tissue_drag`), and the momentum they lose comes to the
-//!   rod's points as a force over its frame solve. The tissue does not sleep while a scene
-//!   has threads. Explicit MLS-MPM or PIC on the CPU only (`check` refuses the others).
+//! - **Tissue** ([`crate::mpm::cpu::thread_contact`]): in a scene with tissue the thread is
+//!   two-way coupled to the MPM grid and steps inside the tissue's substeps. Inside the
+//!   tissue each point carries the tissue around it across the thread (the thread slides
+//!   along its channel, and a sideways pull drags the tissue); on the surface the nodes near
+//!   a segment keep, relative to it, only their velocity along it (Coulomb
+//!   `tissue_friction`, `tissue_drag`), and the momentum they lose comes to the rod's points
+//!   as a force. The tissue does not sleep while a scene has threads. Explicit MLS-MPM or
+//!   PIC on the CPU only (`check` refuses the others).
 //! - **Grasping** ([`grasp`]): a gripper whose jaw servo presses the jaws shut (as for the
 //!   tissue grip) with the tips no further apart than the thread's diameter catches every
 //!   thread point inside the closed jaws' volume; each frame those points are attachments
@@ -91,11 +93,13 @@ use crate::config::{Scene, Thread};
 use crate::math::Vec3;
 use crate::mpm::cpu::thread_contact::ThreadProxy;
 use crate::mpm::grid::WALL_NODES;
-use crate::rod::{Rod, RodAttachment, RodCollider, RodEnvironment, RodFrameReport, RodSolver};
+use crate::rod::{
+    Binding, Rod, RodAttachment, RodCollider, RodEnvironment, RodFrameReport, RodSolver,
+};
 use crate::tools::ContactModel;
 use crate::world::WorldTool;
 use grasp::{Grasps, GripperView};
-use nalgebra::Quaternion;
+use nalgebra::{Quaternion, Vector3};
 
 /// Coulomb coefficient of a `sticky` tool against the thread: sticky contact holds the
 /// tissue's nodes to the tool; for the thread it becomes a grip this strong, the rod's
@@ -118,6 +122,7 @@ pub fn tool_collider(tool: &WorldTool, t0: f64, t1: f64) -> RodCollider {
 }
 
 /// One thread and how it steps.
+#[derive(Clone)]
 pub struct ThreadBody {
     /// The thread's name in the scene.
     pub name: String,
@@ -143,15 +148,13 @@ pub struct ThreadBody {
     /// Coulomb coefficient and drag of tissue sliding along the thread.
     tissue_friction: f32,
     tissue_drag: f32,
-    /// The tissue's force on each point over the coming frame solve, N.
+    /// The tissue's force on each point, N: the contact's over the coming step while the
+    /// tissue steps the rod, averaged over the frame after [`ThreadBody::end_frame`].
     tissue_force: Vec<Vec3>,
-    /// Each point's acceleration over the last frame less the tissue's force, m/s² (the
-    /// proxy's drive, see [`crate::mpm::cpu::thread_contact`]).
-    drive: Vec<Vec3>,
-    /// Points held (grasped or pinned) in the last frame.
+    /// The momentum the tissue gave each point since the frame began, N·s.
+    frame_tissue_momentum: Vec<Vector3<f64>>,
+    /// Points held (grasped or pinned) in the latest step.
     held: Vec<bool>,
-    /// Velocities at the start of the frame being solved; reused.
-    start_velocities: Vec<Vec3>,
     /// What the last frame's solve met (contacts, strain, crossings held back).
     last_report: RodFrameReport,
 }
@@ -205,20 +208,117 @@ impl ThreadBody {
             tissue_friction: config.tissue_friction as f32,
             tissue_drag: config.tissue_drag as f32,
             tissue_force: vec![Vec3::zeros(); pinned.len()],
-            drive: vec![gravity; pinned.len()],
+            frame_tissue_momentum: vec![Vector3::zeros(); pinned.len()],
             held: pinned.clone(),
-            start_velocities: Vec::new(),
             last_report: RodFrameReport::default(),
             pinned,
         }
     }
 
     /// Advances one frame of `dt` seconds while the tools `colliders` (every tool of the
-    /// scene, in scene order) and among them the grippers `grippers` move over it: first grasps begin or end
-    /// (jaws closed on the thread catch the points between their faces; opening lets them
-    /// go), then the rod steps among the table, walls and tools, the grasped points moving
-    /// with their jaws and the pinned ones staying put.
+    /// scene, in scene order) and among them the grippers `grippers` move over it: first
+    /// grasps begin or end (jaws closed on the thread catch the points between their faces;
+    /// opening lets them go), then the rod steps among the table, walls and tools, the
+    /// grasped points moving with their jaws and the pinned ones staying put. For a frame
+    /// the tissue did not step (none in the scene, asleep, reset, or on the GPU).
     pub fn step_frame(&mut self, dt: f64, colliders: &[RodCollider], grippers: &[GripperView]) {
+        self.tissue_force.fill(Vec3::zeros());
+        self.frame_tissue_momentum.fill(Vector3::zeros());
+        self.last_report = self.step(dt, (0.0, 1.0), colliders, grippers, false);
+        self.end_frame(dt);
+    }
+
+    /// Loads `proxy` with the thread as the grid sees it at the start of a frame the tissue
+    /// steps (see [`crate::mpm::cpu::thread_contact`]); the rod then steps inside the
+    /// tissue's substeps ([`ThreadBody::step_in_tissue`]) until [`ThreadBody::end_frame`].
+    pub fn load_proxy(&mut self, proxy: &mut ThreadProxy) {
+        proxy.radius = self.rod.material.radius;
+        proxy.friction = self.tissue_friction;
+        proxy.drag = self.tissue_drag;
+        self.show_to(proxy);
+        proxy.start_frame();
+        self.frame_tissue_momentum.fill(Vector3::zeros());
+        self.last_report = RodFrameReport::default();
+    }
+
+    /// One tissue substep of `dt` seconds, the part `span` of the frame (start and end as
+    /// fractions of it), with the tools `colliders` and `grippers` moving over the substep:
+    /// the rod takes the contact's impulse in `proxy` as a force, steps with the tissue bound
+    /// across its points (see [`crate::mpm::cpu::thread_contact`]), and leaves its state in
+    /// `proxy` and the momentum each bound tissue gained in `proxy.push`.
+    pub fn step_in_tissue(
+        &mut self,
+        proxy: &mut ThreadProxy,
+        dt: f32,
+        span: (f32, f32),
+        colliders: &[RodCollider],
+        grippers: &[GripperView],
+    ) {
+        for ((force, sum), j) in self
+            .tissue_force
+            .iter_mut()
+            .zip(&mut self.frame_tissue_momentum)
+            .zip(&proxy.impulse)
+        {
+            *force = (j / dt as f64).cast::<f32>();
+            *sum += j;
+        }
+        self.bind_tissue(&proxy.bound_mass, &proxy.bound_velocity);
+        let report = self.step(dt as f64, span, colliders, grippers, true);
+        self.release_tissue(&proxy.bound_velocity, &mut proxy.push);
+        for (sum, push) in self.frame_tissue_momentum.iter_mut().zip(&proxy.push) {
+            *sum -= push.cast::<f64>();
+        }
+        let last = &mut self.last_report;
+        last.table_contacts += report.table_contacts;
+        last.tool_contacts += report.tool_contacts;
+        last.self_contacts += report.self_contacts;
+        last.substeps_held_back += report.substeps_held_back;
+        last.max_strain = report.max_strain;
+        self.show_to(proxy);
+    }
+
+    /// Ends a frame of `elapsed` seconds: the pinned points reach where they are held next,
+    /// and the tissue's force over the frame is its momentum over `elapsed`.
+    pub fn end_frame(&mut self, elapsed: f64) {
+        for (_, at, next) in &mut self.anchors {
+            *at = *next;
+        }
+        for (force, j) in self
+            .tissue_force
+            .iter_mut()
+            .zip(&self.frame_tissue_momentum)
+        {
+            *force = (j / elapsed.max(1e-12)).cast::<f32>();
+        }
+    }
+
+    /// The rod's points, velocities and inverse masses (0 where held: pinned, or grasped in
+    /// its latest step) as the grid sees them.
+    fn show_to(&self, proxy: &mut ThreadProxy) {
+        let rod = &self.rod;
+        proxy.points.clone_from(&rod.points);
+        proxy.velocities.clone_from(&rod.velocities);
+        proxy.inv_mass.clear();
+        proxy.inv_mass.extend(
+            rod.inv_mass
+                .iter()
+                .zip(&self.held)
+                .map(|(&w, &held)| if held { 0.0 } else { w }),
+        );
+    }
+
+    /// One step of `dt` seconds over the part `span` of the frame (the pinned points move
+    /// that part of the way to where they are held next): grasps, attachments, colliders and
+    /// the rod's solve, a frame's substeps (`in_tissue` false) or a tissue substep's one.
+    fn step(
+        &mut self,
+        dt: f64,
+        span: (f32, f32),
+        colliders: &[RodCollider],
+        grippers: &[GripperView],
+        in_tissue: bool,
+    ) -> RodFrameReport {
         let radius = self.rod.material.radius;
         self.grasps
             .update(&self.rod, grippers, radius, &self.pinned);
@@ -227,12 +327,9 @@ impl ThreadBody {
         self.attachments
             .extend(self.anchors.iter().map(|&(point, at, next)| RodAttachment {
                 point,
-                from: at,
-                to: next,
+                from: at.lerp(&next, span.0),
+                to: at.lerp(&next, span.1),
             }));
-        for (_, at, next) in &mut self.anchors {
-            *at = *next;
-        }
         // A gripper holding the thread holds the points between its jaws: those and their
         // neighbours (pressed against the jaws' sides and faces, within a jaw thickness along
         // the thread) move with it and are spared its collision, which would push them out
@@ -261,63 +358,65 @@ impl ThreadBody {
             self_collision: self.self_contact,
             self_friction: self.self_friction,
         };
-        self.start_velocities.clone_from(&self.rod.velocities);
-        self.last_report = self.solver.step_frame_in(&mut self.rod, dt as f32, &env);
-        let inv_dt = 1.0 / dt as f32;
-        let rod = &self.rod;
-        for (i, drive) in self.drive.iter_mut().enumerate() {
-            *drive = (rod.velocities[i] - self.start_velocities[i]) * inv_dt
-                - self.tissue_force[i] * rod.inv_mass[i];
-        }
+        let report = if in_tissue {
+            self.solver.step_substep_in(&mut self.rod, dt as f32, &env)
+        } else {
+            self.solver.step_frame_in(&mut self.rod, dt as f32, &env)
+        };
         self.held.copy_from_slice(&self.pinned);
         for a in &self.attachments {
             if let Some(h) = self.held.get_mut(a.point) {
                 *h = true;
             }
         }
+        report
     }
 
-    /// Loads `proxy` with the thread as the grid sees it over the coming frame (see
-    /// [`crate::mpm::cpu::thread_contact`]): its points and velocities now, its last frame's
-    /// acceleration less the tissue's share, the points held in the last frame as infinitely
-    /// heavy, and no impulse yet.
-    pub fn load_proxy(&self, proxy: &mut ThreadProxy) {
-        let rod = &self.rod;
-        proxy.points.clone_from(&rod.points);
-        proxy.velocities.clone_from(&rod.velocities);
-        proxy.drive.clone_from(&self.drive);
-        proxy.inv_mass.clear();
-        proxy.inv_mass.extend(
-            rod.inv_mass
-                .iter()
-                .zip(&self.held)
-                .map(|(&w, &held)| if held { 0.0 } else { w }),
-        );
-        proxy.radius = rod.material.radius;
-        proxy.friction = self.tissue_friction;
-        proxy.drag = self.tissue_drag;
-        proxy.impulse.clear();
-        proxy
-            .impulse
-            .resize(rod.points.len(), nalgebra::Vector3::zeros());
-    }
-
-    /// The momentum each point received from the tissue over the last `elapsed` seconds, N·s
-    /// (`None`: the tissue did not step): applied as a constant force over the next frame
-    /// solve.
-    pub fn receive_tissue_impulse(
-        &mut self,
-        impulse: Option<&[nalgebra::Vector3<f64>]>,
-        elapsed: f64,
-    ) {
-        self.tissue_force.fill(Vec3::zeros());
-        for (f, j) in self
-            .tissue_force
-            .iter_mut()
-            .zip(impulse.unwrap_or_default())
-        {
-            *f = (j / elapsed).cast::<f32>();
+    /// Binds the tissue across each free point (`mass`, kg, and `velocity`, m/s, per point;
+    /// see [`crate::mpm::cpu::thread_contact`]) for the coming step: across the thread the
+    /// point and its tissue meet at their common velocity (momentum kept) and move as one
+    /// body ([`Rod::bindings`]).
+    fn bind_tissue(&mut self, mass: &[f32], velocity: &[Vec3]) {
+        let rod = &mut self.rod;
+        rod.bindings.clear();
+        if mass.iter().all(|&m| m <= 0.0) {
+            return;
         }
+        let n = rod.points.len();
+        rod.bindings.resize(n, Binding::default());
+        for i in 0..n {
+            if mass[i] <= 0.0 || rod.inv_mass[i] <= 0.0 || self.held[i] {
+                continue;
+            }
+            let (lo, hi) = (i.saturating_sub(1), (i + 1).min(n - 1));
+            let Some(axis) = (rod.points[hi] - rod.points[lo]).try_normalize(f32::EPSILON) else {
+                continue;
+            };
+            let across = |v: Vec3| v - axis * axis.dot(&v);
+            let own = 1.0 / rod.inv_mass[i];
+            let v = rod.velocities[i];
+            let common = (across(v) * own + across(velocity[i]) * mass[i]) / (own + mass[i]);
+            rod.velocities[i] = v - across(v) + common;
+            rod.bindings[i] = Binding {
+                axis,
+                mass: mass[i],
+            };
+        }
+    }
+
+    /// After a step with tissue bound: the momentum each bound tissue (bound with
+    /// `velocity`) gained across the thread, its mass times the change of its velocity
+    /// there, into `push`; the bindings end.
+    fn release_tissue(&mut self, velocity: &[Vec3], push: &mut [Vec3]) {
+        push.fill(Vec3::zeros());
+        for (i, b) in self.rod.bindings.iter().enumerate() {
+            if !self.rod.is_bound(i) {
+                continue;
+            }
+            let dv = self.rod.velocities[i] - velocity[i];
+            push[i] = (dv - b.axis * b.axis.dot(&dv)) * b.mass;
+        }
+        self.rod.bindings.clear();
     }
 
     /// What the last frame's solve met: contacts found, the largest strain, substeps whose
@@ -326,8 +425,8 @@ impl ThreadBody {
         self.last_report
     }
 
-    /// The tissue's force on each point over the latest frame solve (or the coming one,
-    /// between [`ThreadBody::receive_tissue_impulse`] and the solve), N.
+    /// The tissue's force on each point averaged over the last frame, N: the contact's and,
+    /// where tissue was bound across the point, the bound tissue's reaction.
     pub fn tissue_force(&self) -> &[Vec3] {
         &self.tissue_force
     }
