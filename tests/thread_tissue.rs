@@ -146,10 +146,17 @@ impl Pull {
 }
 
 fn pull_through(dx: f64, pull: Vector3<f32>) -> Pull {
+    pull_through_with(dx, pull, "")
+}
+
+/// [`pull_through`] with the thread's keys `keys` added.
+fn pull_through_with(dx: f64, pull: Vector3<f32>, keys: &str) -> Pull {
     // 7 cm along x through the middle of a 4 × 3 × 2 cm block, both ends 15 mm outside it.
     let scene = scene_at(
         dx,
-        "start = [-0.035, 0.0, 0.02]\nlength = 0.07\nsegments = 35\npinned = \"both\"",
+        &format!(
+            "start = [-0.035, 0.0, 0.02]\nlength = 0.07\nsegments = 35\npinned = \"both\"\n{keys}"
+        ),
         [0.04, 0.03, 0.02],
     );
     let mut world = World::new(&scene);
@@ -215,6 +222,25 @@ fn thread_pulled_along_itself_slides_through_and_moves_the_tissue_little() {
     );
 }
 
+#[test]
+fn thread_with_full_drag_pulled_along_itself_carries_the_tissue_along() {
+    // `tissue_drag = 1` removes the whole slip along the thread each substep, inside the
+    // tissue as on it: the thread no longer slides through, and the tissue near its middle
+    // goes along with it.
+    let dragged = pull_through_with(DX, Vector3::new(0.01, 0.0, 0.0), "tissue_drag = 1.0");
+    let free = pull_through(DX, Vector3::new(0.01, 0.0, 0.0));
+    let (d, f) = (
+        dragged.report("along 10 mm, drag 1"),
+        free.report("along 10 mm, drag 0"),
+    );
+    println!("{d}\n{f}");
+    assert!(
+        dragged.tissue_near_middle_moved.x > 0.5 * dragged.thread_middle_moved.x
+            && dragged.tissue_near_middle_moved.x > 20.0 * free.tissue_near_middle_moved.x.abs(),
+        "with full drag the tissue near the thread goes along with it: {d}; {f}"
+    );
+}
+
 /// Pulled sideways by its ends, a thread through a block drags the tissue around it along:
 /// the tissue near its middle moves with it (within a tenth of the thread's own move), and
 /// the thread's middle lags its ends (it pulls the block's inertia and elasticity).
@@ -269,11 +295,14 @@ fn momentum_the_grid_loses_is_what_the_rod_receives() {
         world.step_frame().expect("frame");
         let elapsed = world.time() - t0;
         let backend = world.backend();
-        let (lost, contacts) = backend.thread_grid_loss().expect("CPU backend");
-        let (pushed, bound) = backend.thread_grid_push().expect("CPU backend");
+        let exchange = backend.thread_exchange().expect("CPU backend");
         let proxy = backend.thread_proxy(0).expect("thread 0 loaded");
-        let impulses: Vector3<f64> = proxy.frame_impulse.iter().sum();
-        let pushes: Vector3<f64> = proxy.frame_push.iter().sum();
+        let sum = |v: &[Vector3<f64>]| v.iter().sum::<Vector3<f64>>();
+        let (impulses, pushes, frictions) = (
+            sum(&proxy.frame_impulse),
+            sum(&proxy.frame_push),
+            sum(&proxy.frame_friction),
+        );
         let received: Vector3<f64> = world.threads()[0]
             .tissue_force()
             .iter()
@@ -282,28 +311,32 @@ fn momentum_the_grid_loses_is_what_the_rod_receives() {
         // A thread inside the tissue carries it bound across its points; the contact law
         // acts on the nodes no bound point gathers from (on the first substeps before the
         // tissue reaches the thread, and near the block's faces).
-        assert!(bound > 0, "frame {frame}: tissue is bound to the thread");
         assert!(
-            pushed.norm() > 0.0,
+            exchange.bound_points > 0,
+            "frame {frame}: tissue is bound to the thread"
+        );
+        assert!(
+            exchange.push.norm() > 0.0,
             "frame {frame}: the bound tissue is pushed"
         );
-        total_contacts += contacts;
+        total_contacts += exchange.contacts;
         // The contact: what the nodes lost is what the points received (f64 sums of the
         // same f32 impulses).
-        let split = (impulses - lost).norm() / lost.norm().max(1e-12);
-        // The binding: what the rod's step gave each bound tissue reaches its nodes in
-        // shares that add up to one (in f32).
-        let spread = (pushes - pushed).norm() / pushed.norm();
-        // The rod: the tissue's force over the frame is the contact's momentum less the
-        // bound tissue's push.
-        let net = lost - pushed;
-        let applied = (received - net).norm() / net.norm();
+        let relative = |a: Vector3<f64>, b: Vector3<f64>| (a - b).norm() / b.norm().max(1e-12);
+        let split = relative(impulses, exchange.contact);
+        // The binding: what the rod's step gave each bound tissue, and the friction along
+        // bound points, reach the nodes in shares that add up to one (in f32).
+        let spread = relative(pushes, exchange.push).max(relative(frictions, exchange.friction));
+        // The rod: the tissue's force over the frame is the contact's and the friction's
+        // momentum less the bound tissue's push.
+        let net = exchange.contact + exchange.friction - exchange.push;
+        let applied = relative(received, net);
         assert!(
             split < 1e-9 && spread < 1e-5 && applied < 1e-5,
-            "frame {frame}: grid lost {lost:?} N·s to contact ({contacts} contacts), the \
-             points received {impulses:?} (relative {split:.1e}); the bound tissue was given \
-             {pushes:?}, its nodes took {pushed:?} (relative {spread:.1e}); the rod received \
-             {received:?} against {net:?} (relative {applied:.1e})"
+            "frame {frame}: {exchange:?}; the points received {impulses:?} from contact \
+             (relative {split:.1e}), gave the bound tissue {pushes:?} and took {frictions:?} \
+             in friction (relative {spread:.1e}); the rod received {received:?} against \
+             {net:?} (relative {applied:.1e})"
         );
         worst = worst.max(split.max(spread).max(applied));
     }

@@ -5,13 +5,12 @@
 //! statistics. The CPU backend loops its `substep`; the GPU backend records every substep
 //! into one submission and reads back only what the frame's outputs need.
 
-use super::cpu::thread_contact::{ThreadProxy, ThreadStepper};
+use super::cpu::thread_contact::{GridExchange, ThreadProxy, ThreadStepper};
 use super::cpu::{CpuSolver, SubstepInput};
 use super::frame_plan::{FramePlan, FrameStats};
 use super::gpu::GpuSolver;
 use super::stiffening;
 use super::{GridLayout, Particles};
-use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 /// Which backend a scene asks for.
@@ -118,21 +117,11 @@ impl Backend {
         }
     }
 
-    /// The momentum the bound tissue's push gave the grid's nodes since the frame began,
-    /// N·s, summed node by node, and how many points had tissue bound, summed over substeps;
-    /// `None` on the GPU.
-    pub fn thread_grid_push(&self) -> Option<(Vector3<f64>, u64)> {
+    /// What the grid and the threads exchanged since the frame began (see
+    /// [`super::cpu::thread_contact`]); `None` on the GPU, whose grid does not meet threads.
+    pub fn thread_exchange(&self) -> Option<GridExchange> {
         match self {
-            Backend::Cpu(c) => Some(c.solver.thread_contact.grid_push()),
-            Backend::Gpu(_) => None,
-        }
-    }
-
-    /// The momentum the grid's nodes lost to the threads since the frame began, N·s, summed
-    /// node by node, and how many node contacts gave it; `None` on the GPU.
-    pub fn thread_grid_loss(&self) -> Option<(Vector3<f64>, u64)> {
-        match self {
-            Backend::Cpu(c) => Some(c.solver.thread_contact.grid_loss()),
+            Backend::Cpu(c) => Some(c.solver.thread_contact.exchange()),
             Backend::Gpu(_) => None,
         }
     }

@@ -43,20 +43,29 @@ pub struct Rod {
     pub bindings: Vec<Binding>,
 }
 
-/// Tissue a point carries across the thread: across `axis` the point moves with `mass` added
-/// to its own, along it with its own mass alone (the thread slides along its channel through
-/// the tissue, but cannot leave it sideways without taking the tissue along).
+/// Tissue a point carries: across `axis` the point moves with `mass` added to its own,
+/// along it with `along_mass` (the thread slides along its channel through the tissue, freely
+/// with none, but cannot leave it sideways without taking the tissue along).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Binding {
     /// The thread's direction at the point, unit.
     pub axis: Vec3,
-    /// The tissue's mass bound to the point, kg; 0 for none.
+    /// The tissue's mass bound to the point across the thread, kg; 0 for none.
     pub mass: f32,
+    /// The tissue's mass bound to the point along the thread, kg (at most `mass`).
+    pub along_mass: f32,
+}
+
+impl Binding {
+    /// The part of `v` along the axis.
+    pub fn along(&self, v: Vec3) -> Vec3 {
+        self.axis * self.axis.dot(&v)
+    }
 }
 
 impl Rod {
-    /// Point `i`'s inverse mass as a matrix: 1/m along its binding's axis and 1/(m + M)
-    /// across it where tissue of mass M is bound to it (see [`Binding`]), 1/m·I otherwise; 0
+    /// Point `i`'s inverse mass as a matrix: 1/(m + M_along) along its binding's axis and
+    /// 1/(m + M) across it where tissue is bound to it (see [`Binding`]), 1/m·I otherwise; 0
     /// for a held point.
     pub fn inverse_mass_matrix(&self, i: usize) -> Mat3d {
         let w = self.inv_mass[i] as f64;
@@ -64,8 +73,9 @@ impl Rod {
             Some(b) if b.mass > 0.0 && w > 0.0 => {
                 let t = b.axis.cast::<f64>();
                 let along = t * t.transpose();
-                let across = 1.0 / (1.0 / w + b.mass as f64);
-                along * w + (Mat3d::identity() - along) * across
+                let w_across = 1.0 / (1.0 / w + b.mass as f64);
+                let w_along = 1.0 / (1.0 / w + b.along_mass as f64);
+                along * w_along + (Mat3d::identity() - along) * w_across
             }
             _ => Mat3d::identity() * w,
         }

@@ -299,7 +299,7 @@ pub fn run(
         } = c;
         scene.solver.backend = backend;
         let mut world = World::try_new(&scene)?;
-        if !scene.threads.is_empty() && world.backend().thread_grid_loss().is_none() {
+        if !scene.threads.is_empty() && world.backend().thread_exchange().is_none() {
             // The grid meets a thread on the CPU backend alone (see `mpm::cpu::thread_contact`).
             eprintln!("{name}: skipped: a thread in tissue runs on the CPU backend only");
             continue;
@@ -326,8 +326,8 @@ pub fn run(
         eprintln!("{name}: {:.3} ms per frame", 1e3 * frame_s);
         if !scene.threads.is_empty() {
             // The row measures a thread in the tissue, not one the grid never meets.
-            let (_, contacts) = world.backend().thread_grid_loss().unwrap_or_default();
-            let (_, bound) = world.backend().thread_grid_push().unwrap_or_default();
+            let exchange = world.backend().thread_exchange().unwrap_or_default();
+            let (contacts, bound) = (exchange.contacts, exchange.bound_points);
             anyhow::ensure!(contacts + bound > 0, "{name}: the thread met no tissue");
             eprintln!(
                 "{name}: in the last frame {contacts} node contacts, {bound} points bound to tissue"

@@ -373,9 +373,9 @@ impl ThreadBody {
     }
 
     /// Binds the tissue across each free point (`mass`, kg, and `velocity`, m/s, per point;
-    /// see [`crate::mpm::cpu::thread_contact`]) for the coming step: across the thread the
-    /// point and its tissue meet at their common velocity (momentum kept) and move as one
-    /// body ([`Rod::bindings`]).
+    /// see [`crate::mpm::cpu::thread_contact`]) for the coming step, and the fraction
+    /// `tissue_drag` of it along the thread: the point and its tissue meet at their common
+    /// velocity (momentum kept) and move as one body ([`Rod::bindings`]).
     fn bind_tissue(&mut self, mass: &[f32], velocity: &[Vec3]) {
         let rod = &mut self.rod;
         rod.bindings.clear();
@@ -392,21 +392,26 @@ impl ThreadBody {
             let Some(axis) = (rod.points[hi] - rod.points[lo]).try_normalize(f32::EPSILON) else {
                 continue;
             };
-            let across = |v: Vec3| v - axis * axis.dot(&v);
-            let own = 1.0 / rod.inv_mass[i];
-            let v = rod.velocities[i];
-            let common = (across(v) * own + across(velocity[i]) * mass[i]) / (own + mass[i]);
-            rod.velocities[i] = v - across(v) + common;
-            rod.bindings[i] = Binding {
+            let binding = Binding {
                 axis,
                 mass: mass[i],
+                along_mass: self.tissue_drag * mass[i],
             };
+            let own = 1.0 / rod.inv_mass[i];
+            let (v, tissue) = (rod.velocities[i], velocity[i]);
+            let (along, across) = (binding.along(v), v - binding.along(v));
+            let tissue_along = binding.along(tissue);
+            let tissue_across = tissue - tissue_along;
+            rod.velocities[i] = (across * own + tissue_across * binding.mass)
+                / (own + binding.mass)
+                + (along * own + tissue_along * binding.along_mass) / (own + binding.along_mass);
+            rod.bindings[i] = binding;
         }
     }
 
     /// After a step with tissue bound: the momentum each bound tissue (bound with
-    /// `velocity`) gained across the thread, its mass times the change of its velocity
-    /// there, into `push`; the bindings end.
+    /// `velocity`) gained, its mass times the change of its velocity across the thread and
+    /// its mass along it times the change along, into `push`; the bindings end.
     fn release_tissue(&mut self, velocity: &[Vec3], push: &mut [Vec3]) {
         push.fill(Vec3::zeros());
         for (i, b) in self.rod.bindings.iter().enumerate() {
@@ -414,7 +419,8 @@ impl ThreadBody {
                 continue;
             }
             let dv = self.rod.velocities[i] - velocity[i];
-            push[i] = (dv - b.axis * b.axis.dot(&dv)) * b.mass;
+            let along = b.along(dv);
+            push[i] = (dv - along) * b.mass + along * b.along_mass;
         }
         self.rod.bindings.clear();
     }
