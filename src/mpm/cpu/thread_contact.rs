@@ -131,7 +131,7 @@ pub trait ThreadStepper {
     /// proxy's `impulse` (what the contact gave each point this substep) as a force and its
     /// bound tissue (`bound_mass`, `bound_velocity`), steps, and leaves in the proxy its
     /// points, velocities and inverse masses (0 where held) after the step and in `push` the
-    /// momentum each bound tissue gained across the thread.
+    /// momentum each bound tissue gained.
     fn step(&mut self, thread: usize, proxy: &mut ThreadProxy, dt: f32);
 }
 
@@ -160,8 +160,8 @@ pub struct ThreadProxy {
     pub bound_mass: Vec<f32>,
     /// The bound tissue's velocity at each point, anchor pull included, m/s.
     pub bound_velocity: Vec<Vec3>,
-    /// Momentum each point's bound tissue gained across the thread in the rod's step, N·s;
-    /// set by the stepper, pushed into the grid.
+    /// Momentum each point's bound tissue gained in the rod's step (across the thread, and
+    /// along it with `tissue_drag`), N·s; set by the stepper, pushed into the grid.
     pub push: Vec<Vec3>,
     /// Momentum the bound tissue took since the frame began, N·s, summed per point.
     pub frame_push: Vec<Vector3<f64>>,
@@ -243,7 +243,10 @@ impl ThreadProxy {
         let slip = t.dot(&(tissue_velocity - self.velocities[i]));
         let k = 1.0 / (self.inv_mass[i] + 1.0 / self.bound_mass[i]);
         let stick = k * slip.abs();
-        let mut along = stick.min(self.friction * self.push[i].norm());
+        // The push's part across the thread (with `tissue_drag` it has one along it too).
+        let push = self.push[i];
+        let normal = (push - t * t.dot(&push)).norm();
+        let mut along = stick.min(self.friction * normal);
         along += self.drag * (stick - along);
         t * along.copysign(slip)
     }
