@@ -39,7 +39,10 @@
 //! bound to carried it (moved with the grid's velocity like a particle), and the bound
 //! velocity takes a tenth of the point's slip from it each substep: without it a soft block
 //! held sideways crept off the thread (the tissue near it fell back from 9.3 mm to 4.7 mm in
-//! 0.5 s).
+//! 0.5 s). The anchor slides along the thread with its point by the share of the slip along
+//! it that the tissue does not hold (1 − `tissue_drag`), so that only the slip across the
+//! thread, and the drag's share along it, is taken back: a thread drawn along a curved
+//! channel (a needle's arc) follows the channel instead of being pulled onto its chord.
 //!
 //! Measured (`tests/thread_tissue.rs`): a 7 cm thread through a 4 × 3 × 2 cm, 3 kPa block
 //! bonded to the table, both ends pulled 10 mm sideways over 0.5 s: the thread's middle
@@ -229,15 +232,38 @@ impl ThreadProxy {
         binding_share(0.5 * (fill(i.saturating_sub(1)) + fill(i.min(last))))
     }
 
+    /// The thread's direction at point `i` (from its previous point to its next), or `None`
+    /// where those coincide.
+    fn axis(&self, i: usize) -> Option<Vec3> {
+        let n = self.points.len();
+        let (lo, hi) = (i.saturating_sub(1), (i + 1).min(n - 1));
+        (self.points[hi] - self.points[lo]).try_normalize(f32::EPSILON)
+    }
+
+    /// Moves point `i`'s material anchor along the thread with the point, by the fraction
+    /// of their offset along it that the tissue does not hold (1 − `drag`), and returns it:
+    /// the thread slides along its channel, so only the slip the tissue holds is taken back.
+    /// (An anchor left where a point entered pulled a point sliding round a curved channel
+    /// across, onto the chord: a thread drawn through tissue on a needle's arc cut the
+    /// chord of the arc.)
+    fn slide_anchor(&mut self, i: usize) -> Vec3 {
+        let point = self.points[i];
+        let axis = self.axis(i);
+        let free = 1.0 - self.drag;
+        let anchor = self.anchor[i].get_or_insert(point);
+        if let Some(t) = axis {
+            *anchor += t * (free * t.dot(&(point - *anchor)));
+        }
+        *anchor
+    }
+
     /// The friction bound point `i`'s tissue, moving at `tissue_velocity`, gives it along
     /// the thread this substep, N·s: the impulse that would stop their slip along it
     /// (point and bound tissue as two bodies), capped at `friction` times the normal impulse
     /// between them (the across push of the last substep), and the fraction `drag` of the
     /// rest, as the contact law does on the surface.
     fn friction_along(&self, i: usize, tissue_velocity: Vec3) -> Vec3 {
-        let n = self.points.len();
-        let (lo, hi) = (i.saturating_sub(1), (i + 1).min(n - 1));
-        let Some(t) = (self.points[hi] - self.points[lo]).try_normalize(f32::EPSILON) else {
+        let Some(t) = self.axis(i) else {
             return Vec3::zeros();
         };
         let slip = t.dot(&(tissue_velocity - self.velocities[i]));
@@ -420,7 +446,7 @@ impl ThreadContact {
                 thread.stencil_mass[i] = mass;
                 thread.stencil_at[i] = point;
                 thread.bound_mass[i] = share * mass;
-                let anchor = *thread.anchor[i].get_or_insert(point);
+                let anchor = thread.slide_anchor(i);
                 thread.along_friction[i] = Vec3::zeros();
                 if mass <= 0.0 {
                     thread.bound_velocity[i] = Vec3::zeros();
