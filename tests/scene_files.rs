@@ -712,6 +712,52 @@ fn a_thread_starting_inside_a_tool_is_refused() {
     config::from_str(&driven, Path::new("driven.toml")).unwrap_or_else(|e| panic!("{e}"));
 }
 
+/// The good scene with a half-circle needle (radius 10 mm, its arc in the xy plane at
+/// z = 35 mm, swage end at (−10, 0, 35) mm) and a 3 cm thread swaged to `swaged_to` that
+/// leaves the swage end along the arc's tangent there (−y), with `keys` added.
+fn swaged(swaged_to: &str, start: &str, keys: &str) -> String {
+    format!(
+        "{GOOD}\n[[tool]]\nname = \"needle\"\nshape = {{ type = \"needle\", radius = 0.01, arc_angle = 3.14159, wire_radius = 0.0005 }}\n[[tool.keyframe]]\nt = 0.0\nposition = [0.0, 0.0, 0.035]\n\
+         [[thread]]\nname = \"suture\"\nstart = {start}\ndirection = [0.0, -1.0, 0.0]\nlength = 0.03\nswaged_to = \"{swaged_to}\"\n{keys}"
+    )
+}
+
+/// A thread swaged to a needle: the needle must be a needle tool of the scene, the first
+/// point must start in its swage end (the message says where that is) and not be pinned.
+#[test]
+fn a_swage_to_a_missing_or_wrong_tool_or_off_the_needle_is_refused() {
+    let at_swage = "[-0.01, 0.0, 0.035]";
+    let good = swaged("needle", at_swage, "");
+    let scene = config::from_str(&good, Path::new("swaged.toml")).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(scene.threads[0].swaged_to.as_deref(), Some("needle"));
+    let key = |k: &str| format!("thread[0] (suture).{k}");
+
+    // Not swaged after all, the thread's first point lies in the needle's wire: that is
+    // refused too.
+    let named = |p: &[config::Problem], k: &str, fragment: &str| {
+        assert!(
+            p.iter()
+                .any(|q| q.key == key(k) && q.allowed.contains(fragment)),
+            "no {k} problem mentioning {fragment:?}: {p:#?}"
+        )
+    };
+    let p = problems_of(&swaged("nedle", at_swage, ""));
+    named(
+        &p,
+        "swaged_to",
+        "needle tool of the scene (tools: [\"probe\", \"needle\"])",
+    );
+    named(&p, "start", "inside tool \"needle\"");
+    let p = problems_of(&swaged("probe", at_swage, ""));
+    named(&p, "swaged_to", "shape type \"needle\"");
+    let p = problems_of(&swaged("needle", at_swage, "pinned = \"start\""));
+    assert_single(&p, &key("pinned"), "held by the needle");
+    // 2 mm off the swage end: refused, with where the swage end is and how far off.
+    let p = problems_of(&swaged("needle", "[-0.012, 0.0, 0.035]", ""));
+    assert_single(&p, &key("start"), "(-0.01000, 0.00000, 0.03500) m");
+    assert!(p[0].allowed.contains("lies 2.00 mm from it"), "{p:?}");
+}
+
 #[test]
 fn an_arm_held_tools_mount_and_the_pieces_rate_are_validated() {
     let arm = "\n[[arm]]\nname = \"PSM1\"\nbase_xyz = [0.0, 0.0, 0.14]\n\

@@ -244,6 +244,11 @@ pub struct HeadlessOutcome {
     pub com_rise_m: f64,
     /// Tissue pieces at the end (connected components).
     pub pieces: usize,
+    /// The wound gap at the start and the end, m, in a scene of two tissue blocks (see
+    /// [`dvrk_tissue_sim::world::wound`]).
+    pub wound_gap_m: Option<(f64, f64)>,
+    /// Each thread's name and the largest tension any of its segments carried, N.
+    pub peak_tension_n: Vec<(String, f64)>,
     /// The guard event that stopped the run, when `guard_is_outcome` let it.
     pub guard_stop: Option<String>,
     /// What the bag holds, when recording.
@@ -293,6 +298,7 @@ pub fn headless_episode(
         .map(|s| s.dir.clone())
         .unwrap_or_default();
     let start_top = top_z(&world);
+    let start_gap = world.wound_gap();
     let start_com_z = if world.particles().is_empty() {
         0.0
     } else {
@@ -313,6 +319,7 @@ pub fn headless_episode(
     let mut split_refused = 0usize;
     let mut peak_top = start_top;
     let mut peak_elongation = vec![0.0f64; sim.world().threads().len()];
+    let mut peak_tension = vec![0.0f32; sim.world().threads().len()];
     let mut guard_stop = None;
     let mut frame = 0u32;
     headless::run(&mut sim, |sim, stepped| -> Result<ControlFlow<()>> {
@@ -340,6 +347,9 @@ pub fn headless_episode(
         }
         for (p, t) in peak_elongation.iter_mut().zip(world.threads()) {
             *p = p.max(t.elongation().abs());
+        }
+        for (p, t) in peak_tension.iter_mut().zip(world.threads()) {
+            *p = t.rod.tension.iter().copied().fold(*p, f32::max);
         }
         if report.truncated {
             tracing::warn!(
@@ -423,6 +433,15 @@ pub fn headless_episode(
         lift_m: f64::from(peak_top - start_top),
         com_rise_m: com_z - start_com_z,
         pieces,
+        wound_gap_m: start_gap
+            .zip(world.wound_gap())
+            .map(|(start, end)| (f64::from(start), f64::from(end))),
+        peak_tension_n: world
+            .threads()
+            .iter()
+            .zip(&peak_tension)
+            .map(|(t, p)| (t.name.clone(), f64::from(*p)))
+            .collect(),
         guard_stop,
         record: None,
     };
@@ -473,6 +492,22 @@ fn print_summary(
             com.x, com.y, com.z
         );
         println!("summary: pieces {}", world.pieces());
+        if let Some((start, end)) = outcome.wound_gap_m {
+            let names: Vec<_> = world.scene().tissues.iter().map(|t| &t.name).collect();
+            let tensions: Vec<_> = outcome
+                .peak_tension_n
+                .iter()
+                .map(|(name, t)| format!(", thread {name:?} peak tension {t:.3} N"))
+                .collect();
+            println!(
+                "summary: wound gap {:.2} mm -> {:.2} mm (between {:?} and {:?}){}",
+                start * 1e3,
+                end * 1e3,
+                names[0],
+                names[1],
+                tensions.concat()
+            );
+        }
         let added = world.particles().len() - world.scene_particles();
         if peak_stretch > 0.0 {
             println!(
@@ -483,6 +518,11 @@ fn print_summary(
         }
     }
     for (t, peak) in world.threads().iter().zip(peak_elongation) {
+        // The wound's line names the peak tensions where the scene has a wound.
+        let peak_tension = outcome.peak_tension_n.iter().find(|(n, _)| *n == t.name);
+        if let (Some((_, tension)), None) = (peak_tension, outcome.wound_gap_m) {
+            println!("summary: thread {} peak tension {tension:.4} N", t.name);
+        }
         let points = &t.rod.points;
         let (first, last) = (points[0], points[points.len() - 1]);
         println!(

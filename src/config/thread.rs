@@ -76,6 +76,12 @@ pub struct Thread {
     /// Fraction of the tissue's slip along the thread removed per substep (seed 002's drag).
     #[serde(default)]
     pub tissue_drag: f64,
+    /// The needle tool (`shape.type = "needle"`) the thread is swaged to: the thread's first
+    /// point sits in the needle's swage end (the arc's end at `arc_angle`, the tip being at
+    /// angle 0) and moves rigidly with the needle, through whatever the needle passes. The
+    /// first point must start there (`check` prints where that is).
+    #[serde(default)]
+    pub swaged_to: Option<String>,
     /// Solver substeps per frame.
     #[serde(default = "default_substeps")]
     pub substeps: u32,
@@ -185,6 +191,7 @@ impl Thread {
             self_friction: default_self_friction(),
             tissue_friction: default_tissue_friction(),
             tissue_drag: 0.0,
+            swaged_to: None,
             substeps: default_substeps(),
             iterations: default_iterations(),
         }
@@ -313,9 +320,17 @@ fn start_inside_tool(scene: &Scene, t: &Thread, key: &dyn Fn(&str) -> String) ->
             continue;
         }
         let pose = first.pose();
+        // The points a swaged needle's wire covers are held in it.
+        let swaged = match tool.shape {
+            Shape::Needle { wire_radius, .. } if t.swaged_to.as_ref() == Some(&tool.name) => {
+                swage_covered(t, wire_radius) + 1
+            }
+            _ => 0,
+        };
         let deepest = points
             .iter()
             .enumerate()
+            .skip(swaged)
             .map(|(k, point)| {
                 let local = pose.rotation.inverse() * (Vector3::from(*point) - pose.position);
                 let hit = tool.shape.query(local.cast::<f32>(), pose.jaw as f32);
@@ -478,6 +493,9 @@ pub(super) fn validate(
                 "0 ≤ value ≤ 10 (Coulomb coefficient)".into(),
             );
         }
+        if let Some(p) = swage_problem(scene, t, &key) {
+            require(false, p.key, p.value, p.allowed);
+        }
         require(
             (1..=100).contains(&t.substeps),
             key("substeps"),
@@ -492,6 +510,82 @@ pub(super) fn validate(
         );
     }
     problems
+}
+
+/// How many points after the first the wire of a needle of `wire_radius` covers at the
+/// swage of thread `t` (laid out of the needle along its arc): the points whose distance
+/// from the swage end is less than the wire's radius plus the thread's.
+pub fn swage_covered(t: &Thread, wire_radius: f32) -> usize {
+    let segment = t.length / t.segments.max(1) as f64;
+    ((wire_radius as f64 + t.radius) / segment).ceil() as usize
+}
+
+/// What is wrong with thread `t`'s `swaged_to`, if anything: it must name a needle tool,
+/// the thread's first point must not also be pinned, and where the needle's script starts
+/// it (its first keyframe; an arm's needle starts at the arm's home and is not checked) the
+/// first point must lie in the needle's swage end, within the wire's radius.
+fn swage_problem(scene: &Scene, t: &Thread, key: &dyn Fn(&str) -> String) -> Option<Problem> {
+    let needle = t.swaged_to.as_ref()?;
+    let problem = |field: &str, value: String, allowed: String| {
+        Some(Problem {
+            key: key(field),
+            value,
+            allowed,
+        })
+    };
+    let Some(tool) = scene.tools.iter().find(|tool| &tool.name == needle) else {
+        let names: Vec<_> = scene.tools.iter().map(|tool| tool.name.as_str()).collect();
+        return problem(
+            "swaged_to",
+            format!("{needle:?}"),
+            format!("the name of a needle tool of the scene (tools: {names:?})"),
+        );
+    };
+    let (Some((end, _)), crate::tools::Shape::Needle { wire_radius, .. }) =
+        (tool.shape.swage_end(), tool.shape)
+    else {
+        return problem(
+            "swaged_to",
+            format!("{needle:?}"),
+            "a tool of shape type \"needle\" (a thread is swaged to a needle's end)".into(),
+        );
+    };
+    if t.pinned.start() {
+        return problem(
+            "pinned",
+            format!("{:?}", t.pinned),
+            "\"none\" or \"end\": the first point is held by the needle it is swaged to".into(),
+        );
+    }
+    let driven = scene.arms.iter().any(|a| a.tool.as_deref() == Some(needle));
+    let (Some(first), false) = (tool.keyframes.first(), driven) else {
+        return None;
+    };
+    let pose = first.pose();
+    let at = pose.position + pose.rotation * end.cast::<f64>();
+    let start = t.centreline()?[0];
+    let off = (nalgebra::Vector3::from(start) - at).norm();
+    (off > wire_radius as f64).then(|| Problem {
+        key: key(if t.points.is_some() {
+            "points"
+        } else {
+            "start"
+        }),
+        value: format!(
+            "first point ({:.5}, {:.5}, {:.5}) m",
+            start[0], start[1], start[2]
+        ),
+        allowed: format!(
+            "the swage end of needle {needle:?} where its first keyframe puts it, \
+             ({:.5}, {:.5}, {:.5}) m, within the wire's radius {:.2} mm: the first point \
+             lies {:.2} mm from it",
+            at.x,
+            at.y,
+            at.z,
+            wire_radius * 1e3,
+            off * 1e3
+        ),
+    })
 }
 
 type Require<'a> = dyn FnMut(bool, String, String, String) + 'a;

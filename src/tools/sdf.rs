@@ -276,6 +276,23 @@ impl Shape {
         }
     }
 
+    /// A needle's swage end, where a thread is fixed to it, and the direction a thread leaves
+    /// it in (continuing the arc past its end), both in the tool frame; `None` for the other
+    /// shapes. The tip is the arc's other end, at angle 0.
+    pub fn swage_end(&self) -> Option<(Vec3, Vec3)> {
+        let Shape::Needle {
+            radius, arc_angle, ..
+        } = *self
+        else {
+            return None;
+        };
+        let (sin, cos) = arc_angle.sin_cos();
+        Some((
+            Vec3::new(radius * cos, radius * sin, 0.0),
+            Vec3::new(-sin, cos, 0.0),
+        ))
+    }
+
     /// Whether the shape cuts tissue (a slicer of either kind).
     pub fn cuts(&self) -> bool {
         matches!(self, Shape::Slicer { .. } | Shape::MeshSlicer { .. })
@@ -355,6 +372,26 @@ mod tests {
         assert!(gripper(Vec3::new(0.0, 0.0, 0.008), opening, len, w, t).distance > 0.0);
         // Closed jaws: a point between them along the midplane is inside.
         assert!(gripper(Vec3::new(0.0, 0.0005, 0.005), 0.0, len, w, t).distance < 0.0);
+    }
+
+    #[test]
+    fn the_swage_end_is_the_arc_end_opposite_the_tip_and_the_thread_leaves_along_the_arc() {
+        let (r, arc, wire) = (0.01, 0.75 * std::f32::consts::PI, 0.0005);
+        let needle = Shape::Needle {
+            radius: r,
+            arc_angle: arc,
+            wire_radius: wire,
+        };
+        let (end, leaving) = needle.swage_end().unwrap();
+        assert!(close_v(end, Vec3::new(r * arc.cos(), r * arc.sin(), 0.0)));
+        // On the wire's centre line, and the tip (angle 0) is the other end.
+        assert!(close(needle.query(end, 0.0).distance, -wire));
+        assert!((end - Vec3::new(r, 0.0, 0.0)).norm() > r);
+        // Leaving along the arc's tangent, away from the needle: a step out is off the wire.
+        assert!(close(leaving.dot(&end), 0.0) && close(leaving.norm(), 1.0));
+        assert!(needle.query(end + leaving * 2.0 * wire, 0.0).distance > 0.0);
+        assert!(needle.query(end - leaving * 2.0 * wire, 0.0).distance < 0.0);
+        assert!(Shape::Sphere { radius: r }.swage_end().is_none());
     }
 
     #[test]

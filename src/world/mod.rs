@@ -7,6 +7,7 @@ mod report;
 mod step_params;
 pub mod thread_body;
 mod tool;
+pub mod wound;
 
 use crate::config::{Hold, Scene};
 use crate::math::Vec3;
@@ -20,11 +21,9 @@ use crate::mpm::guard::GuardPolicy;
 use crate::mpm::Method;
 use crate::mpm::SolveCounts;
 use crate::mpm::{timestep, Lame, MaterialParams, Particles, PbMpmParams, SolverSetup};
-use crate::rod::RodCollider;
 use crate::sleep::SleepState;
 use crate::tools::{JawCommand, Shape, ToolKinematics, ToolPose, ToolVelocity, Trajectory};
-use crate::world::thread_body::grasp::GripperView;
-use crate::world::thread_body::{tool_collider, ThreadBody};
+use crate::world::thread_body::{ThreadBody, ToolsOverStep};
 use nalgebra::Vector3;
 pub use report::{CommandError, FrameReport, StepError, Wrench};
 pub use step_params::StepParams;
@@ -56,6 +55,8 @@ pub struct World {
     threads: Vec<ThreadBody>,
     /// Whether the frame being finished stepped the threads inside the tissue's substeps.
     threads_stepped_in_tissue: bool,
+    /// The tools as the threads see them over their latest step (reused).
+    thread_tools: ToolsOverStep,
     /// Start time of the frame in flight (a skipped frame advances `time` when it begins).
     frame_start: f64,
 }
@@ -263,6 +264,7 @@ impl World {
                 .map(|t| ThreadBody::new(scene, t))
                 .collect(),
             threads_stepped_in_tissue: false,
+            thread_tools: ToolsOverStep::default(),
         })
     }
 
@@ -355,6 +357,25 @@ impl World {
             None => (&p.x[..], &p.crack[..]),
         };
         crate::mpm::pieces::count_torn(x, crack, &p.damage, self.layout().dx)
+    }
+
+    /// The wound gap of a scene of two tissue blocks, m (see [`wound`]): the closest distance
+    /// between a particle of the first block and one of the second, less the first block's
+    /// particle spacing; `None` unless the scene has exactly two blocks.
+    pub fn wound_gap(&self) -> Option<f32> {
+        let [first, _] = &self.scene.tissues[..] else {
+            return None;
+        };
+        let p = self.particles();
+        let block = |index: u16| -> Vec<Vec3> {
+            p.x.iter()
+                .zip(&p.material)
+                .filter(|(_, &m)| m == index)
+                .map(|(x, _)| *x)
+                .collect()
+        };
+        let spacing = self.scene.domain.dx as f32 / first.particles_per_axis as f32;
+        Some(wound::closest_distance(&block(0), &block(1)) - spacing)
     }
 
     /// The grid's origin, spacing and size.
@@ -561,19 +582,13 @@ impl World {
         if self.threads.is_empty() || t_end <= t_start {
             return;
         }
-        let grippers: Vec<GripperView> = self
-            .tools
-            .iter()
-            .enumerate()
-            .filter_map(|(i, t)| GripperView::of(i, t, t_start, t_end))
-            .collect();
-        let colliders: Vec<RodCollider> = self
-            .tools
-            .iter()
-            .map(|t| tool_collider(t, t_start, t_end))
-            .collect();
+        self.thread_tools.fill(&self.tools, t_start, t_end);
         for thread in &mut self.threads {
-            thread.step_frame(t_end - t_start, &colliders, &grippers);
+            thread.step_frame(
+                t_end - t_start,
+                &self.thread_tools.colliders,
+                &self.thread_tools.grippers,
+            );
         }
     }
 
@@ -699,6 +714,7 @@ impl World {
             let mut stepper = ThreadsInTissue {
                 threads: &mut self.threads,
                 tools: &self.tools,
+                view: &mut self.thread_tools,
                 t_start: planned.t_start,
                 frame_dt: planned.t_end - planned.t_start,
                 elapsed: vec![0.0; count],
@@ -808,6 +824,8 @@ impl World {
 struct ThreadsInTissue<'a> {
     threads: &'a mut [ThreadBody],
     tools: &'a [WorldTool],
+    /// The tools over the substep being stepped (reused).
+    view: &'a mut ToolsOverStep,
     /// The frame's start and length, s.
     t_start: f64,
     frame_dt: f64,
@@ -821,23 +839,13 @@ impl ThreadStepper for ThreadsInTissue<'_> {
         let t1 = t0 + dt as f64;
         self.elapsed[thread] += dt as f64;
         let fraction = |t: f64| ((t - self.t_start) / self.frame_dt).clamp(0.0, 1.0) as f32;
-        let grippers: Vec<GripperView> = self
-            .tools
-            .iter()
-            .enumerate()
-            .filter_map(|(i, t)| GripperView::of(i, t, t0, t1))
-            .collect();
-        let colliders: Vec<RodCollider> = self
-            .tools
-            .iter()
-            .map(|t| tool_collider(t, t0, t1))
-            .collect();
+        self.view.fill(self.tools, t0, t1);
         self.threads[thread].step_in_tissue(
             proxy,
             dt,
             (fraction(t0), fraction(t1)),
-            &colliders,
-            &grippers,
+            &self.view.colliders,
+            &self.view.grippers,
         );
     }
 }

@@ -28,6 +28,12 @@
 //!   thread point inside the closed jaws' volume; each frame those points are attachments
 //!   moving with the jaws from the frame's start to its end, let go with the jaws' velocity
 //!   when the jaws stop pressing. `pinned` ends are attachments that stay put.
+//! - **Swage**: a thread `swaged_to` a needle tool has its first point fixed in the needle's
+//!   swage end ([`crate::tools::Shape::swage_end`]): each step that point is an attachment
+//!   moving rigidly with the needle from its pose at the step's start to its pose at the
+//!   end, so that the thread follows the needle's path through the tissue. The needle
+//!   spares the points its wire covers at the swage (and one more), as a holding gripper
+//!   spares the points between its jaws.
 //! - **A gripper holding the thread** spares only the points it holds and their neighbours
 //!   within a jaw thickness (one run along the thread, from the lowest held index to the
 //!   highest): its jaws are pressed shut past the thread and would push those out again, but
@@ -88,7 +94,7 @@
 
 pub mod grasp;
 
-use crate::config::thread::RestShape;
+use crate::config::thread::{swage_covered, RestShape};
 use crate::config::{Scene, Thread};
 use crate::math::Vec3;
 use crate::mpm::cpu::thread_contact::ThreadProxy;
@@ -96,7 +102,7 @@ use crate::mpm::grid::WALL_NODES;
 use crate::rod::{
     Binding, Rod, RodAttachment, RodCollider, RodEnvironment, RodFrameReport, RodSolver,
 };
-use crate::tools::ContactModel;
+use crate::tools::{ContactModel, ToolPose};
 use crate::world::WorldTool;
 use grasp::{Grasps, GripperView};
 use nalgebra::{Quaternion, Vector3};
@@ -121,6 +127,44 @@ pub fn tool_collider(tool: &WorldTool, t0: f64, t1: f64) -> RodCollider {
     }
 }
 
+/// A thread's first point fixed in a needle's swage end.
+#[derive(Clone, Debug)]
+struct Swage {
+    /// Scene index of the needle tool.
+    tool: usize,
+    /// The swage end in the needle's frame, m.
+    local: Vector3<f64>,
+    /// The last point the needle's collision spares (those its wire covers, and one more).
+    spared_to: usize,
+}
+
+/// The tools as the threads see them over one step [t0, t1]: the grippers that can hold a
+/// thread and every tool as a collider. The world keeps one and refills it each step, so
+/// stepping threads inside the tissue's substeps allocates nothing once warm.
+#[derive(Default)]
+pub struct ToolsOverStep {
+    /// The tools with jaws, as a thread's grasps see them.
+    pub grippers: Vec<GripperView>,
+    /// Every tool, scene order, as the rod's contact sees it.
+    pub colliders: Vec<RodCollider>,
+}
+
+impl ToolsOverStep {
+    /// Refills the views with `tools` moving over [t0, t1].
+    pub fn fill(&mut self, tools: &[WorldTool], t0: f64, t1: f64) {
+        self.grippers.clear();
+        self.grippers.extend(
+            tools
+                .iter()
+                .enumerate()
+                .filter_map(|(i, t)| GripperView::of(i, t, t0, t1)),
+        );
+        self.colliders.clear();
+        self.colliders
+            .extend(tools.iter().map(|t| tool_collider(t, t0, t1)));
+    }
+}
+
 /// One thread and how it steps.
 #[derive(Clone)]
 pub struct ThreadBody {
@@ -129,8 +173,10 @@ pub struct ThreadBody {
     /// The thread's state.
     pub rod: Rod,
     solver: RodSolver,
-    /// Points the scene holds where they start.
+    /// Points the scene holds: pinned where they start, or swaged to a needle.
     pinned: Vec<bool>,
+    /// The needle the first point is swaged to, if any.
+    swage: Option<Swage>,
     /// The scene's held points, where they are held, and where they are held next.
     anchors: Vec<(usize, Vec3, Vec3)>,
     /// Height of the table (m) and the Coulomb coefficient against it.
@@ -183,6 +229,25 @@ impl ThreadBody {
                 anchors.push((i, rod.points[i], rod.points[i]));
             }
         }
+        let swage = config.swaged_to.as_ref().map(|needle| {
+            let (tool, shape) = scene
+                .tools
+                .iter()
+                .enumerate()
+                .find_map(|(i, t)| (&t.name == needle).then_some((i, t.shape)))
+                .expect("a validated swage names a tool");
+            let (local, _) = shape.swage_end().expect("a validated swage names a needle");
+            let wire = match shape {
+                crate::tools::Shape::Needle { wire_radius, .. } => wire_radius,
+                _ => 0.0,
+            };
+            pinned[0] = true;
+            Swage {
+                tool,
+                local: local.cast(),
+                spared_to: (swage_covered(config, wire) + 1).min(last),
+            }
+        });
         let d = &scene.domain;
         let r = config.radius as f32;
         // Walls as the tissue sees them: the domain less its wall cells.
@@ -212,6 +277,7 @@ impl ThreadBody {
             held: pinned.clone(),
             last_report: RodFrameReport::default(),
             pinned,
+            swage,
         }
     }
 
@@ -330,6 +396,15 @@ impl ThreadBody {
                 from: at.lerp(&next, span.0),
                 to: at.lerp(&next, span.1),
             }));
+        if let Some(swage) = &self.swage {
+            let needle = &colliders[swage.tool];
+            let at = |pose: &ToolPose| (pose.position + pose.rotation * swage.local).cast();
+            self.attachments.push(RodAttachment {
+                point: 0,
+                from: at(&needle.pose_start),
+                to: at(&needle.pose_end),
+            });
+        }
         // A gripper holding the thread holds the points between its jaws: those and their
         // neighbours (pressed against the jaws' sides and faces, within a jaw thickness along
         // the thread) move with it and are spared its collision, which would push them out
@@ -340,11 +415,18 @@ impl ThreadBody {
         self.colliders.clear();
         self.colliders
             .extend(colliders.iter().enumerate().map(|(tool, c)| {
+                let held = self
+                    .grasps
+                    .held_range(tool)
+                    .map(|(lo, hi)| (lo.saturating_sub(reach), (hi + reach).min(last)));
+                let swaged = self
+                    .swage
+                    .as_ref()
+                    .filter(|s| s.tool == tool)
+                    .map(|s| (0, s.spared_to));
+                // A needle has no jaws and a gripper no swage: at most one applies.
                 RodCollider {
-                    spared: self
-                        .grasps
-                        .held_range(tool)
-                        .map(|(lo, hi)| (lo.saturating_sub(reach), (hi + reach).min(last))),
+                    spared: held.or(swaged),
                     ..*c
                 }
             }));
@@ -517,6 +599,6 @@ impl ThreadBody {
 
     /// Whether tool `tool` holds any of this thread.
     pub fn held_by(&self, tool: usize) -> bool {
-        self.grasps.holds_with(tool)
+        self.grasps.holds_with(tool) || self.swage.as_ref().is_some_and(|s| s.tool == tool)
     }
 }

@@ -1,0 +1,125 @@
+//! The suture throw of the shipped `config/suture.toml`, headless on its keyframes: the
+//! needle turns once about its axis through two tissue blocks either side of a wound, the
+//! thread swaged to it follows its path through both, and drawing the needle back over the
+//! wound tightens the thread across it and closes the wound.
+
+use dvrk_tissue_sim::config;
+use dvrk_tissue_sim::math::Vec3;
+use dvrk_tissue_sim::world::World;
+use std::path::Path;
+
+fn shipped(name: &str) -> config::Scene {
+    config::load(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("config")
+            .join(name),
+    )
+    .unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The needle's swage end where the needle is now, m.
+fn swage_end(world: &World) -> Vec3 {
+    let needle = &world.tools()[0];
+    let pose = needle.pose_at(world.time());
+    let (local, _) = needle.shape.swage_end().expect("a needle");
+    (pose.position + pose.rotation * local.cast::<f64>()).cast()
+}
+
+fn tension(world: &World) -> f32 {
+    world.threads()[0]
+        .rod
+        .tension
+        .iter()
+        .copied()
+        .fold(0.0, f32::max)
+}
+
+/// Steps `world` to simulated time `t`, checking each frame that the thread's first point
+/// sits in the needle's swage end and that nothing went non-finite; returns the largest
+/// tension the thread carried meanwhile, N.
+fn run_until(world: &mut World, t: f64) -> f32 {
+    let mut peak = 0.0f32;
+    while world.time() < t - 1e-9 {
+        world.step_frame().expect("frame");
+        let thread = &world.threads()[0];
+        assert!(thread.rod.is_finite());
+        let off = (thread.rod.points[0] - swage_end(world)).norm();
+        assert!(
+            off < 1e-5,
+            "t = {:.3} s: first point {off} m off the swage end",
+            world.time()
+        );
+        peak = peak.max(tension(world));
+    }
+    peak
+}
+
+#[test]
+fn the_needle_draws_the_thread_through_both_blocks_and_the_pull_closes_the_wound() {
+    let scene = shipped("suture.toml");
+    let top = (scene.tissues[0].center[2] + 0.5 * scene.tissues[0].size[2]) as f32;
+    let mut world = World::new(&scene);
+    let gap_start = world.wound_gap().expect("two blocks");
+
+    // One turn of the needle: the thread runs 2 mm and more under the surface in the left
+    // block, under the wound, and in the right block.
+    run_until(&mut world, 4.0);
+    let points = &world.threads()[0].rod.points;
+    let deep = |p: &&Vec3| p.z < top - 0.002;
+    let in_left = points
+        .iter()
+        .filter(deep)
+        .any(|p| (-0.02..-0.003).contains(&p.x));
+    let under = points.iter().filter(deep).any(|p| p.x.abs() < 0.002);
+    let in_right = points
+        .iter()
+        .filter(deep)
+        .any(|p| (0.003..0.02).contains(&p.x));
+    assert!(
+        in_left && under && in_right,
+        "thread not through both blocks: {points:?}"
+    );
+    let gap_thrown = world.wound_gap().unwrap();
+
+    // The needle is drawn up and back over the wound: the thread tightens and the wound
+    // closes as its tension rises.
+    let mut readings = Vec::new();
+    for t in [4.5, 5.0, 5.5, 6.0, 6.5] {
+        let peak = run_until(&mut world, t);
+        readings.push((t, world.wound_gap().unwrap(), tension(&world), peak));
+    }
+    println!(
+        "wound gap {:.2} mm at the start, {:.2} mm after the throw (t = 4.0 s)",
+        gap_start * 1e3,
+        gap_thrown * 1e3
+    );
+    for (t, gap, now, peak) in &readings {
+        println!(
+            "t = {t:.1} s: wound gap {:.2} mm, tension {:.1} mN (peak since the last {:.1} mN)",
+            gap * 1e3,
+            now * 1e3,
+            peak * 1e3
+        );
+    }
+    let at = |t: f64| readings.iter().find(|r| r.0 == t).unwrap();
+    let (pulled, tight) = (at(5.0), at(6.0));
+    assert!(
+        tight.1 < pulled.1 && pulled.1 < at(4.5).1,
+        "the wound did not close as the thread was pulled: {readings:?}"
+    );
+    assert!(
+        tight.2 > pulled.2 && pulled.2 > at(4.5).2,
+        "the tension did not rise as the wound closed: {readings:?}"
+    );
+    let gap_end = readings.last().unwrap().1;
+    assert!(
+        gap_end < 0.5 * gap_start,
+        "the wound closed by less than half: {gap_start} m -> {gap_end} m"
+    );
+    assert!(
+        gap_end < gap_thrown - 3e-4,
+        "the pull closed the wound by less than 0.3 mm after the throw: {gap_thrown} m -> {gap_end} m"
+    );
+    // The tissue has no toughness: the thread pulls it without tearing it.
+    assert_eq!(world.pieces(), 2);
+}
