@@ -336,3 +336,56 @@ fn bad_variation_files_are_refused_with_key_value_and_reason() {
     );
     assert!(typo.contains("unknown distribution `gaussian`"), "{typo}");
 }
+
+/// A scene of two tissue blocks labels its episodes with the wound gap at the end, and
+/// `dataset summary` shows it: `config/suture.toml` with its right block moved away from
+/// the wound by a drawn 0–1 mm, cut to 3 frames.
+#[test]
+fn a_wound_scene_labels_its_episodes_with_the_wound_gap() {
+    let tmp = tempfile::tempdir().unwrap();
+    let vary = write_vary(
+        tmp.path(),
+        "[[vary]]\nkey = \"tissue.1.center.0\"\ndist = \"uniform\"\nadd = true\nmin = 0.0\nmax = 0.001\n",
+    );
+    let out = tmp.path().join("out");
+    let (stdout, _) = output_of_success(
+        binary()
+            .args([
+                "dataset",
+                "--scene",
+                "config/suture.toml",
+                "--backend",
+                "cpu",
+            ])
+            .arg("--vary")
+            .arg(&vary)
+            .args([
+                "--episodes",
+                "2",
+                "--seed",
+                "5",
+                "--seconds",
+                "0.05",
+                "--out",
+            ])
+            .arg(&out)
+            .env_remove("SLURM_ARRAY_TASK_ID")
+            .env_remove("JOB_COMPLETION_INDEX"),
+    );
+    assert!(stdout.contains("wound gap"), "{stdout}");
+    let lines = manifest_lines(&out);
+    assert_eq!(lines.len(), 2);
+    for line in &lines {
+        let v: serde_json::Value = serde_json::from_str(line).unwrap();
+        let gap = v["outcomes"]["wound_gap_m"].as_f64().expect("a wound gap");
+        let moved = v["params"]["tissue.1.center.0"].as_f64().unwrap() - 0.011;
+        // The blocks are laid 4 mm apart; the particles nearest the wound sit on the grid's
+        // lattice, 3.9 mm apart at rest (the summary of `run --headless`).
+        assert!(
+            (gap - (0.0039 + moved)).abs() < 0.0007,
+            "gap {gap} m with the right block moved {moved} m: {line}"
+        );
+    }
+    let (table, _) = output_of_success(binary().args(["dataset", "summary"]).arg(&out));
+    assert!(table.contains("wound gap mm"), "{table}");
+}

@@ -320,6 +320,7 @@ fn run_episode(prepared: &Prepared, index: u64, threads: usize) -> Result<Record
             lift_m: outcome.lift_m,
             com_rise_m: outcome.com_rise_m,
             pieces: outcome.pieces,
+            wound_gap_m: outcome.wound_gap_m.map(|(_, end)| end),
             peak_force_n: outcome.peak_force_n.into_iter().collect(),
             guard_stop: outcome.guard_stop,
         },
@@ -354,10 +355,13 @@ fn forces(o: &Outcomes) -> String {
 fn print_episode(r: &Record) {
     let (e, o) = (&r.episode, &r.episode.outcomes);
     println!(
-        "episode {}: lift {:.2} mm, pieces {}, peak force {} N{}, {} frames, {:.1} s wall",
+        "episode {}: lift {:.2} mm, pieces {}, {}peak force {} N{}, {} frames, {:.1} s wall",
         e.index,
         o.lift_m * 1e3,
         o.pieces,
+        o.wound_gap_m
+            .map(|g| format!("wound gap {:.2} mm, ", g * 1e3))
+            .unwrap_or_default(),
         forces(o),
         o.guard_stop
             .as_ref()
@@ -388,6 +392,8 @@ fn summary(dir: &Path) -> Result<()> {
             format!("{:.2}", o.lift_m * 1e3),
             format!("{:.2}", o.com_rise_m * 1e3),
             o.pieces.to_string(),
+            o.wound_gap_m
+                .map_or("-".into(), |g| format!("{:.2}", g * 1e3)),
             forces(o),
             if o.guard_stop.is_some() { "yes" } else { "no" }.into(),
             e.frames.to_string(),
@@ -400,6 +406,7 @@ fn summary(dir: &Path) -> Result<()> {
         "lift mm",
         "com rise mm",
         "pieces",
+        "wound gap mm",
         "peak force N",
         "guard stop",
         "frames",

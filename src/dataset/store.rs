@@ -32,6 +32,10 @@ pub struct Outcomes {
     pub com_rise_m: f64,
     /// Tissue pieces at the end.
     pub pieces: usize,
+    /// The wound gap at the end, m, in a scene of two tissue blocks (see
+    /// [`crate::world::wound`]); absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wound_gap_m: Option<f64>,
     /// Each tool's peak contact force, N.
     pub peak_force_n: BTreeMap<String, f64>,
     /// The guard event that stopped the episode, if one did.
