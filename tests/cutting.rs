@@ -4,7 +4,7 @@
 //! the blade has gone; the cut must be at most one cell wide. A blunt tool on the same path
 //! (a capsule where the blade's spine is) must leave the block one piece.
 
-use dvrk_tissue_sim::config::{self, Scene};
+use dvrk_tissue_sim::config::Scene;
 use dvrk_tissue_sim::mpm::backend::BackendChoice;
 use dvrk_tissue_sim::mpm::pieces;
 use dvrk_tissue_sim::tools::Shape;
@@ -12,12 +12,7 @@ use dvrk_tissue_sim::world::World;
 
 mod support;
 
-fn shipped(name: &str) -> Scene {
-    let path = format!("{}/config/{name}", env!("CARGO_MANIFEST_DIR"));
-    let mut scene = config::load(std::path::Path::new(&path)).unwrap();
-    scene.solver.backend = BackendChoice::Cpu;
-    scene
-}
+use support::scenes::shipped_on_cpu as shipped;
 
 /// Keyframe times of the cutting scene: cut through, spread, blade out, end.
 struct CutTimes {

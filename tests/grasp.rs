@@ -4,14 +4,13 @@
 //! Also: slip at μ × the squeeze, and jaws closing on air hold nothing. The default scene's
 //! 25 mm lift is `tests/deep_lift.rs`'s.
 
-use dvrk_tissue_sim::config::{self, Scene};
+use dvrk_tissue_sim::config::Scene;
 use dvrk_tissue_sim::math::Vec3;
 use dvrk_tissue_sim::world::World;
 
-fn shipped(name: &str) -> Scene {
-    let path = format!("{}/config/{name}", env!("CARGO_MANIFEST_DIR"));
-    config::load(std::path::Path::new(&path)).unwrap()
-}
+mod support;
+
+use support::scenes::shipped;
 
 /// The keyframe times of a scene's grasp: jaws closing, lift done, jaws opening.
 struct GraspTimes {

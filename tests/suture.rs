@@ -3,19 +3,12 @@
 //! thread swaged to it follows its path through both, and drawing the needle back over the
 //! wound tightens the thread across it and closes the wound.
 
-use dvrk_tissue_sim::config;
 use dvrk_tissue_sim::math::Vec3;
 use dvrk_tissue_sim::world::World;
-use std::path::Path;
 
-fn shipped(name: &str) -> config::Scene {
-    config::load(
-        &Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("config")
-            .join(name),
-    )
-    .unwrap_or_else(|e| panic!("{e}"))
-}
+mod support;
+
+use support::scenes::shipped;
 
 /// The needle's swage end where the needle is now, m.
 fn swage_end(world: &World) -> Vec3 {

@@ -811,9 +811,7 @@ fn notched_strip_tear_path_converges_with_the_cell_size() {
 const SCENE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/config/tearing.toml");
 
 fn shipped() -> Scene {
-    let mut scene = config::load(std::path::Path::new(SCENE)).unwrap();
-    scene.solver.backend = BackendChoice::Cpu;
-    scene
+    support::scenes::shipped_on_cpu("tearing.toml")
 }
 
 /// The shipped scene run to its last keyframe.

@@ -10,6 +10,10 @@ use dvrk_tissue_sim::world::World;
 use nalgebra::Vector3;
 use std::path::Path;
 
+mod support;
+
+use support::scenes::shipped;
+
 /// A thread-only domain (30 × 20 × 30 cm, 1 cm cells) around the origin, for scenes of one
 /// `[[thread]]` table given after it.
 const HANG_DOMAIN: &str = r#"
@@ -27,15 +31,6 @@ fn scene(text: &str, name: &str) -> config::Scene {
 fn elongation_within(world: &World, bound: f64) {
     let elongation = world.threads()[0].elongation();
     assert!(elongation.abs() < bound, "elongation {elongation}");
-}
-
-fn shipped(name: &str) -> config::Scene {
-    config::load(
-        &Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("config")
-            .join(name),
-    )
-    .unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// Steps `world` until simulated time reaches `t`.

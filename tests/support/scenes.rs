@@ -24,3 +24,17 @@ pub fn small_block(name: &str, e: f64, table: Table, tools: Vec<Tool>) -> Scene 
         tools,
     )
 }
+
+/// The shipped scene `config/NAME`, as a user's run loads it.
+pub fn shipped(name: &str) -> Scene {
+    let path = super::root().join("config").join(name);
+    dvrk_tissue_sim::config::load(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The shipped scene `config/NAME` on the CPU backend, for tests that compare against CPU
+/// figures whatever the scene asks for.
+pub fn shipped_on_cpu(name: &str) -> Scene {
+    let mut scene = shipped(name);
+    scene.solver.backend = dvrk_tissue_sim::mpm::backend::BackendChoice::Cpu;
+    scene
+}
