@@ -57,10 +57,11 @@ fn write_vary(dir: &Path, text: &str) -> PathBuf {
     path
 }
 
-fn dataset(vary: &Path, out: &Path, episodes: u32, seconds: f64) -> Command {
+/// `dataset` on `scene` (CPU, seed 11) with the variations in `vary`, as a user runs it.
+fn dataset(scene: &str, vary: &Path, out: &Path, episodes: u32, seconds: f64) -> Command {
     let mut command = binary();
     command
-        .args(["dataset", "--scene", SCENE, "--backend", "cpu", "--vary"])
+        .args(["dataset", "--scene", scene, "--backend", "cpu", "--vary"])
         .arg(vary)
         .args(["--episodes", &episodes.to_string(), "--seed", "11"])
         .args(["--seconds", &seconds.to_string(), "--out"])
@@ -116,11 +117,13 @@ fn two_shards_give_the_episodes_of_the_unsharded_run() {
     let vary = write_vary(tmp.path(), VARY);
     let whole = tmp.path().join("whole");
     let sharded = tmp.path().join("sharded");
-    output_of_success(&mut dataset(&vary, &whole, 6, 0.25));
+    output_of_success(&mut dataset(SCENE, &vary, &whole, 6, 0.25));
     // Shard 0 from --shard with two episodes at once; shard 1 from Slurm's environment.
-    output_of_success(dataset(&vary, &sharded, 6, 0.25).args(["--shard", "0/2", "--jobs", "2"]));
     output_of_success(
-        dataset(&vary, &sharded, 6, 0.25)
+        dataset(SCENE, &vary, &sharded, 6, 0.25).args(["--shard", "0/2", "--jobs", "2"]),
+    );
+    output_of_success(
+        dataset(SCENE, &vary, &sharded, 6, 0.25)
             .env("SLURM_ARRAY_TASK_ID", "1")
             .env("SLURM_ARRAY_TASK_COUNT", "2"),
     );
@@ -143,12 +146,12 @@ fn two_shards_give_the_episodes_of_the_unsharded_run() {
         .collect();
     assert_eq!(params.len(), 6);
     // A rerun finds every episode finished.
-    let (stdout, _) = output_of_success(&mut dataset(&vary, &whole, 6, 0.25));
+    let (stdout, _) = output_of_success(&mut dataset(SCENE, &vary, &whole, 6, 0.25));
     assert!(stdout.contains("0 episode(s) run, 6 skipped"), "{stdout}");
     let (table, _) = output_of_success(binary().args(["dataset", "summary"]).arg(&sharded));
     assert!(table.contains("6 of 6 episode(s) finished"), "{table}");
     // Another definition in the same folder is refused.
-    let refused = dataset(&vary, &whole, 7, 0.25).output().unwrap();
+    let refused = dataset(SCENE, &vary, &whole, 7, 0.25).output().unwrap();
     assert!(!refused.status.success());
     assert!(String::from_utf8_lossy(&refused.stderr).contains("another dataset"));
 }
@@ -158,7 +161,7 @@ fn a_killed_worker_rerun_completes_without_duplicates_or_truncated_bags() {
     let tmp = tempfile::tempdir().unwrap();
     let vary = write_vary(tmp.path(), VARY);
     let out = tmp.path().join("out");
-    let mut child = dataset(&vary, &out, 3, 1.0)
+    let mut child = dataset(SCENE, &vary, &out, 3, 1.0)
         .stdout(Stdio::null())
         .stderr(Stdio::null())
         .spawn()
@@ -199,7 +202,7 @@ fn a_killed_worker_rerun_completes_without_duplicates_or_truncated_bags() {
     assert!(table.contains("1 of 3 episode(s) finished"), "{table}");
     assert!(table.contains("temporary .partial file(s)"), "{table}");
 
-    let (stdout, _) = output_of_success(&mut dataset(&vary, &out, 3, 1.0));
+    let (stdout, _) = output_of_success(&mut dataset(SCENE, &vary, &out, 3, 1.0));
     assert!(stdout.contains("2 episode(s) run, 1 skipped"), "{stdout}");
     let lines = manifest_lines(&out);
     let indices: Vec<u64> = lines
@@ -289,7 +292,7 @@ fn refusal(vary_text: &str) -> String {
     let tmp = tempfile::tempdir().unwrap();
     let vary = write_vary(tmp.path(), vary_text);
     let out = tmp.path().join("out");
-    let run = dataset(&vary, &out, 2, 0.1).output().unwrap();
+    let run = dataset(SCENE, &vary, &out, 2, 0.1).output().unwrap();
     let stderr = String::from_utf8_lossy(&run.stderr).into_owned();
     assert!(!run.status.success(), "accepted:\n{vary_text}\n{stderr}");
     assert!(!out.exists(), "a refused dataset wrote {}", out.display());
@@ -337,7 +340,7 @@ fn bad_variation_files_are_refused_with_key_value_and_reason() {
     assert!(typo.contains("unknown distribution `gaussian`"), "{typo}");
 }
 
-/// A scene of two tissue blocks labels its episodes with the wound gap at the end, and
+/// A scene with a `wound` labels its episodes with the wound gap at the end, and
 /// `dataset summary` shows it: `config/suture.toml` with its right block moved away from
 /// the wound by a drawn 0–1 mm, cut to 3 frames.
 #[test]
@@ -348,30 +351,7 @@ fn a_wound_scene_labels_its_episodes_with_the_wound_gap() {
         "[[vary]]\nkey = \"tissue.1.center.0\"\ndist = \"uniform\"\nadd = true\nmin = 0.0\nmax = 0.001\n",
     );
     let out = tmp.path().join("out");
-    let (stdout, _) = output_of_success(
-        binary()
-            .args([
-                "dataset",
-                "--scene",
-                "config/suture.toml",
-                "--backend",
-                "cpu",
-            ])
-            .arg("--vary")
-            .arg(&vary)
-            .args([
-                "--episodes",
-                "2",
-                "--seed",
-                "5",
-                "--seconds",
-                "0.05",
-                "--out",
-            ])
-            .arg(&out)
-            .env_remove("SLURM_ARRAY_TASK_ID")
-            .env_remove("JOB_COMPLETION_INDEX"),
-    );
+    let (stdout, _) = output_of_success(&mut dataset("config/suture.toml", &vary, &out, 2, 0.05));
     assert!(stdout.contains("wound gap"), "{stdout}");
     let lines = manifest_lines(&out);
     assert_eq!(lines.len(), 2);
