@@ -758,6 +758,23 @@ fn a_swage_to_a_missing_or_wrong_tool_or_off_the_needle_is_refused() {
     assert!(p[0].allowed.contains("lies 2.00 mm from it"), "{p:?}");
 }
 
+/// A `wound` names two different blocks of the scene: a misspelt block is refused with the
+/// scene's block names, one block named twice is refused.
+#[test]
+fn a_wound_between_missing_or_identical_blocks_is_refused() {
+    let text = std::fs::read_to_string("config/suture.toml").unwrap();
+    let shipped = "wound = [\"left\", \"right\"]";
+    assert!(text.contains(shipped));
+    let scene = config::from_str(&text, Path::new("suture.toml")).unwrap();
+    assert_eq!(scene.wound, Some(["left".into(), "right".into()]));
+
+    let p = problems_of(&text.replace(shipped, "wound = [\"left\", \"rigth\"]"));
+    assert_single(&p, "wound", "one of [\"left\", \"right\"]");
+    assert!(p[0].value.contains("rigth"), "{p:?}");
+    let p = problems_of(&text.replace(shipped, "wound = [\"left\", \"left\"]"));
+    assert_single(&p, "wound", "two different [[tissue]] blocks");
+}
+
 #[test]
 fn an_arm_held_tools_mount_and_the_pieces_rate_are_validated() {
     let arm = "\n[[arm]]\nname = \"PSM1\"\nbase_xyz = [0.0, 0.0, 0.14]\n\

@@ -244,7 +244,7 @@ pub struct HeadlessOutcome {
     pub com_rise_m: f64,
     /// Tissue pieces at the end (connected components).
     pub pieces: usize,
-    /// The wound gap at the start and the end, m, in a scene of two tissue blocks (see
+    /// The wound gap at the start and the end, m, in a scene with a `wound` (see
     /// [`dvrk_tissue_sim::world::wound`]).
     pub wound_gap_m: Option<(f64, f64)>,
     /// Each thread's name and the largest tension any of its segments carried, N.
@@ -493,7 +493,7 @@ fn print_summary(
         );
         println!("summary: pieces {}", world.pieces());
         if let Some((start, end)) = outcome.wound_gap_m {
-            let names: Vec<_> = world.scene().tissues.iter().map(|t| &t.name).collect();
+            let names = world.scene().wound.clone().unwrap_or_default();
             let tensions: Vec<_> = outcome
                 .peak_tension_n
                 .iter()

@@ -88,6 +88,7 @@ pub fn scene(
         solver: Solver::default(),
         table,
         tissues,
+        wound: None,
         threads: Vec::new(),
         tools,
         arms: Vec::new(),

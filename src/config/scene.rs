@@ -36,6 +36,11 @@ pub struct Scene {
     #[serde(default, rename = "tissue")]
     /// `[[tissue]]`: the tissue blocks.
     pub tissues: Vec<Tissue>,
+    /// The wound a suture closes: the names of the two `[[tissue]]` blocks either side of it
+    /// (`wound = ["left", "right"]`). Headless summaries and dataset outcomes then report the
+    /// gap between them (see `world::wound`); without it no gap is measured.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wound: Option<[String; 2]>,
     /// Suture threads (see [`super::thread`]).
     #[serde(default, rename = "thread")]
     pub threads: Vec<super::thread::Thread>,

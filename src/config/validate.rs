@@ -371,6 +371,24 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
         }
     }
 
+    if let Some(wound) = &scene.wound {
+        let names: Vec<_> = scene.tissues.iter().map(|t| t.name.as_str()).collect();
+        for side in wound {
+            c.require(
+                names.contains(&side.as_str()),
+                "wound",
+                side,
+                format!("the name of a [[tissue]] block: one of {names:?}"),
+            );
+        }
+        c.require(
+            wound[0] != wound[1],
+            "wound",
+            format!("{wound:?}"),
+            "two different [[tissue]] blocks, one either side of the wound",
+        );
+    }
+
     c.require(
         scene.tools.len() <= MAX_TOOLS,
         "tool",

@@ -11,8 +11,8 @@
 //! - `episode-000042.toml`: the sampled scene, a scene file (`run --headless --scene` reruns
 //!   the episode);
 //! - `episode-000042.json`: the record ([`store::Record`]): the drawn parameters, the seed,
-//!   the outcomes (lift, centre-of-mass rise, pieces, the wound gap at the end in a scene of
-//!   two tissue blocks, peak force per tool, the guard stop if any), frames, substeps, wall
+//!   the outcomes (lift, centre-of-mass rise, pieces, the wound gap at the end in a scene
+//!   with a `wound`, peak force per tool, the guard stop if any), frames, substeps, wall
 //!   time;
 //! - `manifest-I-of-N.jsonl`: one line per finished episode of shard I ([`store::Episode`]:
 //!   the record less its wall time and thread count, so a line is the same wherever the

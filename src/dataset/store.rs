@@ -32,7 +32,7 @@ pub struct Outcomes {
     pub com_rise_m: f64,
     /// Tissue pieces at the end.
     pub pieces: usize,
-    /// The wound gap at the end, m, in a scene of two tissue blocks (see
+    /// The wound gap at the end, m, in a scene with a `wound` (see
     /// [`crate::world::wound`]); absent otherwise.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub wound_gap_m: Option<f64>,

@@ -57,6 +57,8 @@ pub struct World {
     threads_stepped_in_tissue: bool,
     /// The tools as the threads see them over their latest step (reused).
     thread_tools: ToolsOverStep,
+    /// Seconds of the current frame each thread has stepped inside tissue (reused).
+    thread_elapsed: Vec<f64>,
     /// Start time of the frame in flight (a skipped frame advances `time` when it begins).
     frame_start: f64,
 }
@@ -265,6 +267,7 @@ impl World {
                 .collect(),
             threads_stepped_in_tissue: false,
             thread_tools: ToolsOverStep::default(),
+            thread_elapsed: Vec::new(),
         })
     }
 
@@ -359,23 +362,25 @@ impl World {
         crate::mpm::pieces::count_torn(x, crack, &p.damage, self.layout().dx)
     }
 
-    /// The wound gap of a scene of two tissue blocks, m (see [`wound`]): the closest distance
-    /// between a particle of the first block and one of the second, less the first block's
-    /// particle spacing; `None` unless the scene has exactly two blocks.
+    /// The wound gap, m (see [`wound`]): the closest distance between a particle of the
+    /// scene's first `wound` block and one of its second, less the first block's particle
+    /// spacing; `None` in a scene without a `wound` or once either block has no particles.
     pub fn wound_gap(&self) -> Option<f32> {
-        let [first, _] = &self.scene.tissues[..] else {
-            return None;
-        };
+        let sides = self.scene.wound.as_ref()?;
+        let index = |name: &str| self.scene.tissues.iter().position(|t| t.name == name);
+        let (first, second) = (index(&sides[0])?, index(&sides[1])?);
         let p = self.particles();
-        let block = |index: u16| -> Vec<Vec3> {
+        let block = |index: usize| -> Vec<Vec3> {
             p.x.iter()
                 .zip(&p.material)
-                .filter(|(_, &m)| m == index)
+                .filter(|(_, &m)| usize::from(m) == index)
                 .map(|(x, _)| *x)
                 .collect()
         };
-        let spacing = self.scene.domain.dx as f32 / first.particles_per_axis as f32;
-        Some(wound::closest_distance(&block(0), &block(1)) - spacing)
+        let gap = wound::closest_distance(&block(first), &block(second));
+        let spacing =
+            self.scene.domain.dx as f32 / self.scene.tissues[first].particles_per_axis as f32;
+        gap.is_finite().then_some(gap - spacing)
     }
 
     /// The grid's origin, spacing and size.
@@ -709,7 +714,8 @@ impl World {
         // Threads the grid meets step inside its substeps; a guard event puts them back.
         let in_tissue = !self.threads.is_empty() && self.backend.thread_proxy(0).is_some();
         let threads_at_start = in_tissue.then(|| self.threads.clone());
-        let count = if in_tissue { self.threads.len() } else { 0 };
+        self.thread_elapsed.clear();
+        self.thread_elapsed.resize(self.threads.len(), 0.0);
         let stats = {
             let mut stepper = ThreadsInTissue {
                 threads: &mut self.threads,
@@ -717,7 +723,7 @@ impl World {
                 view: &mut self.thread_tools,
                 t_start: planned.t_start,
                 frame_dt: planned.t_end - planned.t_start,
-                elapsed: vec![0.0; count],
+                elapsed: &mut self.thread_elapsed,
             };
             let threads = in_tissue.then_some(&mut stepper as &mut dyn ThreadStepper);
             self.backend.finish_frame(&plan, threads)
@@ -830,7 +836,7 @@ struct ThreadsInTissue<'a> {
     t_start: f64,
     frame_dt: f64,
     /// Seconds of the frame each thread has stepped.
-    elapsed: Vec<f64>,
+    elapsed: &'a mut [f64],
 }
 
 impl ThreadStepper for ThreadsInTissue<'_> {
