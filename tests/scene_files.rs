@@ -801,6 +801,13 @@ fn an_arm_held_tools_mount_and_the_pieces_rate_are_validated() {
         .find(|p| p.key == "outputs.pieces_rate_hz")
         .unwrap_or_else(|| panic!("{problems:#?}"));
     assert!(rate.allowed.contains("0 (off) to 1000 Hz"), "{rate:?}");
+
+    // A tool held 9 mm ahead of the jaw pivot is fine; 20 cm away is not a held tool.
+    let ahead = format!("{GOOD}{arm}tool_xyz = [0.0, 0.0, 0.009]\n");
+    let scene = config::from_str(&ahead, Path::new("arm.toml")).unwrap();
+    assert_eq!(scene.arms[0].tool_xyz, [0.0, 0.0, 0.009]);
+    let far = problems_of(&format!("{GOOD}{arm}tool_xyz = [0.0, 0.2, 0.0]\n"));
+    assert_single(&far, "arm[0] (PSM1).tool_xyz", "at most ±0.05 m");
 }
 
 #[test]

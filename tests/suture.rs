@@ -1,7 +1,10 @@
 //! The suture throw of the shipped `config/suture.toml`, headless on its keyframes: the
 //! needle turns once about its axis through two tissue blocks either side of a wound, the
 //! thread swaged to it follows its path through both, and drawing the needle back over the
-//! wound tightens the thread across it and closes the wound.
+//! wound tightens the thread across it and closes the wound. Run as a node, PSM1 holds the
+//! needle: its home puts the needle where the first keyframe does, and rolling the
+//! instrument turns it as the keyframes do (the throw itself through the node is
+//! `launch-scripts/suture_demo.py`'s, run by `tests/ros_suture.rs`).
 
 use dvrk_tissue_sim::math::Vec3;
 use dvrk_tissue_sim::world::World;
@@ -115,4 +118,83 @@ fn the_needle_draws_the_thread_through_both_blocks_and_the_pull_closes_the_wound
     );
     // The tissue has no toughness: the thread pulls it without tearing it.
     assert_eq!(world.pieces(), 2);
+}
+
+/// PSM1 of `suture.toml` holds the needle at `tool_xyz`, `tool_rpy_deg` in its tool frame:
+/// at home (roll 180°) the needle is at its first keyframe's pose, and each quarter turn of
+/// the instrument's roll down turns it as the keyframes do each second. Started elsewhere,
+/// the arm is refused: the thread swaged to the needle would not be in its swage end.
+#[test]
+fn psm1_rolls_the_needle_as_the_keyframes_turn_it_and_a_home_off_the_swage_is_refused() {
+    use dvrk_tissue_sim::sim::{build_setup, SetupError};
+    let scene = shipped("suture.toml");
+    let keyframes = &scene.tools[0].keyframes;
+    let home = scene.arms[0].home_joints.clone();
+    for (quarter, keyframe) in keyframes.iter().take(5).enumerate() {
+        let mut moved = scene.clone();
+        moved.arms[0].home_joints[3] = home[3] - quarter as f64 * std::f64::consts::FRAC_PI_2;
+        if quarter > 0 {
+            // The swage end has turned away from where the thread starts.
+            moved.threads.clear();
+        }
+        let setup = build_setup(&moved).unwrap_or_else(|e| panic!("{e}"));
+        let arm = setup.arms[0].tool_pose();
+        let key = keyframe.pose();
+        assert_eq!(keyframe.t, quarter as f64);
+        let (off, turn) = (
+            (arm.position - key.position).norm(),
+            arm.rotation.angle_to(&key.rotation),
+        );
+        println!(
+            "roll {:+.1}°: needle {:.2e} m and {:.2e} rad off the keyframe",
+            moved.arms[0].home_joints[3].to_degrees(),
+            off,
+            turn
+        );
+        assert!(
+            off < 1e-6 && turn < 1e-6,
+            "quarter {quarter}: {off} m, {turn} rad"
+        );
+    }
+    let mut turned = scene.clone();
+    turned.arms[0].home_joints[3] = home[3] - 0.3;
+    match build_setup(&turned) {
+        Err(e @ SetupError::SwageOffNeedle { .. }) => {
+            let message = e.to_string();
+            assert!(
+                message.contains("arm PSM1 holds the needle of thread \"suture\""),
+                "{message}"
+            );
+            assert!(
+                message.contains("where arm PSM1's home_joints puts it"),
+                "{message}"
+            );
+        }
+        Err(e) => panic!("another error: {e}"),
+        Ok(_) => panic!("a home 0.3 rad off the swage was accepted"),
+    }
+
+    // `check` says so too, before any node starts; the shipped scene passes it.
+    let check = |scene: &std::path::Path| {
+        let out = support::binary().arg("check").arg(scene).output().unwrap();
+        (
+            out.status.success(),
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+        )
+    };
+    let (ok, stdout) = check(std::path::Path::new("config/suture.toml"));
+    assert!(ok, "{stdout}");
+    let text = std::fs::read_to_string(support::root().join("config/suture.toml")).unwrap();
+    let home = "home_joints = [0.0, 0.0, 0.1, 3.14159265, 0.0, 0.0]";
+    assert!(text.contains(home));
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("turned.toml");
+    let turned_home = "home_joints = [0.0, 0.0, 0.1, 2.84159265, 0.0, 0.0]";
+    std::fs::write(&file, text.replace(home, turned_home)).unwrap();
+    let (ok, stdout) = check(&file);
+    assert!(!ok, "{stdout}");
+    assert!(
+        stdout.contains("arm PSM1 holds the needle of thread \"suture\""),
+        "{stdout}"
+    );
 }

@@ -1,4 +1,5 @@
-//! `check`: validate scene files and every arm's URDF, and report every problem.
+//! `check`: validate scene files, every arm's URDF and where its home puts a needle a thread
+//! is swaged to, and report every problem.
 
 use anyhow::{bail, Result};
 use clap::Args;
@@ -22,8 +23,16 @@ pub fn run(args: CheckArgs) -> Result<()> {
                 continue;
             }
         };
-        let urdf_problems = sim::check_arm_urdfs(&scene);
-        if urdf_problems.is_empty() {
+        let mut arm_problems: Vec<String> = sim::check_arm_urdfs(&scene)
+            .iter()
+            .map(ToString::to_string)
+            .collect();
+        arm_problems.extend(
+            sim::check_arm_swages(&scene)
+                .iter()
+                .map(ToString::to_string),
+        );
+        if arm_problems.is_empty() {
             println!(
                 "{}: ok (scene \"{}\", {} tissue block(s), {} tool(s), {} arm(s))",
                 path.display(),
@@ -34,8 +43,8 @@ pub fn run(args: CheckArgs) -> Result<()> {
             );
         } else {
             failed += 1;
-            println!("{}: {} problem(s):", path.display(), urdf_problems.len());
-            for problem in urdf_problems {
+            println!("{}: {} problem(s):", path.display(), arm_problems.len());
+            for problem in arm_problems {
                 println!("  {problem}");
             }
         }

@@ -453,6 +453,11 @@ pub struct Arm {
     /// slicer's blade hangs along its own −z, so a PSM holding a scalpel uses [180, 0, 0].
     #[serde(default)]
     pub tool_rpy_deg: [f64; 3],
+    /// The held tool's origin in the arm's tool frame (m): a needle held with its arc's
+    /// centre on the instrument's axis, ahead of the jaw pivot, is mounted at `[0, 0, d]`, so
+    /// that rolling the instrument turns the needle about its own centre.
+    #[serde(default)]
+    pub tool_xyz: [f64; 3],
     /// What `<arm>/tool_type` reports, as dVRK names its instruments (`NAME:model`, e.g.
     /// `"LARGE_NEEDLE_DRIVER:400006"`); absent: dVRK's Large Needle Driver for a gripper
     /// (whose default jaw gains and effort limit are that tool's), the tool's scene name

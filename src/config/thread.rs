@@ -7,7 +7,7 @@
 //! substeps and iterations.
 
 use super::validate::Problem;
-use super::Scene;
+use super::{Scene, Tool};
 use crate::mpm::backend::BackendChoice;
 use crate::mpm::Method;
 use crate::rod::solver::RodSolverSettings;
@@ -522,8 +522,9 @@ pub fn swage_covered(t: &Thread, wire_radius: f32) -> usize {
 
 /// What is wrong with thread `t`'s `swaged_to`, if anything: it must name a needle tool,
 /// the thread's first point must not also be pinned, and where the needle's script starts
-/// it (its first keyframe; an arm's needle starts at the arm's home and is not checked) the
-/// first point must lie in the needle's swage end, within the wire's radius.
+/// it (its first keyframe; an arm's needle starts at the arm's home, checked when the arm
+/// is built: [`swage_miss`]) the first point must lie in the needle's swage end, within the
+/// wire's radius.
 fn swage_problem(scene: &Scene, t: &Thread, key: &dyn Fn(&str) -> String) -> Option<Problem> {
     let needle = t.swaged_to.as_ref()?;
     let problem = |field: &str, value: String, allowed: String| {
@@ -541,9 +542,7 @@ fn swage_problem(scene: &Scene, t: &Thread, key: &dyn Fn(&str) -> String) -> Opt
             format!("the name of a needle tool of the scene (tools: {names:?})"),
         );
     };
-    let (Some((end, _)), crate::tools::Shape::Needle { wire_radius, .. }) =
-        (tool.shape.swage_end(), tool.shape)
-    else {
+    let crate::tools::Shape::Needle { .. } = tool.shape else {
         return problem(
             "swaged_to",
             format!("{needle:?}"),
@@ -561,31 +560,16 @@ fn swage_problem(scene: &Scene, t: &Thread, key: &dyn Fn(&str) -> String) -> Opt
     let (Some(first), false) = (tool.keyframes.first(), driven) else {
         return None;
     };
-    let pose = first.pose();
-    let at = pose.position + pose.rotation * end.cast::<f64>();
-    let start = t.centreline()?[0];
-    let off = (nalgebra::Vector3::from(start) - at).norm();
-    (off > wire_radius as f64).then(|| Problem {
-        key: key(if t.points.is_some() {
+    let (value, allowed) = swage_miss(t, tool, &first.pose(), "its first keyframe")?;
+    problem(
+        if t.points.is_some() {
             "points"
         } else {
             "start"
-        }),
-        value: format!(
-            "first point ({:.5}, {:.5}, {:.5}) m",
-            start[0], start[1], start[2]
-        ),
-        allowed: format!(
-            "the swage end of needle {needle:?} where its first keyframe puts it, \
-             ({:.5}, {:.5}, {:.5}) m, within the wire's radius {:.2} mm: the first point \
-             lies {:.2} mm from it",
-            at.x,
-            at.y,
-            at.z,
-            wire_radius * 1e3,
-            off * 1e3
-        ),
-    })
+        },
+        value,
+        allowed,
+    )
 }
 
 type Require<'a> = dyn FnMut(bool, String, String, String) + 'a;
@@ -685,4 +669,43 @@ fn validate_polyline(
             ),
         );
     }
+}
+
+/// Where thread `t`'s first point misses the swage end of `needle` at `pose` (placed there
+/// by `placed_by`, for the message) by more than the wire's radius: the point as a value and
+/// what is allowed, with where the swage end is and how far off the point lies. `None` when
+/// it is in the swage end, or `needle` is no needle, or the thread has no centreline.
+pub fn swage_miss(
+    t: &Thread,
+    needle: &Tool,
+    pose: &crate::tools::ToolPose,
+    placed_by: &str,
+) -> Option<(String, String)> {
+    let (Some((end, _)), crate::tools::Shape::Needle { wire_radius, .. }) =
+        (needle.shape.swage_end(), needle.shape)
+    else {
+        return None;
+    };
+    let at = pose.position + pose.rotation * end.cast::<f64>();
+    let start = t.centreline()?[0];
+    let off = (nalgebra::Vector3::from(start) - at).norm();
+    (off > wire_radius as f64).then(|| {
+        (
+            format!(
+                "first point ({:.5}, {:.5}, {:.5}) m",
+                start[0], start[1], start[2]
+            ),
+            format!(
+                "the swage end of needle {:?} where {placed_by} puts it, ({:.5}, {:.5}, \
+                 {:.5}) m, within the wire's radius {:.2} mm: the first point lies {:.2} mm \
+                 from it",
+                needle.name,
+                at.x,
+                at.y,
+                at.z,
+                wire_radius * 1e3,
+                off * 1e3
+            ),
+        )
+    })
 }

@@ -83,6 +83,9 @@ const MAX_LENGTH: f64 = 100.0;
 const MAX_DEGREES: f64 = 540.0;
 /// Largest speed limit (rad/s or m/s): far beyond any surgical robot joint.
 const MAX_JOINT_SPEED: f64 = 100.0;
+/// Farthest a held tool's origin may sit from the arm's tool frame (m): a jaw is about a
+/// centimetre long, a needle a few centimetres across.
+const MAX_TOOL_OFFSET: f64 = 0.05;
 /// Largest friction coefficient: real contacts stay below a few.
 const MAX_FRICTION: f64 = 10.0;
 /// Largest toughness (J/m²): tough skin is of the order of 1e4 J/m², soft tissue 1e1–1e3.
@@ -717,6 +720,15 @@ fn validate_arms(c: &mut Checker, scene: &Scene) {
             arm.tool_rpy_deg,
             format!("angles of at most ±{MAX_DEGREES}°"),
         );
+        c.require(
+            arm.tool_xyz.iter().all(|v| v.abs() <= MAX_TOOL_OFFSET),
+            key("tool_xyz"),
+            arm.tool_xyz,
+            format!(
+                "coordinates of at most ±{MAX_TOOL_OFFSET} m: the tool is held at the \
+                 instrument's tip"
+            ),
+        );
         // The URDF's limits are checked when the arm is built; no PSM joint turns more than a
         // turn either way, nor inserts more than a metre.
         c.require(
@@ -762,6 +774,12 @@ fn validate_arms(c: &mut Checker, scene: &Scene) {
                 arm.tool_rpy_deg == [0.0; 3],
                 key("tool_rpy_deg"),
                 arm.tool_rpy_deg,
+                "only on a PSM (the ECM holds no tool)",
+            );
+            c.require(
+                arm.tool_xyz == [0.0; 3],
+                key("tool_xyz"),
+                arm.tool_xyz,
                 "only on a PSM (the ECM holds no tool)",
             );
             c.require(

@@ -62,6 +62,7 @@
 //! | `tissue/points` | sensor_msgs/PointCloud2 | x, y, z and the scalar `points_scalar` names (`volumetric_strain`, `equivalent_strain` or `damage`), frame `world` |
 //! | `tissue/surface` | visualization_msgs/Marker | TRIANGLE_LIST in `world`: the mesh (fixed corner order, a strain colour and a UV per corner) or the isosurface |
 //! | `tissue/pieces` | std_msgs/UInt32 | separate tissue pieces, counted at `pieces_rate_hz` in simulated time while subscribed (and when recording); under total Lagrangian MPM, the rest configuration's pieces ([`crate::mpm::pieces`]) |
+//! | `tissue/wound_gap` | std_msgs/Float64 | in a scene with a `wound`: the gap between its two blocks (m, [`crate::world::wound`]), measured with the piece count |
 //! | `tools/<tool>/wrench` | geometry_msgs/WrenchStamped | contact wrench on the tool, in its frame (`PSM1` for an arm's tool, the mount undone) |
 //! | `threads/<name>/centreline`, `threads/<name>/tension` | Marker, PointCloud2 | a suture thread's LINE_STRIP and its axial force per point |
 //! | `/tf_static` | tf2_msgs/TFMessage | once, transient local: `world` → `PSM1_base`; with a camera, `ECM` → `ECM_left_optical_frame` and `ECM_right_optical_frame` (`world` → them for a camera without an arm) |
@@ -105,6 +106,8 @@
 //! `launch-scripts/`: `run_node.sh [SCENE] [flags]` starts the node; `dvrk_tissue_sim.launch.py`
 //! is a ROS 2 launch file; `dvrk_tissue_sim.rviz` an RViz 2 view (arm frames, tissue cloud and
 //! mesh, thread, wrench); `teleop_demo.py` plays a scripted MTM on `config/teleop.toml`;
+//! `suture_demo.py` throws a stitch with PSM1 on `config/suture.toml` (roll with `move_jp`,
+//! then `move_cp`) and reads the wound gap before and after;
 //! `record_tissue_bag.sh` records with `ros2 bag`; `soak.py` drives the node for a long run.
 //!
 //! # /clock and status

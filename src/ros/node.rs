@@ -429,6 +429,10 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
     let points: Publisher<PointCloud2> = topics.publisher("tissue/points", periodic_qos())?;
     let surface: Publisher<Marker> = topics.publisher("tissue/surface", periodic_qos())?;
     let pieces: Publisher<UInt32> = topics.publisher(outputs::PIECES_TOPIC, periodic_qos())?;
+    let wound_gap: Option<Publisher<Float64>> = match scene.wound {
+        Some(_) => Some(topics.publisher(outputs::WOUND_GAP_TOPIC, periodic_qos())?),
+        None => None,
+    };
     let mut wrenches: Vec<Publisher<WrenchStamped>> = Vec::new();
     for tool in &scene.tools {
         wrenches.push(topics.publisher(&format!("tools/{}/wrench", tool.name), periodic_qos())?);
@@ -481,6 +485,7 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
         points_topic: graph_name("tissue/points"),
         surface_topic: graph_name("tissue/surface"),
         pieces_topic: graph_name(outputs::PIECES_TOPIC),
+        wound_gap_topic: graph_name(outputs::WOUND_GAP_TOPIC),
         tf_topic: graph_name("/tf"),
         pieces_published: 0,
         wrench_topics: scene
@@ -499,6 +504,7 @@ async fn run_async(scene: &Scene, settings: &NodeSettings) -> Result<(), NodeErr
         points,
         surface,
         pieces,
+        wound_gap,
         wrenches,
         threads,
         tf,
@@ -593,6 +599,7 @@ struct Demand {
     points: bool,
     surface: bool,
     pieces: bool,
+    wound_gap: bool,
     tf: bool,
     wrenches: Vec<bool>,
 }
@@ -603,6 +610,7 @@ struct Io {
     points_topic: String,
     surface_topic: String,
     pieces_topic: String,
+    wound_gap_topic: String,
     tf_topic: String,
     /// Index of the last frame whose piece count was published.
     pieces_published: u64,
@@ -624,6 +632,8 @@ struct Io {
     points: Publisher<PointCloud2>,
     surface: Publisher<Marker>,
     pieces: Publisher<UInt32>,
+    /// `tissue/wound_gap`, in a scene with a `wound`.
+    wound_gap: Option<Publisher<Float64>>,
     wrenches: Vec<Publisher<WrenchStamped>>,
     threads: Vec<ThreadIo>,
     tf: Publisher<TFMessage>,
@@ -838,6 +848,8 @@ impl Io {
                 points: node.subscription_count(&self.points_topic) > 0,
                 surface: node.subscription_count(&self.surface_topic) > 0,
                 pieces: node.subscription_count(&self.pieces_topic) > 0,
+                wound_gap: self.wound_gap.is_some()
+                    && node.subscription_count(&self.wound_gap_topic) > 0,
                 tf: node.subscription_count(&self.tf_topic) > 0,
                 wrenches: self
                     .wrench_topics
@@ -855,8 +867,11 @@ impl Io {
                 .store(self.demand.points, Ordering::Relaxed);
             sim.surface_wanted
                 .store(self.demand.surface, Ordering::Relaxed);
-            sim.pieces_wanted
-                .store(self.demand.pieces, Ordering::Relaxed);
+            // The wound gap is measured with the piece count.
+            sim.pieces_wanted.store(
+                self.demand.pieces || self.demand.wound_gap,
+                Ordering::Relaxed,
+            );
             if let Some(camera) = &mut self.camera {
                 camera.wanted = camera
                     .topics
@@ -900,10 +915,15 @@ impl Io {
         }
         // Counted by the simulation at the scene's rate (simulated time) while subscribed:
         // each count is published once.
-        if let (Some(pieces), true) = (frame.pieces, self.demand.pieces) {
-            if frame.index > self.pieces_published {
-                self.pieces_published = frame.index;
+        if let Some(pieces) = frame.pieces.filter(|_| frame.index > self.pieces_published) {
+            self.pieces_published = frame.index;
+            if self.demand.pieces {
                 let _ = self.pieces.publish(outputs::pieces_message(pieces));
+            }
+            if let (Some(publisher), Some(gap), true) =
+                (&self.wound_gap, frame.wound_gap, self.demand.wound_gap)
+            {
+                let _ = publisher.publish(outputs::wound_gap_message(gap));
             }
         }
         if self.rates.thread.due(now) {

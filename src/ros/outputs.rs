@@ -78,6 +78,8 @@ pub struct OutputLayout {
     pub tools: Vec<String>,
     /// Suture thread names, scene order.
     pub threads: Vec<String>,
+    /// Whether the scene has a `wound`, whose gap `tissue/wound_gap` carries.
+    pub wound: bool,
     /// MTM force feedback, for each teleoperation pair that asks for it.
     pub force_feedback: Vec<ForceFeedback>,
     /// How often each output is published.
@@ -152,6 +154,7 @@ impl OutputLayout {
             arms,
             tools: scene.tools.iter().map(|t| t.name.clone()).collect(),
             threads: scene.threads.iter().map(|t| t.name.clone()).collect(),
+            wound: scene.wound.is_some(),
             force_feedback,
             rates: OutputRates {
                 arm: o.arm_rate_hz,
@@ -226,6 +229,9 @@ impl OutputLayout {
             ));
         }
         out.push((self.topic(PIECES_TOPIC), UInt32::type_name()));
+        if self.wound {
+            out.push((self.topic(WOUND_GAP_TOPIC), Float64::type_name()));
+        }
         out.push(("/tf".to_owned(), TFMessage::type_name()));
         out.push(("/tf_static".to_owned(), TFMessage::type_name()));
         for f in &self.force_feedback {
@@ -456,6 +462,14 @@ pub const PIECES_TOPIC: &str = "tissue/pieces";
 /// How many separate pieces the tissue is in.
 pub fn pieces_message(pieces: u32) -> UInt32 {
     UInt32 { data: pieces }
+}
+
+/// Topic of the wound gap (scenes with a `wound`), relative to the namespace.
+pub const WOUND_GAP_TOPIC: &str = "tissue/wound_gap";
+
+/// The wound gap, m.
+pub fn wound_gap_message(gap: f64) -> Float64 {
+    Float64 { data: gap }
 }
 
 /// Topic of a thread's centreline marker, relative to the namespace.

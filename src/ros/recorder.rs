@@ -22,7 +22,7 @@
 //! # Recording
 //!
 //! `run --record out.mcap` writes every output on its topic with its type (arm states, tool
-//! wrenches, `/tf`, `tissue/points`, `tissue/surface`, `tissue/pieces`, thread outputs, latched
+//! wrenches, `/tf`, `tissue/points`, `tissue/surface`, `tissue/pieces`, `tissue/wound_gap`, thread outputs, latched
 //! `operating_state` / `error` / ...) and every input the simulation applied (`servo_jp`,
 //! `move_cp`, MTM and console topics, ...), with CDR payloads encoded by RustDDS as on the
 //! wire. Recording counts as wanting the cloud and surface, so they follow the scene's
@@ -710,6 +710,10 @@ impl Bag {
             if let Some(pieces) = frame.pieces {
                 let m = outputs::pieces_message(pieces);
                 self.write(outputs::PIECES_TOPIC, Qos::Periodic, end, &m)?;
+            }
+            if let Some(gap) = frame.wound_gap {
+                let m = outputs::wound_gap_message(gap);
+                self.write(outputs::WOUND_GAP_TOPIC, Qos::Periodic, end, &m)?;
             }
         }
         if let (true, Some(images)) = (due.camera, &frame.camera) {

@@ -5,7 +5,7 @@
 //! them in at frame boundaries ([`ArmSim::apply`]) and advances the arm in simulated time
 //! ([`ArmSim::advance`]). Kinematic simulation, as dVRK's `KIN_SIMULATED`: measured = setpoint.
 
-use nalgebra::{Isometry3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Vector3};
 
 use crate::config::ArmMode;
 use crate::robot::{JointCommandError, Psm, PsmError, RcmPolicy, Trajectory};
@@ -288,9 +288,9 @@ pub struct ArmSim {
     mode: ArmMode,
     /// World from `<name>_base`.
     base: Isometry3<f64>,
-    /// The held tool's orientation in the arm's tool frame (`[[arm]] tool_rpy_deg`): a
+    /// The held tool's pose in the arm's tool frame (`[[arm]] tool_xyz`, `tool_rpy_deg`): a
     /// slicer's blade hangs along its own −z, the instrument's axis is the tool frame's +z.
-    mount: UnitQuaternion<f64>,
+    mount: Isometry3<f64>,
     home: Vec<f64>,
     state: OperatingState,
     homed: bool,
@@ -340,7 +340,7 @@ impl ArmSim {
             psm,
             mode,
             base,
-            mount: UnitQuaternion::identity(),
+            mount: Isometry3::identity(),
             home: q.clone(),
             state: OperatingState::Enabled,
             homed: true,
@@ -385,13 +385,14 @@ impl ArmSim {
         &self.base
     }
 
-    /// Holds the tool turned by `mount` in the arm's tool frame (`[[arm]] tool_rpy_deg`).
-    pub fn set_tool_mount(&mut self, mount: UnitQuaternion<f64>) {
+    /// Holds the tool at `mount` in the arm's tool frame (`[[arm]] tool_xyz`,
+    /// `tool_rpy_deg`).
+    pub fn set_tool_mount(&mut self, mount: Isometry3<f64>) {
         self.mount = mount;
     }
 
-    /// The held tool's orientation in the arm's tool frame.
-    pub fn tool_mount(&self) -> &UnitQuaternion<f64> {
+    /// The held tool's pose in the arm's tool frame.
+    pub fn tool_mount(&self) -> &Isometry3<f64> {
         &self.mount
     }
 
@@ -454,10 +455,10 @@ impl ArmSim {
 
     /// The tool pose in the world, jaw included: what drives the scene's tool.
     pub fn tool_pose(&self) -> ToolPose {
-        let world = self.world_cp();
+        let world = self.world_cp() * self.mount;
         ToolPose {
             position: world.translation.vector,
-            rotation: world.rotation * self.mount,
+            rotation: world.rotation,
             jaw: self.jaw,
         }
     }

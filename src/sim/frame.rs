@@ -44,6 +44,9 @@ pub struct Frame {
     pub teleop: Vec<TeleopState>,
     /// Separate tissue pieces, in the frames where they were counted (`tissue/pieces`).
     pub pieces: Option<u32>,
+    /// The wound gap (m), counted with the pieces in a scene with a `wound`
+    /// (`tissue/wound_gap`).
+    pub wound_gap: Option<f64>,
     /// The camera's images, in the frames where a subscriber wanted one and it was due.
     pub camera: Option<Arc<crate::render::CameraImages>>,
 }

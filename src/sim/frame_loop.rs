@@ -297,6 +297,7 @@ impl FrameLoop {
         } = finished;
         if pieces {
             frame.pieces = Some(setup.world.pieces() as u32);
+            frame.wound_gap = setup.world.wound_gap().map(f64::from);
         }
         if points {
             frame.cloud = Some(Arc::new(TissueCloud::from_particles(
@@ -495,7 +496,7 @@ fn frame_of(setup: &SimSetup, report: Option<&FrameReport>) -> Frame {
                 .unwrap_or_else(|| t.name.clone());
             // An arm's tool reports in the arm's tool frame, the held tool's mount undone.
             let frame_rotation = match arm {
-                Some(a) => pose.rotation * setup.arms[a].tool_mount().inverse(),
+                Some(a) => pose.rotation * setup.arms[a].tool_mount().rotation.inverse(),
                 None => pose.rotation,
             };
             let wrench = report
@@ -524,6 +525,7 @@ fn frame_of(setup: &SimSetup, report: Option<&FrameReport>) -> Frame {
             .collect(),
         teleop: setup.teleop.iter().map(|t| t.teleop.state()).collect(),
         pieces: None,
+        wound_gap: None,
         camera: None,
     }
 }

@@ -18,5 +18,7 @@ pub mod sink;
 pub use frame::{Due, Frame, ToolState};
 pub use frame_loop::{FrameLoop, Stepped};
 pub use input::{RecordedInput, SimInput};
-pub use setup::{build_setup, check_arm_urdfs, ArmUrdfProblem, SetupError, SimSetup};
+pub use setup::{
+    build_setup, check_arm_swages, check_arm_urdfs, ArmUrdfProblem, SetupError, SimSetup,
+};
 pub use sink::{FrameRecord, FrameSink};

@@ -47,6 +47,20 @@ pub enum SetupError {
         /// The tool name it gives.
         tool: String,
     },
+    #[error(
+        "arm {arm} holds the needle of thread {thread:?}, whose {value}; it must be in {allowed}"
+    )]
+    /// An arm's needle starts away from the thread swaged to it.
+    SwageOffNeedle {
+        /// The arm's name.
+        arm: String,
+        /// The thread's name.
+        thread: String,
+        /// The thread's first point.
+        value: String,
+        /// Where the swage end is.
+        allowed: String,
+    },
     #[error("teleop.arm {0} is not an arm")]
     /// `teleop.arm` names no arm of the scene (holds the name).
     TeleopArm(String),
@@ -330,42 +344,84 @@ fn cloud_options(outputs: &Outputs) -> CloudOptions {
     }
 }
 
+/// Arm `index` of `scene` at home, holding its tool (the tool's scene index; `None` for the
+/// ECM). A thread swaged to the arm's needle must start in the needle's swage end where the
+/// arm's home puts it, or the first frame would jerk it there: refused otherwise.
+fn arm_at_home(
+    scene: &Scene,
+    index: usize,
+    arm: &crate::config::Arm,
+) -> Result<(ArmSim, Option<usize>), SetupError> {
+    let mut sim = ArmSim::new(
+        load_psm(index, arm)?,
+        arm.mode,
+        arm_base(arm),
+        &arm.home_joints,
+        arm.home_jaw_deg.to_radians(),
+    )
+    .map_err(|source| SetupError::Arm {
+        arm: arm.name.clone(),
+        source,
+    })?;
+    if arm.kind == ArmKind::Ecm {
+        return Ok((sim, None));
+    }
+    let name = arm.tool.as_deref().unwrap_or_default();
+    let tool = scene
+        .tools
+        .iter()
+        .position(|t| t.name == name)
+        .ok_or_else(|| SetupError::NoTool {
+            arm: arm.name.clone(),
+            tool: name.to_owned(),
+        })?;
+    sim.set_jaw_effort_limit(scene.tools[tool].jaw.effort_max);
+    let [r, p, y] = arm.tool_rpy_deg.map(f64::to_radians);
+    sim.set_tool_mount(Isometry3::from_parts(
+        Vector3::from(arm.tool_xyz).into(),
+        UnitQuaternion::from_euler_angles(r, p, y),
+    ));
+    let needle = &scene.tools[tool];
+    let placed_by = format!("arm {}'s home_joints", arm.name);
+    for thread in &scene.threads {
+        if thread.swaged_to.as_deref() != Some(needle.name.as_str()) {
+            continue;
+        }
+        let miss = crate::config::thread::swage_miss(thread, needle, &sim.tool_pose(), &placed_by);
+        if let Some((value, allowed)) = miss {
+            return Err(SetupError::SwageOffNeedle {
+                arm: arm.name.clone(),
+                thread: thread.name.clone(),
+                value,
+                allowed,
+            });
+        }
+    }
+    Ok((sim, Some(tool)))
+}
+
+/// What `check` reports beyond the URDFs ([`check_arm_urdfs`]): an arm whose home puts its
+/// needle away from the thread swaged to it. Arms whose URDF cannot be used are skipped
+/// (their problem is the URDF's).
+pub fn check_arm_swages(scene: &Scene) -> Vec<SetupError> {
+    scene
+        .arms
+        .iter()
+        .enumerate()
+        .filter_map(|(index, arm)| match arm_at_home(scene, index, arm) {
+            Err(e @ SetupError::SwageOffNeedle { .. }) => Some(e),
+            _ => None,
+        })
+        .collect()
+}
+
 /// The simulation side of a scene: world, arms at home, teleop.
 pub fn build_setup(scene: &Scene) -> Result<SimSetup, SetupError> {
     let world = World::try_new(scene)?;
     let mut arms = Vec::new();
     let mut arm_tools = Vec::new();
     for (index, arm) in scene.arms.iter().enumerate() {
-        let psm = load_psm(index, arm)?;
-        let mut sim = ArmSim::new(
-            psm,
-            arm.mode,
-            arm_base(arm),
-            &arm.home_joints,
-            arm.home_jaw_deg.to_radians(),
-        )
-        .map_err(|source| SetupError::Arm {
-            arm: arm.name.clone(),
-            source,
-        })?;
-        let tool = match (arm.kind, &arm.tool) {
-            (ArmKind::Ecm, _) => None,
-            (ArmKind::Psm, name) => {
-                let name = name.as_deref().unwrap_or_default();
-                let tool = scene
-                    .tools
-                    .iter()
-                    .position(|t| t.name == name)
-                    .ok_or_else(|| SetupError::NoTool {
-                        arm: arm.name.clone(),
-                        tool: name.to_owned(),
-                    })?;
-                sim.set_jaw_effort_limit(scene.tools[tool].jaw.effort_max);
-                let [r, p, y] = arm.tool_rpy_deg.map(f64::to_radians);
-                sim.set_tool_mount(UnitQuaternion::from_euler_angles(r, p, y));
-                Some(tool)
-            }
-        };
+        let (sim, tool) = arm_at_home(scene, index, arm)?;
         arms.push(sim);
         arm_tools.push(tool);
     }

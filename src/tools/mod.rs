@@ -24,8 +24,9 @@
 //!   (dx = 1 mm) 20.78 mm of the tool's 21.5 mm; pulled along the jaw faces with a 0.002 N·m
 //!   squeeze and μ 0.2, a bonded block slips at 0.108 N against μ × normal force = 0.098 N.
 //! - **Motion**: keyframes ([`trajectory`]) interpolated linearly in time in headless runs;
-//!   in node runs a tool an arm holds follows the arm (base ∘ FK(q), with the mount
-//!   `tool_rpy_deg`: a slicer, whose blade hangs along its own −z, is held with [180, 0, 0]).
+//!   in node runs a tool an arm holds follows the arm (base ∘ FK(q) ∘ mount, the mount
+//!   `tool_xyz`, `tool_rpy_deg`: a slicer, whose blade hangs along its own −z, is held with
+//!   [180, 0, 0]; a needle with its centre on the instrument's axis at `[0, 0, d]`).
 
 pub mod contact;
 pub mod grip;

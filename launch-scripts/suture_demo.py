@@ -1,0 +1,140 @@
+#!/usr/bin/env python3
+"""Suture demo: PSM1 throws one stitch across the wound of config/suture.toml and pulls it
+closed, driven with CRTK commands as a dVRK user scripts a PSM.
+
+    launch-scripts/run_node.sh config/suture.toml &
+    .venv/bin/python launch-scripts/suture_demo.py
+
+PSM1 holds a half-circle needle with its centre on the instrument's axis (suture.toml's
+tool_xyz), so rolling the instrument turns the needle along its own arc:
+
+1. `trajectory_j/set_ratio` 1/6: moves at a sixth of dVRK's speeds (the roll peaks at
+   180 deg/s; a move's speed rises and falls smoothly, so a full turn takes 3.75 s).
+2. `move_jp`, the roll from +180 to -180 deg: the needle's tip enters the left block, passes
+   under the wound and leaves the right block; the thread swaged to it follows its path.
+3. `move_cp` twice: the needle drawn up and back over the left block, which pulls the
+   thread tight across the wound.
+
+Waits follow simulated time (the stamps of PSM1/measured_js), so the script works however
+fast the simulation runs. It reads the wound gap from `tissue/wound_gap` (std_msgs/Float64),
+prints it before and after, and exits with status 1 unless the gap closed by half.
+"""
+
+import math
+import sys
+
+import rclpy
+from geometry_msgs.msg import PoseStamped
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64
+
+RATIO = 1.0 / 6.0
+ROLL = 3  # index of the instrument's roll in PSM1's joints
+# The needle's moves after the throw, in world coordinates (m): up 14 mm and 12 mm back
+# over the left block, then 4 mm higher. PSM1's base is turned 90 deg about x
+# (suture.toml's base_rpy_deg), so a world step (x, y, z) is (x, z, -y) in PSM1_base.
+LIFTS = [(-0.012, -0.004, 0.014), (-0.002, -0.001, 0.004)]
+
+
+def world_to_base(step):
+    x, y, z = step
+    return (x, z, -y)
+
+
+def main():
+    rclpy.init()
+    node = rclpy.create_node("suture_demo")
+    move_jp = node.create_publisher(JointState, "/PSM1/move_jp", 10)
+    move_cp = node.create_publisher(PoseStamped, "/PSM1/move_cp", 10)
+    ratio = node.create_publisher(Float64, "/PSM1/trajectory_j/set_ratio", 10)
+    state = {"t": None, "q": None, "cp": None, "gap": None, "gaps": 0, "ratio": None}
+
+    def on_js(msg):
+        state["t"] = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+        state["q"] = list(msg.position)
+
+    def on_cp(msg):
+        state["cp"] = msg
+
+    def on_gap(msg):
+        state["gap"] = msg.data
+        state["gaps"] += 1
+
+    def on_ratio(msg):
+        state["ratio"] = msg.data
+
+    node.create_subscription(JointState, "/PSM1/measured_js", on_js, 10)
+    node.create_subscription(PoseStamped, "/PSM1/measured_cp", on_cp, 10)
+    node.create_subscription(Float64, "/tissue/wound_gap", on_gap, 10)
+    node.create_subscription(Float64, "/PSM1/trajectory_j/ratio", on_ratio, 10)
+
+    def wait_for(done, what, timeout_s=900.0):
+        """Spins until done() holds; fails after timeout_s of wall time."""
+        start = node.get_clock().now()
+        while not done():
+            rclpy.spin_once(node, timeout_sec=0.05)
+            if (node.get_clock().now() - start).nanoseconds * 1e-9 > timeout_s:
+                print(f"timed out waiting for {what}", file=sys.stderr)
+                sys.exit(2)
+
+    def fresh_gap(what):
+        """A wound gap measured after now (two new ones: the first may have been on its way)."""
+        seen = state["gaps"]
+        wait_for(lambda: state["gaps"] >= seen + 2, what)
+        return state["gap"]
+
+    def wait_sim(seconds, what):
+        t0 = state["t"]
+        wait_for(lambda: state["t"] - t0 >= seconds, what)
+
+    print("waiting for PSM1 and the wound gap ...")
+    wait_for(lambda: state["q"] is not None and state["cp"] is not None
+             and state["gap"] is not None, "PSM1 and tissue/wound_gap")
+    before = fresh_gap("the wound gap at the start")
+    print(f"t={state['t']:.2f}s wound gap {before * 1e3:.2f} mm")
+
+    ratio.publish(Float64(data=RATIO))
+    wait_for(lambda: state["ratio"] is not None and abs(state["ratio"] - RATIO) < 1e-9,
+             "trajectory_j/ratio to take the new ratio")
+
+    goal = list(state["q"])
+    goal[ROLL] -= 2.0 * math.pi
+    move_jp.publish(JointState(position=goal))
+    wait_for(lambda: abs(state["q"][ROLL] - goal[ROLL]) < 1e-4, "the roll through the tissue")
+    thrown = fresh_gap("the wound gap after the throw")
+    print(f"t={state['t']:.2f}s the needle turned once through both blocks, "
+          f"wound gap {thrown * 1e3:.2f} mm")
+
+    for step in LIFTS:
+        wait_sim(0.05, "measured_cp to catch up with the joints")
+        start = state["cp"].pose
+        dx, dy, dz = world_to_base(step)
+        target = PoseStamped()
+        target.header.frame_id = "PSM1_base"
+        target.pose.orientation = start.orientation
+        target.pose.position.x = start.position.x + dx
+        target.pose.position.y = start.position.y + dy
+        target.pose.position.z = start.position.z + dz
+        move_cp.publish(target)
+
+        def arrived():
+            p = state["cp"].pose.position
+            goal = target.pose.position
+            return math.dist((p.x, p.y, p.z), (goal.x, goal.y, goal.z)) < 1e-4
+
+        wait_for(arrived, "the needle drawn back over the wound")
+        print(f"t={state['t']:.2f}s needle moved by {step} m, "
+              f"wound gap {fresh_gap('the wound gap after the move') * 1e3:.2f} mm")
+
+    wait_sim(0.5, "half a second for the tissue to settle")
+    after = fresh_gap("the wound gap at the end")
+    node.destroy_node()
+    rclpy.shutdown()
+    print(f"wound gap {before * 1e3:.2f} mm -> {after * 1e3:.2f} mm")
+    if not after < 0.5 * before:
+        print("the wound did not close by half", file=sys.stderr)
+        sys.exit(1)
+
+
+if __name__ == "__main__":
+    main()
