@@ -19,7 +19,7 @@ use ros2_client::{
 
 mod support;
 use support::dds::{network_prerequisites as prerequisites, topic};
-use support::node::{run_rclpy, NodeProcess};
+use support::node::{run_rclpy_against, NodeProcess};
 
 /// One node at a time: two cores, and every test's timing matters.
 static SERIAL: Mutex<()> = Mutex::new(());
@@ -36,15 +36,7 @@ fn rclpy_test_with_log(script: &str, scene: &str, domain: u16) -> Option<(String
     }
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let node = NodeProcess::start(scene, domain);
-    let out = run_rclpy(script, domain);
-    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    println!("{stdout}");
-    assert!(
-        out.status.success(),
-        "{script} failed:\n{stdout}\n{stderr}\n--- node log ---\n{}",
-        node.log()
-    );
+    let stdout = run_rclpy_against(&node, script, domain);
     Some((stdout, node.log()))
 }
 

@@ -12,7 +12,7 @@
 
 mod support;
 use support::dds::network_prerequisites;
-use support::node::{run_rclpy, NodeProcess};
+use support::node::{run_rclpy_against, NodeProcess};
 
 /// The gaps the demo printed as `wound gap A mm -> B mm`, m.
 fn gaps(stdout: &str) -> Option<(f64, f64)> {
@@ -39,15 +39,7 @@ fn suture_demo_throws_a_stitch_with_psm1_and_closes_the_wound() {
         ],
         73,
     );
-    let out = run_rclpy("../../launch-scripts/suture_demo.py", 73);
-    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    println!("{stdout}");
-    assert!(
-        out.status.success(),
-        "suture_demo.py failed:\n{stdout}\n{stderr}\n--- node log ---\n{}",
-        node.log()
-    );
+    let stdout = run_rclpy_against(&node, "../../launch-scripts/suture_demo.py", 73);
     let (before, after) = gaps(&stdout).unwrap_or_else(|| panic!("no wound gap line: {stdout}"));
     // The blocks are laid 4 mm apart (3.9 mm between their nearest particles at rest); the
     // headless throw on the same scene ends near 0.7 mm (tests/suture.rs).

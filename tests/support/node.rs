@@ -109,3 +109,19 @@ pub fn run_rclpy(script: &str, domain: u16) -> Output {
         .output()
         .expect("cannot run python")
 }
+
+/// Runs `tests/ros/<script>` against `node` to its end and prints its output; fails the test,
+/// with the script's outputs and the node's log, unless the script succeeds. Returns its
+/// standard output.
+pub fn run_rclpy_against(node: &NodeProcess, script: &str, domain: u16) -> String {
+    let out = run_rclpy(script, domain);
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    println!("{stdout}");
+    assert!(
+        out.status.success(),
+        "{script} failed:\n{stdout}\n{stderr}\n--- node log ---\n{}",
+        node.log()
+    );
+    stdout
+}
