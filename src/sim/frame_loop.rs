@@ -495,13 +495,12 @@ fn frame_of(setup: &SimSetup, report: Option<&FrameReport>) -> Frame {
                 .map(|a| setup.arms[a].name().to_owned())
                 .unwrap_or_else(|| t.name.clone());
             // An arm's tool reports in the arm's tool frame, the held tool's mount undone.
-            let frame_rotation = match arm {
-                Some(a) => pose.rotation * setup.arms[a].tool_mount().rotation.inverse(),
-                None => pose.rotation,
-            };
             let wrench = report
                 .and_then(|r| r.wrenches.get(i))
-                .map(|w| w.in_tool_frame(&frame_rotation))
+                .map(|w| match arm {
+                    Some(a) => w.in_holder_frame(&pose.rotation, setup.arms[a].tool_mount()),
+                    None => w.in_tool_frame(&pose.rotation),
+                })
                 .unwrap_or_default();
             ToolState {
                 name: t.name.clone(),

@@ -402,12 +402,21 @@ fn arm_at_home(
 
 /// What `check` reports beyond the URDFs ([`check_arm_urdfs`]): an arm whose home puts its
 /// needle away from the thread swaged to it. Arms whose URDF cannot be used are skipped
-/// (their problem is the URDF's).
+/// (their problem is the URDF's). Only an arm holding a tool that a thread is swaged to is
+/// built: the others' URDFs were loaded once already.
 pub fn check_arm_swages(scene: &Scene) -> Vec<SetupError> {
+    let holds_a_swage = |arm: &crate::config::Arm| {
+        arm.kind != ArmKind::Ecm
+            && scene
+                .threads
+                .iter()
+                .any(|t| t.swaged_to.is_some() && t.swaged_to == arm.tool)
+    };
     scene
         .arms
         .iter()
         .enumerate()
+        .filter(|(_, arm)| holds_a_swage(arm))
         .filter_map(|(index, arm)| match arm_at_home(scene, index, arm) {
             Err(e @ SetupError::SwageOffNeedle { .. }) => Some(e),
             _ => None,

@@ -3,7 +3,7 @@
 
 use crate::mpm::guard::GuardEvent;
 use crate::mpm::SolveCounts;
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 
 /// Force (N) and torque (N·m) a tool receives from the tissue: world frame, torque about
 /// the tool frame origin, averaged over a frame.
@@ -22,6 +22,24 @@ impl Wrench {
             force: rotation.inverse_transform_vector(&self.force),
             torque: rotation.inverse_transform_vector(&self.torque),
         }
+    }
+
+    /// The same wrench as the holder of a mounted tool feels it, in the holder's frame: the
+    /// torque about the holder's origin, behind which `mount` (holder-from-tool) puts the
+    /// tool's, and the axes the mount's rotation turns away from the tool's.
+    /// `tool_rotation` is world-from-tool.
+    pub fn in_holder_frame(
+        &self,
+        tool_rotation: &UnitQuaternion<f64>,
+        mount: &Isometry3<f64>,
+    ) -> Wrench {
+        let holder_rotation = tool_rotation * mount.rotation.inverse();
+        let tool_origin_from_holder = holder_rotation * mount.translation.vector;
+        Wrench {
+            force: self.force,
+            torque: self.torque + tool_origin_from_holder.cross(&self.force),
+        }
+        .in_tool_frame(&holder_rotation)
     }
 }
 
@@ -92,4 +110,36 @@ pub enum StepError {
         /// What the guard saw.
         event: GuardEvent,
     },
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Translation3;
+
+    #[test]
+    fn a_mounted_tool_s_wrench_is_taken_about_the_holder_s_origin_in_its_axes() {
+        // The tool sits 9 mm along the holder's z, turned 90° about it; the holder's axes are
+        // the world's. A push along world x on the tool's origin, 9 mm ahead of the holder,
+        // turns the holder about its y: τ = (0, 0, 0.009) × (2, 0, 0) = (0, 0.018, 0).
+        let quarter =
+            UnitQuaternion::from_axis_angle(&Vector3::z_axis(), std::f64::consts::FRAC_PI_2);
+        let mount = Isometry3::from_parts(Translation3::new(0.0, 0.0, 0.009), quarter);
+        let pushed = Wrench {
+            force: Vector3::new(2.0, 0.0, 0.0),
+            torque: Vector3::new(0.0, 0.0, 0.001),
+        };
+        let held = pushed.in_holder_frame(&quarter, &mount);
+        assert!(
+            (held.force - Vector3::new(2.0, 0.0, 0.0)).norm() < 1e-12,
+            "{held:?}"
+        );
+        assert!(
+            (held.torque - Vector3::new(0.0, 0.018, 0.001)).norm() < 1e-12,
+            "{held:?}"
+        );
+        // A tool with no mount feels it as itself.
+        let own = pushed.in_holder_frame(&quarter, &Isometry3::identity());
+        assert_eq!(own, pushed.in_tool_frame(&quarter));
+    }
 }
