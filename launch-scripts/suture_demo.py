@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Suture demo: PSM1 throws one stitch across the wound of config/suture.toml and pulls it
-closed, driven with CRTK commands as a dVRK user scripts a PSM.
+closed while PSM2 holds the thread's tail and then tensions it, both arms driven with CRTK
+commands as a dVRK user scripts them.
 
     launch-scripts/run_node.sh config/suture.toml &
     .venv/bin/python launch-scripts/suture_demo.py
@@ -8,12 +9,15 @@ closed, driven with CRTK commands as a dVRK user scripts a PSM.
 PSM1 holds a half-circle needle with its centre on the instrument's axis (suture.toml's
 tool_xyz), so rolling the instrument turns the needle along its own arc:
 
+0. PSM2 `jaw/move_jp` -20 deg: its grasper, closed on the thread's tail from the start,
+   keeps pressing (a negative jaw angle presses the closed jaws together).
 1. `trajectory_j/set_ratio` 1/6: moves at a sixth of dVRK's speeds (the roll peaks at
    180 deg/s; a move's speed rises and falls smoothly, so a full turn takes 3.75 s).
 2. `move_jp`, the roll from +180 to -180 deg: the needle's tip enters the left block, passes
    under the wound and leaves the right block; the thread swaged to it follows its path.
 3. `move_cp` twice: the needle drawn up and back over the left block, which pulls the
    thread tight across the wound.
+4. PSM2 `move_cp`: the tail drawn 2 mm further out and 1 mm up, tensioning the thread.
 
 Waits follow simulated time (the stamps of PSM1/measured_js), so the script works however
 fast the simulation runs. It reads the wound gap from `tissue/wound_gap` (std_msgs/Float64),
@@ -34,6 +38,9 @@ ROLL = 3  # index of the instrument's roll in PSM1's joints
 # over the left block, then 4 mm higher. PSM1's base is turned 90 deg about x
 # (suture.toml's base_rpy_deg), so a world step (x, y, z) is (x, z, -y) in PSM1_base.
 LIFTS = [(-0.012, -0.004, 0.014), (-0.002, -0.001, 0.004)]
+# PSM2's pull on the tail, in world coordinates (m); its base keeps the world's axes.
+TENSION = (0.0, -0.002, 0.001)
+GRASP_JAW = math.radians(-20.0)
 
 
 def world_to_base(step):
@@ -45,16 +52,20 @@ def main():
     rclpy.init()
     node = rclpy.create_node("suture_demo")
     move_jp = node.create_publisher(JointState, "/PSM1/move_jp", 10)
-    move_cp = node.create_publisher(PoseStamped, "/PSM1/move_cp", 10)
+    move_cp = {arm: node.create_publisher(PoseStamped, f"/{arm}/move_cp", 10)
+               for arm in ("PSM1", "PSM2")}
+    jaw_move_jp = node.create_publisher(JointState, "/PSM2/jaw/move_jp", 10)
     ratio = node.create_publisher(Float64, "/PSM1/trajectory_j/set_ratio", 10)
-    state = {"t": None, "q": None, "cp": None, "gap": None, "gaps": 0, "ratio": None}
+    state = {"t": None, "q": None, "cp": {}, "gap": None, "gaps": 0, "ratio": None}
 
     def on_js(msg):
         state["t"] = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
         state["q"] = list(msg.position)
 
-    def on_cp(msg):
-        state["cp"] = msg
+    def on_cp(arm):
+        def store(msg):
+            state["cp"][arm] = msg
+        return store
 
     def on_gap(msg):
         state["gap"] = msg.data
@@ -64,7 +75,8 @@ def main():
         state["ratio"] = msg.data
 
     node.create_subscription(JointState, "/PSM1/measured_js", on_js, 10)
-    node.create_subscription(PoseStamped, "/PSM1/measured_cp", on_cp, 10)
+    for arm in ("PSM1", "PSM2"):
+        node.create_subscription(PoseStamped, f"/{arm}/measured_cp", on_cp(arm), 10)
     node.create_subscription(Float64, "/tissue/wound_gap", on_gap, 10)
     node.create_subscription(Float64, "/PSM1/trajectory_j/ratio", on_ratio, 10)
 
@@ -87,11 +99,32 @@ def main():
         t0 = state["t"]
         wait_for(lambda: state["t"] - t0 >= seconds, what)
 
-    print("waiting for PSM1 and the wound gap ...")
-    wait_for(lambda: state["q"] is not None and state["cp"] is not None
-             and state["gap"] is not None, "PSM1 and tissue/wound_gap")
+    def move_by(arm, step, what):
+        """move_cp of `arm` by `step` (in its base frame), waiting until it gets there."""
+        wait_sim(0.05, f"{arm}'s measured_cp to catch up with its joints")
+        start = state["cp"][arm].pose
+        target = PoseStamped()
+        target.header.frame_id = f"{arm}_base"
+        target.pose.orientation = start.orientation
+        target.pose.position.x = start.position.x + step[0]
+        target.pose.position.y = start.position.y + step[1]
+        target.pose.position.z = start.position.z + step[2]
+        move_cp[arm].publish(target)
+
+        def arrived():
+            p = state["cp"][arm].pose.position
+            goal = target.pose.position
+            return math.dist((p.x, p.y, p.z), (goal.x, goal.y, goal.z)) < 1e-4
+
+        wait_for(arrived, what)
+
+    print("waiting for PSM1, PSM2 and the wound gap ...")
+    wait_for(lambda: state["q"] is not None and len(state["cp"]) == 2
+             and state["gap"] is not None, "PSM1, PSM2 and tissue/wound_gap")
     before = fresh_gap("the wound gap at the start")
     print(f"t={state['t']:.2f}s wound gap {before * 1e3:.2f} mm")
+
+    jaw_move_jp.publish(JointState(position=[GRASP_JAW]))
 
     ratio.publish(Float64(data=RATIO))
     wait_for(lambda: state["ratio"] is not None and abs(state["ratio"] - RATIO) < 1e-9,
@@ -106,25 +139,13 @@ def main():
           f"wound gap {thrown * 1e3:.2f} mm")
 
     for step in LIFTS:
-        wait_sim(0.05, "measured_cp to catch up with the joints")
-        start = state["cp"].pose
-        dx, dy, dz = world_to_base(step)
-        target = PoseStamped()
-        target.header.frame_id = "PSM1_base"
-        target.pose.orientation = start.orientation
-        target.pose.position.x = start.position.x + dx
-        target.pose.position.y = start.position.y + dy
-        target.pose.position.z = start.position.z + dz
-        move_cp.publish(target)
-
-        def arrived():
-            p = state["cp"].pose.position
-            goal = target.pose.position
-            return math.dist((p.x, p.y, p.z), (goal.x, goal.y, goal.z)) < 1e-4
-
-        wait_for(arrived, "the needle drawn back over the wound")
+        move_by("PSM1", world_to_base(step), "the needle drawn back over the wound")
         print(f"t={state['t']:.2f}s needle moved by {step} m, "
               f"wound gap {fresh_gap('the wound gap after the move') * 1e3:.2f} mm")
+
+    move_by("PSM2", TENSION, "PSM2 drawing the thread's tail out")
+    print(f"t={state['t']:.2f}s PSM2 drew the tail by {TENSION} m, "
+          f"wound gap {fresh_gap('the wound gap after the tension') * 1e3:.2f} mm")
 
     wait_sim(0.5, "half a second for the tissue to settle")
     after = fresh_gap("the wound gap at the end")

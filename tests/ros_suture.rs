@@ -1,10 +1,11 @@
 //! The suture throw through the user's interface: `launch-scripts/suture_demo.py` (rclpy,
-//! CRTK `trajectory_j/set_ratio`, `move_jp` and `move_cp` on PSM1, waiting on its
-//! `measured_js` as a dVRK client does) against the node on the shipped `config/suture.toml`.
-//! PSM1 holds the needle; rolling the instrument throws the stitch, moving it back over the
-//! wound pulls the thread tight. The script reads `tissue/wound_gap` and fails unless the gap
-//! closes by half. The node records the run: the bag holds the wound gap, the thread and its
-//! tension, PSM1's joints and `/tf`.
+//! CRTK `trajectory_j/set_ratio`, `move_jp` and `move_cp` on PSM1, `jaw/move_jp` and
+//! `move_cp` on PSM2, waiting on `measured_js` as a dVRK client does) against the node on
+//! the shipped `config/suture.toml`. PSM1 holds the needle; rolling the instrument throws the
+//! stitch, moving it back over the wound pulls the thread tight; PSM2's grasper holds the
+//! thread's tail and then draws it out. The script reads `tissue/wound_gap` and fails unless
+//! the gap closes by half. The node records the run: the bag holds the wound gap, the thread
+//! and its tension, both arms' joints and commands, and `/tf`.
 //!
 //! Like `tests/ros_node.rs`, it runs only inside a loopback-only network namespace with the
 //! venv's rclpy (`.ci/run` provides both); elsewhere it prints why and passes, unless `CI`
@@ -24,7 +25,7 @@ fn gaps(stdout: &str) -> Option<(f64, f64)> {
 }
 
 #[test]
-fn suture_demo_throws_a_stitch_with_psm1_and_closes_the_wound() {
+fn suture_demo_throws_a_stitch_with_psm1_and_tensions_it_with_psm2_and_the_wound_closes() {
     if !network_prerequisites(true) {
         return;
     }
@@ -77,6 +78,9 @@ fn suture_demo_throws_a_stitch_with_psm1_and_closes_the_wound() {
         "/PSM1/measured_js",
         "/PSM1/move_jp",
         "/PSM1/move_cp",
+        "/PSM2/measured_js",
+        "/PSM2/jaw/move_jp",
+        "/PSM2/move_cp",
         "/tf",
     ] {
         assert!(

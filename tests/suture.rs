@@ -1,10 +1,11 @@
 //! The suture throw of the shipped `config/suture.toml`, headless on its keyframes: the
 //! needle turns once about its axis through two tissue blocks either side of a wound, the
 //! thread swaged to it follows its path through both, and drawing the needle back over the
-//! wound tightens the thread across it and closes the wound. Run as a node, PSM1 holds the
-//! needle: its home puts the needle where the first keyframe does, and rolling the
-//! instrument turns it as the keyframes do (the throw itself through the node is
-//! `launch-scripts/suture_demo.py`'s, run by `tests/ros_suture.rs`).
+//! wound, against a grasper holding the thread's tail, tightens the thread across it and
+//! closes the wound; the grasper then draws the tail out. Run as a node, PSM1 holds the
+//! needle and PSM2 the grasper: their homes put them where the first keyframes do, and
+//! rolling PSM1's instrument turns the needle as the keyframes do (the throw itself through
+//! the node is `launch-scripts/suture_demo.py`'s, run by `tests/ros_suture.rs`).
 
 use dvrk_tissue_sim::math::Vec3;
 use dvrk_tissue_sim::world::World;
@@ -80,7 +81,7 @@ fn the_needle_draws_the_thread_through_both_blocks_and_the_pull_closes_the_wound
     // The needle is drawn up and back over the wound: the thread tightens and the wound
     // closes as its tension rises.
     let mut readings = Vec::new();
-    for t in [4.5, 5.0, 5.5, 6.0, 6.5] {
+    for t in [4.5, 5.0, 5.5, 6.0, 6.5, 7.0] {
         let peak = run_until(&mut world, t);
         readings.push((t, world.wound_gap().unwrap(), tension(&world), peak));
     }
@@ -116,8 +117,22 @@ fn the_needle_draws_the_thread_through_both_blocks_and_the_pull_closes_the_wound
         gap_end < gap_thrown - 3e-4,
         "the pull closed the wound by less than 0.3 mm after the throw: {gap_thrown} m -> {gap_end} m"
     );
-    // The tissue has no toughness: the thread pulls it without tearing it.
-    assert_eq!(world.pieces(), 2);
+    // PSM2's grasper draws the tail out (6.0-6.5 s) and still holds it.
+    let drawn = at(7.0);
+    assert!(
+        drawn.1 <= tight.1 + 5e-5,
+        "the wound opened as the tail was drawn: {readings:?}"
+    );
+    let grasped = world.threads()[0].grasped_points();
+    assert!(
+        grasped >= 3,
+        "the grasper let the tail go: {grasped} points held"
+    );
+    // The tissue has no toughness: the thread pulls it without tearing it. Pieces link
+    // particles within a cell, so the blocks count as one once the wound is closed to less
+    // than a cell (1.25 mm); a tear would make more than two.
+    let pieces = world.pieces();
+    assert!((1..=2).contains(&pieces), "{pieces} pieces");
 }
 
 /// PSM1 of `suture.toml` holds the needle at `tool_xyz`, `tool_rpy_deg` in its tool frame:
@@ -196,5 +211,48 @@ fn psm1_rolls_the_needle_as_the_keyframes_turn_it_and_a_home_off_the_swage_is_re
     assert!(
         stdout.contains("arm PSM1 holds the needle of thread \"suture\""),
         "{stdout}"
+    );
+}
+
+/// PSM2 of `suture.toml` holds the grasper where its keyframe does, and the grasper, pressed
+/// shut from the start, holds the thread's tail: the points between its jaws stay where they
+/// were while the needle draws the thread through the tissue.
+#[test]
+fn psm2_holds_the_grasper_where_the_keyframes_do_and_it_holds_the_thread_s_tail() {
+    use dvrk_tissue_sim::sim::build_setup;
+    let scene = shipped("suture.toml");
+    let setup = build_setup(&scene).unwrap_or_else(|e| panic!("{e}"));
+    let grasper = scene
+        .tools
+        .iter()
+        .position(|t| t.name == "grasper")
+        .unwrap();
+    let psm2 = scene.arms.iter().position(|a| a.name == "PSM2").unwrap();
+    assert_eq!(setup.arm_tools[psm2], Some(grasper));
+    let (arm, key) = (
+        setup.arms[psm2].tool_pose(),
+        scene.tools[grasper].keyframes[0].pose(),
+    );
+    let (off, turn) = (
+        (arm.position - key.position).norm(),
+        arm.rotation.angle_to(&key.rotation),
+    );
+    println!("PSM2 at home: grasper {off:.2e} m and {turn:.2e} rad off its keyframe");
+    assert!(off < 1e-6 && turn < 1e-6, "{off} m, {turn} rad");
+
+    let mut world = World::new(&scene);
+    let tail_start = *world.threads()[0].rod.points.last().unwrap();
+    run_until(&mut world, 1.0);
+    let thread = &world.threads()[0];
+    let tail = *thread.rod.points.last().unwrap();
+    println!(
+        "after 1 s: {} point(s) grasped, the tail {:.3} mm from where it started",
+        thread.grasped_points(),
+        (tail - tail_start).norm() * 1e3
+    );
+    assert!(thread.grasped_points() >= 3, "{}", thread.grasped_points());
+    assert!(
+        (tail - tail_start).norm() < 2e-4,
+        "{tail:?} from {tail_start:?}"
     );
 }
