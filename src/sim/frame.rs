@@ -19,7 +19,8 @@ pub struct ToolState {
     pub frame_id: String,
     /// The tool's world pose and jaw opening.
     pub pose: ToolPose,
-    /// Contact wrench in the tool frame (torque about the tool origin).
+    /// Contact wrench in `frame_id`'s axes, the torque about its origin (an arm's tool
+    /// frame, behind the held tool's mount; otherwise the tool's own).
     pub wrench: Wrench,
 }
 
