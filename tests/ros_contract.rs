@@ -354,7 +354,8 @@ fn standard_ros_arguments_and_links_left_to_dvrk() {
     run_script_against(&node, "test_ros_args.py", domain);
 
     // With `tf_arm_links = false` /tf carries only what dVRK's robot_state_publisher (fed
-    // by measured_js) does not: the tool frame and our tool tip, under the base.
+    // by measured_js) does not: the tool frame and our tool tip, under the base, and the
+    // held tool's own frame under the tool frame.
     let context = Context::with_options(ContextOptions::new().domain_id(domain)).unwrap();
     let mut peer = context
         .new_node(NodeName::new("/", "tf_peer").unwrap(), NodeOptions::new())
@@ -364,6 +365,7 @@ fn standard_ros_arguments_and_links_left_to_dvrk() {
     assert_eq!(
         moving,
         [
+            ("PSM1".to_owned(), "probe".to_owned()),
             ("PSM1_base".to_owned(), "PSM1".to_owned()),
             ("PSM1_base".to_owned(), "PSM1_tool_tip".to_owned()),
         ]

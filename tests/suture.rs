@@ -256,3 +256,51 @@ fn psm2_holds_the_grasper_where_the_keyframes_do_and_it_holds_the_thread_s_tail(
         "{tail:?} from {tail_start:?}"
     );
 }
+
+/// `/tf` carries each held tool under its arm's tool frame through the mount: `PSM1` →
+/// `needle` is `tool_xyz` and `tool_rpy_deg` (the needle's centre 9 mm ahead of the jaw
+/// pivot, turned 90° about the shaft), `PSM2` → `grasper` the identity.
+#[test]
+fn tf_puts_each_held_tool_under_its_arm_s_tool_frame_through_the_mount() {
+    use dvrk_tissue_sim::ros::msgs::Time;
+    use dvrk_tissue_sim::ros::outputs::{tf_message, OutputLayout};
+    use dvrk_tissue_sim::sim::{build_setup, frame_loop::FrameLoop};
+    use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+    let scene = shipped("suture.toml");
+    let setup = build_setup(&scene).unwrap_or_else(|e| panic!("{e}"));
+    let layout = OutputLayout::new(&scene, &setup, "/");
+    let frame = FrameLoop::new(setup, None).current();
+    let tf = tf_message(&layout.arms, &frame, Time::default(), false);
+    let edge = |parent: &str, child: &str| {
+        let t = tf
+            .transforms
+            .iter()
+            .find(|t| t.header.frame_id == parent && t.child_frame_id == child)
+            .unwrap_or_else(|| panic!("no {parent} -> {child} in {:#?}", tf.transforms))
+            .transform;
+        let (p, q) = (t.translation, t.rotation);
+        (
+            Vector3::new(p.x, p.y, p.z),
+            UnitQuaternion::from_quaternion(Quaternion::new(q.w, q.x, q.y, q.z)),
+        )
+    };
+    let (offset, turn) = edge("PSM1", "needle");
+    let quarter = UnitQuaternion::from_euler_angles(0.0, 0.0, std::f64::consts::FRAC_PI_2);
+    println!(
+        "PSM1 -> needle: {offset:?} m, {:.1e} rad from 90° about z",
+        turn.angle_to(&quarter)
+    );
+    assert!(
+        (offset - Vector3::new(0.0, 0.0, 0.009)).norm() < 1e-9,
+        "{offset:?}"
+    );
+    assert!(turn.angle_to(&quarter) < 1e-9);
+    let (offset, turn) = edge("PSM2", "grasper");
+    assert!(
+        offset.norm() < 1e-9 && turn.angle() < 1e-9,
+        "{offset:?} {turn:?}"
+    );
+    // The arms' tool frames are there too, and no tool hangs from the world.
+    assert!(tf.transforms.iter().any(|t| t.child_frame_id == "PSM1"));
+    assert!(tf.transforms.iter().all(|t| t.header.frame_id != "world"));
+}

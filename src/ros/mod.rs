@@ -66,7 +66,7 @@
 //! | `tools/<tool>/wrench` | geometry_msgs/WrenchStamped | contact wrench on the tool, in its frame (`PSM1` for an arm's tool, the mount undone: the torque about the arm's tool frame origin) |
 //! | `threads/<name>/centreline`, `threads/<name>/tension` | Marker, PointCloud2 | a suture thread's LINE_STRIP and its axial force per point |
 //! | `/tf_static` | tf2_msgs/TFMessage | once, transient local: `world` → `PSM1_base`; with a camera, `ECM` → `ECM_left_optical_frame` and `ECM_right_optical_frame` (`world` → them for a camera without an arm) |
-//! | `/tf` | tf2_msgs/TFMessage | `PSM1_base` → every arm link (with `[outputs] tf_arm_links = false` only `PSM1` and `PSM1_tool_tip`, leaving the links to dVRK's robot_state_publisher); scripted tools |
+//! | `/tf` | tf2_msgs/TFMessage | `PSM1_base` → every arm link (with `[outputs] tf_arm_links = false` only `PSM1` and `PSM1_tool_tip`, leaving the links to dVRK's robot_state_publisher); each held tool under its arm's tool frame through the mount (`PSM1` → `needle`); scripted tools under `world` |
 //! | `<mtm>/measured_cp`, `<mtm>/gripper/measured_js` for each `[[teleop]]` pair (`MTMR`, `MTML`), `console/clutch`, `console/operator_present` | (sub, with `[[teleop]]`) | Joy `buttons[0] = 1` pressed; the one console's pedals engage every pair |
 //! | `<mtm>/body/servo_cf` | geometry_msgs/WrenchStamped | with a pair's `force_feedback`: its tool's contact wrench × scale |
 //! | `/clock` | rosgraph_msgs/Clock | simulated time, once per frame |

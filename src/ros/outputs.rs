@@ -561,7 +561,9 @@ pub fn tf_static_message(layout: &OutputLayout) -> TFMessage {
 }
 
 /// Each arm's base → its links (with `all_links` false only the tool frame and the tool
-/// tip, which dVRK's robot_state_publisher does not publish); scripted tools in `world`.
+/// tip, which dVRK's robot_state_publisher does not publish); each held tool under its arm's
+/// tool frame, through the mount (`PSM1` → `needle`: where the needle is, not the jaws);
+/// scripted tools in `world`.
 pub fn tf_message(arms: &[ArmOutput], frame: &Frame, stamp: Time, all_links: bool) -> TFMessage {
     let mut transforms = Vec::new();
     for (arm, status) in arms.iter().zip(&frame.arms) {
@@ -582,14 +584,21 @@ pub fn tf_message(arms: &[ArmOutput], frame: &Frame, stamp: Time, all_links: boo
         }
     }
     for tool in &frame.tools {
-        if arms.iter().any(|a| a.name == tool.frame_id) {
-            continue;
-        }
         let iso = Isometry3::from_parts(Translation3::from(tool.pose.position), tool.pose.rotation);
+        let holder = arms
+            .iter()
+            .zip(&frame.arms)
+            .find(|(a, _)| a.name == tool.frame_id);
+        let (parent, transform) = match holder {
+            // The tool frame's name is the arm's; the tool's own frame hangs under it.
+            Some(_) if tool.name == tool.frame_id => continue,
+            Some((arm, status)) => (arm.name.as_str(), (arm.base * status.cp).inverse() * iso),
+            None => ("world", iso),
+        };
         transforms.push(TransformStamped {
-            header: Header::new(stamp, "world"),
-            child_frame_id: tool.frame_id.clone(),
-            transform: (&iso).into(),
+            header: Header::new(stamp, parent),
+            child_frame_id: tool.name.clone(),
+            transform: (&transform).into(),
         });
     }
     TFMessage { transforms }
