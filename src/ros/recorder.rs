@@ -126,6 +126,22 @@ pub enum RecordError {
     },
 }
 
+/// The kind of an I/O error, seen through a wrapper that kept only the system's text: the
+/// MCAP writer wraps a failed message-header write in binrw's error (kind `Other`, no
+/// source), whose text still ends in "(os error N)".
+fn error_kind(e: &std::io::Error) -> std::io::ErrorKind {
+    if e.kind() != std::io::ErrorKind::Other || e.raw_os_error().is_some() {
+        return e.kind();
+    }
+    let text = e.to_string();
+    text.strip_suffix(')')
+        .and_then(|t| t.rsplit_once("(os error "))
+        .and_then(|(_, code)| code.parse().ok())
+        .map_or(e.kind(), |code| {
+            std::io::Error::from_raw_os_error(code).kind()
+        })
+}
+
 /// What an I/O error means for a bag at `path`, in the user's words (the cause first, then
 /// the system's own text).
 pub fn io_cause(e: &std::io::Error, path: &Path) -> String {
@@ -134,7 +150,7 @@ pub fn io_cause(e: &std::io::Error, path: &Path) -> String {
         Some(p) if !p.as_os_str().is_empty() => p.to_owned(),
         _ => PathBuf::from("."),
     };
-    let cause = match e.kind() {
+    let cause = match error_kind(e) {
         ErrorKind::StorageFull => "no space left on the device".to_owned(),
         ErrorKind::QuotaExceeded => "disk quota exceeded".to_owned(),
         ErrorKind::PermissionDenied => format!("permission denied (writing in {})", dir.display()),
@@ -841,6 +857,25 @@ mod tests {
     use super::*;
     use crate::ros::outputs::OutputRates;
     use crate::sim::{Frame, RecordedInput};
+
+    /// A full disk reads as one however the writer wrapped the system's error: as it is, or
+    /// as the MCAP writer's message-header write returns it (its text alone, kind `Other`).
+    #[test]
+    fn a_full_disk_is_named_through_a_wrapper_that_kept_only_its_text() {
+        let path = Path::new("/tmp/a.mcap");
+        let full = std::io::Error::from_raw_os_error(28);
+        let text = full.to_string();
+        assert!(io_cause(&full, path).starts_with("no space left on the device ("));
+        let wrapped = std::io::Error::other(text.clone());
+        assert_eq!(wrapped.kind(), std::io::ErrorKind::Other);
+        assert_eq!(
+            io_cause(&wrapped, path),
+            format!("no space left on the device ({text})")
+        );
+        // Text without an OS error number stays as it is.
+        let other = std::io::Error::other("writes now fail");
+        assert_eq!(io_cause(&other, path), "writes now fail");
+    }
 
     fn record(inputs: usize) -> FrameRecord {
         FrameRecord {
