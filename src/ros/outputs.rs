@@ -35,6 +35,9 @@ pub struct ArmOutput {
     /// What `tool_type` reports (see [`crate::config::Arm::tool_type`]); `None` for the
     /// ECM.
     pub tool_type: Option<String>,
+    /// The held tool's pose in the arm's tool frame (`[[arm]] tool_xyz`, `tool_rpy_deg`):
+    /// its transform on `/tf`.
+    pub tool_mount: Isometry3<f64>,
 }
 
 /// MTM force feedback: the tool's contact wrench × scale on `<mtm>/body/servo_cf`.
@@ -108,6 +111,7 @@ impl OutputLayout {
                 simulated: arm.mode == ArmMode::Simulated,
                 tool: setup.arm_tools.get(index).copied().flatten(),
                 tool_type: tool_type(scene, arm),
+                tool_mount: *sim.tool_mount(),
             })
             .collect();
         let force_feedback = scene
@@ -584,16 +588,15 @@ pub fn tf_message(arms: &[ArmOutput], frame: &Frame, stamp: Time, all_links: boo
         }
     }
     for tool in &frame.tools {
-        let iso = Isometry3::from_parts(Translation3::from(tool.pose.position), tool.pose.rotation);
-        let holder = arms
-            .iter()
-            .zip(&frame.arms)
-            .find(|(a, _)| a.name == tool.frame_id);
+        let holder = arms.iter().find(|a| a.name == tool.frame_id);
         let (parent, transform) = match holder {
             // The tool frame's name is the arm's; the tool's own frame hangs under it.
             Some(_) if tool.name == tool.frame_id => continue,
-            Some((arm, status)) => (arm.name.as_str(), (arm.base * status.cp).inverse() * iso),
-            None => ("world", iso),
+            Some(arm) => (arm.name.as_str(), arm.tool_mount),
+            None => (
+                "world",
+                Isometry3::from_parts(Translation3::from(tool.pose.position), tool.pose.rotation),
+            ),
         };
         transforms.push(TransformStamped {
             header: Header::new(stamp, parent),

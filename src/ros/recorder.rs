@@ -126,20 +126,16 @@ pub enum RecordError {
     },
 }
 
-/// The kind of an I/O error, seen through a wrapper that kept only the system's text: the
-/// MCAP writer wraps a failed message-header write in binrw's error (kind `Other`, no
-/// source), whose text still ends in "(os error N)".
+/// The kind of an I/O error, seen through the wrapper the MCAP writer puts round a failed
+/// message-header write (`io::Error::other(binrw::Error::Io(e))`, kind `Other`).
 fn error_kind(e: &std::io::Error) -> std::io::ErrorKind {
-    if e.kind() != std::io::ErrorKind::Other || e.raw_os_error().is_some() {
-        return e.kind();
+    match e
+        .get_ref()
+        .and_then(|inner| inner.downcast_ref::<binrw::Error>())
+    {
+        Some(binrw::Error::Io(inner)) => error_kind(inner),
+        _ => e.kind(),
     }
-    let text = e.to_string();
-    text.strip_suffix(')')
-        .and_then(|t| t.rsplit_once("(os error "))
-        .and_then(|(_, code)| code.parse().ok())
-        .map_or(e.kind(), |code| {
-            std::io::Error::from_raw_os_error(code).kind()
-        })
 }
 
 /// What an I/O error means for a bag at `path`, in the user's words (the cause first, then
@@ -861,18 +857,19 @@ mod tests {
     /// A full disk reads as one however the writer wrapped the system's error: as it is, or
     /// as the MCAP writer's message-header write returns it (its text alone, kind `Other`).
     #[test]
-    fn a_full_disk_is_named_through_a_wrapper_that_kept_only_its_text() {
+    fn a_full_disk_is_named_through_the_mcap_writer_s_binrw_wrapper() {
         let path = Path::new("/tmp/a.mcap");
-        let full = std::io::Error::from_raw_os_error(28);
-        let text = full.to_string();
-        assert!(io_cause(&full, path).starts_with("no space left on the device ("));
-        let wrapped = std::io::Error::other(text.clone());
+        let full = || std::io::Error::from_raw_os_error(28);
+        let text = full().to_string();
+        assert!(io_cause(&full(), path).starts_with("no space left on the device ("));
+        // As mcap 0.26 wraps a message header's failed write.
+        let wrapped = std::io::Error::other(binrw::Error::Io(full()));
         assert_eq!(wrapped.kind(), std::io::ErrorKind::Other);
         assert_eq!(
             io_cause(&wrapped, path),
             format!("no space left on the device ({text})")
         );
-        // Text without an OS error number stays as it is.
+        // Any other wrapped error stays as it is.
         let other = std::io::Error::other("writes now fail");
         assert_eq!(io_cause(&other, path), "writes now fail");
     }
