@@ -855,7 +855,8 @@ mod tests {
     use crate::sim::{Frame, RecordedInput};
 
     /// A full disk reads as one however the writer wrapped the system's error: as it is, or
-    /// as the MCAP writer's message-header write returns it (its text alone, kind `Other`).
+    /// as the MCAP writer's message-header write returns it (inside binrw's error, kind
+    /// `Other`).
     #[test]
     fn a_full_disk_is_named_through_the_mcap_writer_s_binrw_wrapper() {
         let path = Path::new("/tmp/a.mcap");
