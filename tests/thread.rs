@@ -3,7 +3,7 @@
 //! the beam cases of `validation::thread` (cantilever, end moment, Euler, catenary).
 
 use dvrk_tissue_sim::math::Vec3;
-use dvrk_tissue_sim::rod::solver::RodSolverSettings;
+use dvrk_tissue_sim::rod::solver::{RodSolverSettings, CONTACT_SUBSTEPS};
 use dvrk_tissue_sim::rod::{Rod, RodSolver, ThreadMaterial};
 use dvrk_tissue_sim::validation::thread::{self as validation, RodCheck};
 
@@ -276,6 +276,43 @@ fn thread_rests_on_the_table() {
         assert!((p.z - r).abs() < 1e-6, "z {} vs radius {r}", p.z);
     }
     assert!(report.max_strain < 1e-4, "{report:?}");
+}
+
+/// What a substep costs, counted: out of contact it factorises the rod's system once (the
+/// set iterations after the first are chord steps on that factorisation); in contact every
+/// iteration factorises afresh, and restoring the length after the contacts at least once
+/// more.
+#[test]
+fn a_free_substep_factorises_once_and_one_in_contact_at_every_iteration() {
+    let mut rod = thread(40, Vec3::x());
+    let mut solver = default_solver(&rod, GRAVITY);
+    for frame in 0..60 {
+        let report = solver.step_frame(&mut rod, FRAME);
+        assert!(
+            report.substeps == 1 && report.factorisations == 1,
+            "swinging, frame {frame}: {report:?}"
+        );
+    }
+    let mut rod = free_thread(40, Vec3::new(0.0, 0.0, 0.005), 0.15);
+    let mut solver = default_solver(&rod, GRAVITY);
+    let env = RodEnvironment {
+        table_height: Some(0.0),
+        table_friction: 0.3,
+        ..Default::default()
+    };
+    // With a table in reach every iteration factorises; once the thread rests on it (it
+    // falls 5 mm in about three frames) every substep's contacts move points, and the length
+    // is restored after them.
+    let iterations = RodSolverSettings::default().iterations;
+    for frame in 0..60 {
+        let report = solver.step_frame_in(&mut rod, FRAME, &env);
+        assert_eq!(report.substeps, CONTACT_SUBSTEPS, "frame {frame}");
+        let resting = if frame >= 10 { 1 } else { 0 };
+        assert!(
+            report.factorisations >= (iterations + resting) * report.substeps,
+            "frame {frame}: {report:?}"
+        );
+    }
 }
 
 /// Sliding along the table at v₀, the thread stops after v₀²/(2μg) (Coulomb), and keeps

@@ -121,11 +121,16 @@
 //! each swept box into every cell it covers and sorting those (`self_contact`): the same
 //! pairs in the same order, so the same run to the bit, in 48.7 s of CPU against 60.5 s
 //! (`/usr/bin/time run --headless --scene config/knot.toml`, the binaries before and after
-//! in one sitting; real-time factor 0.283 → 0.352). What is left is the direct solve: 4.4
-//! factorisations a substep (3.4 in the contact rounds, 1.0 restoring the length), two
-//! thirds of a profile, and the tools' SDF queries (a seventh). Chord steps for the rounds
-//! after the first (no factorisation) ran the script in 38.2 s with the knot still tied,
-//! but let the thread stretch 4.5 % in a frame (against 0.4 %): not taken. The
+//! in one sitting; real-time factor 0.283 → 0.352). What is left is the direct solve: 4.54
+//! factorisations a substep (the table's last column, counted as they are done: 3 set
+//! iterations, 0.54 extra ones for the residual, 1.0 restoring the length), 55 % of a
+//! profile, and the tools' SDF queries (8 %). Chord steps for the rounds after the first
+//! (no factorisation) ran the script in 38.2 s with the knot still tied, but let the thread
+//! stretch 4.5 % in a frame (against 0.4 %): not taken. Measured again on an AMD EPYC,
+//! alternated with the shipped build: 49.4 and 50.3 s against 56.2 and 57.0 s, largest
+//! strain 4.46e-2 against 4.05e-3; with chord steps only where the stretch residual was
+//! already within 1e-3, 59.8 s and 2.93e-2: the stale Jacobians (directors the contacts
+//! turned), not the residual's size, stretch the thread. The
 //! elimination's Schur complements and forward sweep skip the coupling blocks' exact zeros
 //! (`direct`: the same sums in the same order, to the bit): `bench thread` with the builds
 //! before and after alternated twice on a 2-core Intel Xeon, the knot row 46.4 and 46.6 s

@@ -241,6 +241,7 @@ impl RodSolver {
                 let chord = !touches && iteration > 0 && iteration < iterations;
                 if !(chord && direct::resolve(rod, compliance, lambda, inv_h2, scratch)) {
                     direct::solve(rod, compliance, lambda, inv_h2, scratch);
+                    report.factorisations += 1;
                 }
                 let (found, any) = self.project_contacts(rod, env, table);
                 touched |= any;
@@ -264,7 +265,7 @@ impl RodSolver {
             }
             if touched {
                 self.rounds_points.clone_from(&rod.points);
-                self.restore_length(rod, inv_h2);
+                report.factorisations += self.restore_length(rod, inv_h2);
                 // The restoring solves move the touching points too. Tools get the last word
                 // (without it the solves pulled a thread back through a 0.3 mm wire pushing a
                 // segment's middle, tests/thread.rs), and so do pairs of segments the solves
@@ -313,6 +314,7 @@ impl RodSolver {
             self.update_velocities(rod, h);
             self.update_tension(rod, inv_h2);
         }
+        report.substeps = substeps;
         for &(point, inv_mass) in self.held.iter().rev() {
             rod.inv_mass[point] = inv_mass;
         }
@@ -363,7 +365,8 @@ impl RodSolver {
     }
 
     /// Direct solves after the substep's last contact projection, from zero multipliers,
-    /// until the stretch residual is within `RESIDUAL_TOLERANCE` (at most `LENGTH_SOLVES`).
+    /// until the stretch residual is within `RESIDUAL_TOLERANCE` (at most `LENGTH_SOLVES`);
+    /// returns how many.
     ///
     /// Contacts projected after the solve lengthen the segments they push, and the rounds'
     /// multipliers cannot take that back: table friction returns each point to where the
@@ -381,11 +384,12 @@ impl RodSolver {
     /// multiplier again and applies the bending impulse a second time in the substep, which
     /// stretches a hard-pulled knot (tests/scenes/knot_laid.toml) by orders of magnitude
     /// more than the length budget.
-    fn restore_length(&mut self, rod: &mut Rod, inv_h2: f64) {
+    fn restore_length(&mut self, rod: &mut Rod, inv_h2: f64) -> u32 {
         self.round_lambda.clone_from(&self.lambda);
         for lambda in &mut self.lambda {
             lambda.fixed_rows_mut::<3>(0).fill(0.0);
         }
+        let mut solves = 0;
         for solve in 0..LENGTH_SOLVES {
             if solve > 0
                 && direct::stretch_residual(rod, &self.compliance, &self.lambda, inv_h2)
@@ -393,6 +397,7 @@ impl RodSolver {
             {
                 break;
             }
+            solves += 1;
             direct::solve(
                 rod,
                 &self.compliance,
@@ -405,6 +410,7 @@ impl RodSolver {
             let mut stretch = lambda.fixed_rows_mut::<3>(0);
             stretch += round.fixed_rows::<3>(0);
         }
+        solves
     }
 
     fn update_tension(&self, rod: &mut Rod, inv_h2: f64) {

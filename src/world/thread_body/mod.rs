@@ -340,6 +340,8 @@ impl ThreadBody {
         last.tool_contacts += report.tool_contacts;
         last.self_contacts += report.self_contacts;
         last.substeps_held_back += report.substeps_held_back;
+        last.substeps += report.substeps;
+        last.factorisations += report.factorisations;
         last.max_strain = report.max_strain;
         self.show_to(proxy);
     }
