@@ -351,6 +351,11 @@ impl CpuSolver {
                 .iter()
                 .map(|m| m.density * dx * dx * dx)
                 .fold(f32::MAX, f32::min);
+            let toughness = (self.materials.iter().all(|m| m.toughness > 0.0)).then(|| {
+                (self.materials.iter())
+                    .map(|m| m.toughness)
+                    .fold(f32::MAX, f32::min)
+            });
             self.thread_contact.apply(
                 &self.layout,
                 &self.boundary,
@@ -358,6 +363,7 @@ impl CpuSolver {
                 &self.bins,
                 input.dt,
                 full_node_mass,
+                toughness,
                 stepper,
             );
         }
