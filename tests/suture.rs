@@ -5,7 +5,8 @@
 //! closes the wound; the grasper then draws the tail out. Run as a node, PSM1 holds the
 //! needle and PSM2 the grasper: their homes put them where the first keyframes do, and
 //! rolling PSM1's instrument turns the needle as the keyframes do (the throw itself through
-//! the node is `launch-scripts/suture_demo.py`'s, run by `tests/ros_suture.rs`).
+//! the node is `launch-scripts/suture_demo.py`'s, run by `tests/ros_suture.rs`). In tissue
+//! with a low toughness the same throw cuts through instead of closing the wound.
 
 use dvrk_tissue_sim::math::Vec3;
 use dvrk_tissue_sim::world::World;
@@ -139,6 +140,33 @@ fn the_needle_draws_the_thread_through_both_blocks_and_the_pull_closes_the_wound
 /// at home (roll 180°) the needle is at its first keyframe's pose, and each quarter turn of
 /// the instrument's roll down turns it as the keyframes do each second. Started elsewhere,
 /// the arm is refused: the thread swaged to the needle would not be in its swage end.
+/// The same throw in tissue that gives way under a thread (a toughness of 0.3 J/m²: the
+/// pull across the thread passes G_c per unit length of it): the thread cuts through the
+/// tissue it was drawn through instead of closing the wound (`mpm::cpu::thread_contact`,
+/// cutting). Measured: the gap 3.88 mm -> 3.74 mm and a peak tension of 3.7 mN, against
+/// 0.57 mm and 60.8 mN in the throw above (the shipped tissue has no toughness).
+#[test]
+fn in_tissue_that_gives_way_the_thread_cuts_through_instead_of_closing_the_wound() {
+    let mut scene = shipped("suture.toml");
+    for tissue in &mut scene.tissues {
+        tissue.material.toughness = Some(0.3);
+    }
+    let mut world = World::new(&scene);
+    let gap_start = world.wound_gap().expect("two blocks");
+    let peak = run_until(&mut world, 7.0);
+    let gap_end = world.wound_gap().expect("two blocks");
+    println!(
+        "toughness 0.3 J/m²: gap {:.2} mm -> {:.2} mm, peak tension {:.1} mN",
+        gap_start * 1e3,
+        gap_end * 1e3,
+        peak * 1e3
+    );
+    assert!(
+        gap_end > 0.8 * gap_start && peak < 0.02,
+        "the thread cuts through: gap {gap_start} -> {gap_end} m, peak tension {peak} N"
+    );
+}
+
 #[test]
 fn psm1_rolls_the_needle_as_the_keyframes_turn_it_and_a_home_off_the_swage_is_refused() {
     use dvrk_tissue_sim::sim::{build_setup, SetupError};
