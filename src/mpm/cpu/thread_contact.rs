@@ -329,8 +329,7 @@ impl ThreadProxy {
         let k = 1.0 / (self.inv_mass[i] + 1.0 / self.bound_mass[i]);
         let stick = k * slip.abs();
         // The push's part across the thread (with `tissue_drag` it has one along it too).
-        let push = self.push[i];
-        let normal = (push - t * t.dot(&push)).norm();
+        let normal = self.across(i, self.push[i]).norm();
         let mut along = stick.min(self.friction * normal);
         along += self.drag * (stick - along);
         t * along.copysign(slip)
