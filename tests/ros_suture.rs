@@ -12,8 +12,9 @@
 //! is set.
 
 mod support;
-use support::dds::network_prerequisites;
+use support::dds::{network_prerequisites, python};
 use support::node::{run_rclpy_against, NodeProcess};
+use support::root;
 
 /// The gaps the demo printed as `wound gap A mm -> B mm`, m.
 fn gaps(stdout: &str) -> Option<(f64, f64)> {
@@ -100,4 +101,42 @@ fn suture_demo_throws_a_stitch_with_psm1_and_tensions_it_with_psm2_and_the_wound
         "recorded {first} m, the demo read {before} m first"
     );
     assert!(last < 0.5 * first, "recorded gap {first} m -> {last} m");
+}
+
+#[test]
+fn rclpy_psm1_opens_its_jaw_and_the_needle_falls_onto_the_tissue() {
+    if !network_prerequisites(true) {
+        return;
+    }
+    let bag = std::env::temp_dir().join(format!("needle-release-{}.mcap", std::process::id()));
+    let _ = std::fs::remove_file(&bag);
+    let node = NodeProcess::start_with(
+        &[
+            "--scene",
+            "config/suture.toml",
+            "--record",
+            bag.to_str().unwrap(),
+        ],
+        74,
+    );
+    run_rclpy_against(&node, "test_needle_release.py", 74);
+    let (status, log) = node.stop();
+    assert!(
+        status.is_some_and(|s| s.success()),
+        "the node's exit {status:?}:\n{log}"
+    );
+    assert!(!log.contains("ERROR"), "the node logged an error:\n{log}");
+    let out = std::process::Command::new(python())
+        .arg(root().join("tests/ros/read_needle_bag.py"))
+        .arg(&bag)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    println!("{stdout}");
+    std::fs::remove_file(&bag).unwrap();
+    assert!(
+        out.status.success(),
+        "read_needle_bag.py: {stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }

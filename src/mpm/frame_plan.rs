@@ -52,3 +52,23 @@ pub struct FrameStats {
     /// Where that particle is (m).
     pub max_stretch_at: Vec3,
 }
+
+impl FrameStats {
+    /// Adds the statistics of a frame that continued this one (a frame stepped as several
+    /// backend frames): sums and counts add, extremes take the larger, the first guard
+    /// event stays, the end-of-frame measures are the later frame's.
+    pub fn continue_with(&mut self, later: &FrameStats) {
+        for (acc, imp) in self.tool_impulses.iter_mut().zip(&later.tool_impulses) {
+            acc.add(imp);
+        }
+        self.max_speed = self.max_speed.max(later.max_speed);
+        self.clamped_particles += later.clamped_particles;
+        self.substeps_done += later.substeps_done;
+        self.guard = self.guard.or(later.guard);
+        self.solve.add(later.solve);
+        self.split.split += later.split.split;
+        self.split.refused += later.split.refused;
+        self.max_stretch = later.max_stretch;
+        self.max_stretch_at = later.max_stretch_at;
+    }
+}

@@ -337,6 +337,12 @@ pub struct ToolImpulse {
     pub angular: nalgebra::Vector3<f64>,
     /// Grid nodes this tool touched.
     pub contact_nodes: u32,
+    /// Mass of the grid nodes this tool touched, kg (summed over substeps like the
+    /// impulse): the tissue a free needle moves against (see [`crate::world::needle_body`]).
+    pub contact_mass: f64,
+    /// Their moment of inertia about the tool frame origin, Σ m |x − origin|², kg·m²
+    /// (summed over substeps likewise).
+    pub contact_inertia: f64,
     /// Angular impulse on the jaw opening from contact with the jaws (N·m·s; positive
     /// pushes them apart).
     pub jaw_opening: f64,
@@ -361,6 +367,8 @@ impl ToolImpulse {
         self.linear += other.linear;
         self.angular += other.angular;
         self.contact_nodes += other.contact_nodes;
+        self.contact_mass += other.contact_mass;
+        self.contact_inertia += other.contact_inertia;
         self.jaw_opening += other.jaw_opening;
         self.grip.required += other.grip.required;
         self.grip.mass += other.grip.mass;

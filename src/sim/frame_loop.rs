@@ -490,7 +490,12 @@ fn frame_of(setup: &SimSetup, report: Option<&FrameReport>) -> Frame {
         .enumerate()
         .map(|(i, t)| {
             let pose = t.pose_at(world.time());
-            let arm = setup.arm_tools.iter().position(|&k| k == Some(i));
+            // A needle its arm has let go of is no longer under the arm's tool frame.
+            let arm = setup
+                .arm_tools
+                .iter()
+                .position(|&k| k == Some(i))
+                .filter(|_| t.carried_by_driver());
             let frame_id = arm
                 .map(|a| setup.arms[a].name().to_owned())
                 .unwrap_or_else(|| t.name.clone());

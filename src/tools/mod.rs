@@ -26,7 +26,9 @@
 //! - **Motion**: keyframes ([`trajectory`]) interpolated linearly in time in headless runs;
 //!   in node runs a tool an arm holds follows the arm (base ∘ FK(q) ∘ mount, the mount
 //!   `tool_xyz`, `tool_rpy_deg`: a slicer, whose blade hangs along its own −z, is held with
-//!   [180, 0, 0]; a needle with its centre on the instrument's axis at `[0, 0, d]`).
+//!   [180, 0, 0]; a needle with its centre on the instrument's axis at `[0, 0, d]`). A
+//!   needle is a rigid body that its driver can let go of and grippers can take over
+//!   ([`crate::world::needle_body`]).
 
 pub mod contact;
 pub mod grip;

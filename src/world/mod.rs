@@ -3,6 +3,7 @@
 //! elastic wave and the material speed, PB-MPM's the material speed alone, under a substep
 //! of `solver.dt` (default 1/240 s).
 
+pub mod needle_body;
 mod report;
 mod step_params;
 pub mod thread_body;
@@ -14,7 +15,7 @@ use crate::math::Vec3;
 use crate::mpm::backend::{Backend, BackendChoice, CpuBackend};
 use crate::mpm::cpu::thread_contact::{ThreadProxy, ThreadStepper};
 use crate::mpm::cpu::CpuSolver;
-use crate::mpm::frame_plan::FramePlan;
+use crate::mpm::frame_plan::{FramePlan, FrameStats};
 use crate::mpm::gpu::{self, GpuError, GpuSolver};
 use crate::mpm::grid::{Boundary, GridLayout, TableHold};
 use crate::mpm::guard::GuardPolicy;
@@ -23,8 +24,10 @@ use crate::mpm::SolveCounts;
 use crate::mpm::{timestep, Lame, MaterialParams, Particles, PbMpmParams, SolverSetup};
 use crate::sleep::SleepState;
 use crate::tools::{JawCommand, Shape, ToolKinematics, ToolPose, ToolVelocity, Trajectory};
+use crate::world::thread_body::grasp::GripperView;
 use crate::world::thread_body::{ThreadBody, ToolsOverStep};
 use nalgebra::Vector3;
+use needle_body::{NeedleBody, Surroundings, TissueExchange};
 pub use report::{CommandError, FrameReport, StepError, Wrench};
 pub use step_params::StepParams;
 use tool::Jaws;
@@ -77,6 +80,9 @@ struct PlannedFrame {
     dt: f64,
     substeps: u32,
     truncated: bool,
+    /// A needle is free: the backend steps the frame one substep at a time, the needle
+    /// moving between them (see [`needle_body`]).
+    by_substep: bool,
 }
 
 impl PlannedFrame {
@@ -188,6 +194,11 @@ impl World {
                 driver: ToolDriver::Scripted(Trajectory::new(
                     t.keyframes.iter().map(|k| (k.t, k.pose())).collect(),
                 )),
+                body: NeedleBody::new(
+                    t.shape,
+                    t.contact,
+                    t.keyframes.first().map(|k| k.pose()).unwrap_or_default(),
+                ),
             })
             .collect();
         let split = scene.solver.split_params(particles.len());
@@ -500,6 +511,35 @@ impl World {
         }
     }
 
+    /// Plans every needle's motion over the frame [t_start, t_end]: who carries it (its
+    /// driver, a gripper closed on it, or nothing) and, free, where gravity, the last
+    /// frame's tissue, the table and its thread take it (see [`needle_body`]).
+    fn advance_needles(&mut self, t_start: f64, t_end: f64) {
+        if self.tools.iter().all(|t| t.body.is_none()) {
+            return;
+        }
+        let grippers: Vec<GripperView> = self
+            .tools
+            .iter()
+            .enumerate()
+            .filter_map(|(i, t)| GripperView::of(i, t, t_start, t_end))
+            .collect();
+        let floor = self.floor();
+        let gravity = self.params.gravity.cast::<f64>();
+        for (i, tool) in self.tools.iter_mut().enumerate() {
+            let (from, to) = (tool.setpoint_at(t_start), tool.setpoint_at(t_end));
+            let Some(body) = &mut tool.body else {
+                continue;
+            };
+            let around = Surroundings {
+                gravity,
+                floor,
+                thread_pull: swage_pull(&self.threads, i),
+            };
+            body.advance(&from, &to, &grippers, &around, (t_start, t_end));
+        }
+    }
+
     /// Advances one frame: [`World::begin_frame`] then [`World::finish_frame`].
     pub fn step_frame(&mut self) -> Result<FrameReport, StepError> {
         self.begin_frame();
@@ -525,6 +565,7 @@ impl World {
         let t_end = t_start + frame_dt;
         self.frame_start = t_start;
         self.advance_jaws(t_start, t_end);
+        self.advance_needles(t_start, t_end);
         if self.backend.particles().is_empty() {
             // No tissue: nothing for the grid to do; the threads step in `finish_frame`.
             self.time = t_end;
@@ -537,8 +578,10 @@ impl World {
         }
         let planned = self.plan_frame(t_start, frame_dt);
         self.load_thread_proxies();
-        let plan = planned.plan(self.params.gravity, self.tools.len(), &self.kinematics);
-        self.backend.begin_frame(&plan);
+        if !planned.by_substep {
+            let plan = planned.plan(self.params.gravity, self.tools.len(), &self.kinematics);
+            self.backend.begin_frame(&plan);
+        }
         self.in_flight = Some(InFlight::Stepped(planned));
     }
 
@@ -706,6 +749,10 @@ impl World {
             dt,
             substeps,
             truncated: needed > max_substeps,
+            by_substep: self
+                .tools
+                .iter()
+                .any(|t| t.body.as_ref().is_some_and(|b| b.is_free())),
         }
     }
 
@@ -716,7 +763,9 @@ impl World {
         let threads_at_start = in_tissue.then(|| self.threads.clone());
         self.thread_elapsed.clear();
         self.thread_elapsed.resize(self.threads.len(), 0.0);
-        let stats = {
+        let stats = if planned.by_substep {
+            self.step_by_substep(&planned, in_tissue)
+        } else {
             let mut stepper = ThreadsInTissue {
                 threads: &mut self.threads,
                 tools: &self.tools,
@@ -739,6 +788,7 @@ impl World {
             dt,
             substeps,
             truncated,
+            ..
         } = planned;
         let dx = self.params.dx as f32;
         let mut report = FrameReport {
@@ -823,6 +873,91 @@ impl World {
         }
         Ok(report)
     }
+}
+
+impl World {
+    /// Steps the planned frame as one backend frame per substep, each free needle moving
+    /// between them with the tissue's exchange of the substep before (see [`needle_body`]):
+    /// a needle far lighter than the tissue it touches must meet it substep by substep, or
+    /// the frame's lag makes it ring. Costs a backend frame's overhead per substep (on the
+    /// GPU, a submission and a readback), only while a needle is free. A guard event puts
+    /// the tissue back to the start of the substep it fired in.
+    fn step_by_substep(&mut self, planned: &PlannedFrame, in_tissue: bool) -> FrameStats {
+        let tool_count = self.tools.len();
+        let dx = self.params.dx as f32;
+        let floor = self.floor();
+        let gravity = self.params.gravity.cast::<f64>();
+        let mut total = FrameStats::default();
+        for s in 0..planned.substeps as usize {
+            let t0 = planned.t_start + s as f64 * planned.dt;
+            let span = (t0, t0 + planned.dt);
+            for (i, tool) in self.tools.iter_mut().enumerate() {
+                let Some(body) = tool.body.as_mut().filter(|b| b.is_free()) else {
+                    continue;
+                };
+                let around = Surroundings {
+                    gravity,
+                    floor,
+                    thread_pull: swage_pull(&self.threads, i),
+                };
+                let (from, to) = body.step_substep(&around, span, s == 0);
+                let velocity = ToolVelocity::between(&from, &to, planned.dt);
+                self.kinematics[s * tool_count + i] =
+                    ToolKinematics::new(tool.shape, tool.contact, &from, &velocity, dx);
+            }
+            let plan = FramePlan {
+                dt: planned.dt as f32,
+                substeps: 1,
+                gravity: self.params.gravity,
+                tool_count,
+                tools: &self.kinematics[s * tool_count..(s + 1) * tool_count],
+            };
+            self.backend.begin_frame(&plan);
+            let mut stepper = ThreadsInTissue {
+                threads: &mut self.threads,
+                tools: &self.tools,
+                view: &mut self.thread_tools,
+                t_start: planned.t_start,
+                frame_dt: planned.t_end - planned.t_start,
+                elapsed: &mut self.thread_elapsed,
+            };
+            let threads = in_tissue.then_some(&mut stepper as &mut dyn ThreadStepper);
+            let stats = self.backend.finish_frame(&plan, threads);
+            for (tool, imp) in self.tools.iter_mut().zip(&stats.tool_impulses) {
+                if let Some(body) = tool.body.as_mut().filter(|b| b.is_free()) {
+                    body.record_tissue(TissueExchange {
+                        linear: imp.linear,
+                        angular: imp.angular,
+                        contact_mass: imp.contact_mass,
+                        contact_inertia: imp.contact_inertia,
+                    });
+                }
+            }
+            total.continue_with(&stats);
+            if stats.guard.is_some() {
+                break;
+            }
+        }
+        total
+    }
+
+    /// Height a free needle rests on: the table's, or the domain's floor inside its walls.
+    fn floor(&self) -> f64 {
+        let layout = self.backend.layout();
+        match &self.scene.table {
+            Some(table) => table.height,
+            None => (layout.origin.z + crate::mpm::grid::WALL_NODES as f32 * layout.dx) as f64,
+        }
+    }
+}
+
+/// The pull on needle `tool`'s swage end of the threads swaged to it, N.
+fn swage_pull(threads: &[ThreadBody], tool: usize) -> nalgebra::Vector3<f64> {
+    threads
+        .iter()
+        .filter(|thread| thread.swaged_to() == Some(tool))
+        .map(ThreadBody::swage_pull)
+        .sum()
 }
 
 /// The world's threads as the CPU's tissue substeps step them (see

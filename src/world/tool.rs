@@ -1,6 +1,7 @@
 //! A tool in the world: what drives it (the scene's keyframes or commanded poses) and a
 //! gripper's jaws between frames.
 
+use super::needle_body::NeedleBody;
 use crate::mpm::GripSums;
 use crate::sleep::Aabb;
 use crate::tools::{
@@ -38,6 +39,8 @@ pub struct WorldTool {
     pub(super) driver: ToolDriver,
     /// A gripper's jaws: the driver's jaw angle is their setpoint.
     pub(super) jaws: Option<Jaws>,
+    /// A needle's rigid body: what carries it, and its motion when nothing does.
+    pub(super) body: Option<NeedleBody>,
 }
 
 /// A gripper's jaws between frames (see [`crate::tools::jaw`] and [`crate::tools::grip`]).
@@ -185,9 +188,25 @@ impl WorldTool {
             .sum()
     }
 
-    /// The tool's pose at `t`; a gripper's jaw is the opening its jaws reach, not their
-    /// setpoint.
+    /// A needle's rigid body (see [`super::needle_body`]); `None` for other shapes.
+    pub fn needle(&self) -> Option<&NeedleBody> {
+        self.body.as_ref()
+    }
+
+    /// Whether the tool's driver (its keyframes or the arm holding it) moves it: always,
+    /// except for a needle its driver has let go of.
+    pub fn carried_by_driver(&self) -> bool {
+        self.body
+            .as_ref()
+            .is_none_or(|b| *b.carrier() == super::needle_body::Carrier::Driver)
+    }
+
+    /// The tool's pose at `t`: a needle's carrier's; a gripper's jaw is the opening its
+    /// jaws reach, not their setpoint.
     pub fn pose_at(&self, t: f64) -> ToolPose {
+        if let Some(pose) = self.body.as_ref().and_then(|b| b.pose_at(t)) {
+            return pose;
+        }
         let mut pose = self.setpoint_at(t);
         if let Some(jaws) = &self.jaws {
             pose.jaw = jaws.angle_at(t);

@@ -648,7 +648,7 @@ impl CpuSolver {
                             if let Some(tool) = tools.get(settled.tool as usize) {
                                 let dp = ((v - settled.velocity) * m).cast::<f64>();
                                 let t = settled.tool as usize;
-                                record_contact(tool, t, x, settled.part, dp, &mut impulses);
+                                record_contact(tool, t, x, settled.part, m, dp, &mut impulses);
                             }
                             settled.velocity
                         } else {

@@ -47,6 +47,8 @@ pub(super) fn record_hold(
     imp.linear += dp;
     imp.angular += arm.cross(&dp);
     imp.contact_nodes += 1;
+    imp.contact_mass += m as f64;
+    imp.contact_inertia += m as f64 * arm.norm_squared();
     imp.jaw_opening += share * arm.cross(&(normal * normal.dot(&dp))).dot(&hinge);
     imp.grip.required += (held.required * m).cast::<f64>();
     imp.grip.mass += m as f64;
@@ -80,18 +82,19 @@ pub(super) fn apply_tools(
     let v_new = contact::resolve(tool.contact, v, v_tool, hit.normal, hit.tangent);
     // Momentum the tool takes from the tissue: the opposite of what it gives the node.
     let dp = ((v - v_new) * m).cast::<f64>();
-    record_contact(tool, t, x, hit.part, dp, impulses);
+    record_contact(tool, t, x, hit.part, m, dp, impulses);
     v_new
 }
 
-/// Adds the momentum `dp` that tool `t` takes from the node at `x` (touching tool part
-/// `part`) to the tool's impulse.
+/// Adds the momentum `dp` that tool `t` takes from the node at `x` (mass `m`, touching
+/// tool part `part`) to the tool's impulse.
 #[inline(always)]
 pub(super) fn record_contact(
     tool: &ToolKinematics,
     t: usize,
     x: Vec3,
     part: u8,
+    m: f32,
     dp: nalgebra::Vector3<f64>,
     impulses: &mut [ToolImpulse; MAX_TOOLS],
 ) {
@@ -101,6 +104,8 @@ pub(super) fn record_contact(
     imp.linear += dp;
     imp.angular += torque;
     imp.contact_nodes += 1;
+    imp.contact_mass += m as f64;
+    imp.contact_inertia += m as f64 * arm.norm_squared();
     if part != 0 {
         // Jaw k turns by jaw_angle(k, θ) about the hinge (the tool's x axis): the opening θ
         // takes that share of the torque about it.

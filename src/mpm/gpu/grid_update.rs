@@ -18,7 +18,8 @@ pub const SOURCE: &str = include_str!("grid_update.wgsl");
 
 /// Words of one tool's impulse sums (linear xyz, angular xyz, contact nodes, angular impulse
 /// on a gripper's jaw opening, the grip's sums: required momentum xyz, held mass, its first
-/// moment about the hinge; three unused), in the grid update's per-block partials and in
+/// moment about the hinge; the mass of the nodes touched and their moment of inertia about
+/// the tool origin; one unused), in the grid update's per-block partials and in
 /// the frame statistics.
 pub const IMPULSE_WORDS: usize = 16;
 

@@ -50,6 +50,7 @@ fn update_block(wid: vec3<u32>, lid: u32, settled_by_solve: bool, total_lagrangi
     var grip = vec3<f32>(0.0);
     var grip_mass = 0.0;
     var grip_lever = 0.0;
+    var contact_inertia = 0.0;
     if (m > 0.0) {
         let ijk = node_coords(b, lid);
         let x_grid = sim.origin_dx.xyz + vec3<f32>(ijk) * sim.origin_dx.w;
@@ -158,6 +159,10 @@ fn update_block(wid: vec3<u32>, lid: u32, settled_by_solve: bool, total_lagrangi
             v = v_new;
             atomicAdd(&wg_contacts, 1u);
         }
+        if (hit_tool != NO_TOOL) {
+            let arm = x - tools[st.substep * sim.n_tools + hit_tool].trans.xyz;
+            contact_inertia = m * dot(arm, arm);
+        }
         if (total_lagrangian) {
             v = boundary_at(grid_pos(x), x_grid.z, x, v);
         } else {
@@ -181,8 +186,8 @@ fn update_block(wid: vec3<u32>, lid: u32, settled_by_solve: bool, total_lagrangi
     wg_val[at + 10u] = grip.z;
     wg_val[at + 11u] = grip_mass;
     wg_val[at + 12u] = grip_lever;
-    wg_val[at + 13u] = 0.0;
-    wg_val[at + 14u] = 0.0;
+    wg_val[at + 13u] = select(0.0, m, hit_tool != NO_TOOL);
+    wg_val[at + 14u] = contact_inertia;
     wg_val[at + 15u] = 0.0;
     workgroupBarrier();
     if (lid == 0u) {

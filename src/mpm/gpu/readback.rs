@@ -318,6 +318,8 @@ fn parse_stats(w: &[u32]) -> FrameStats {
         imp.grip.required = nalgebra::Vector3::new(f(8), f(9), f(10));
         imp.grip.mass = f(11);
         imp.grip.mass_lever = f(12);
+        imp.contact_mass = f(13);
+        imp.contact_inertia = f(14);
     }
     if w[word::GUARD] != 0 {
         out.substeps_done = w[word::GUARD] - 1;

@@ -79,7 +79,7 @@ impl GripperView {
     }
 
     /// Whether `local` (tool frame) lies inside the closed jaws, for a thread of `radius`.
-    fn between_jaws(&self, local: &Vector3<f64>, radius: f32) -> bool {
+    pub fn between_jaws(&self, local: &Vector3<f64>, radius: f32) -> bool {
         let r = radius as f64;
         local.x.abs() <= 0.5 * self.jaw_width as f64 + r
             && local.z >= -r

@@ -599,6 +599,23 @@ impl ThreadBody {
         self.grasps.held_points()
     }
 
+    /// The scene index of the needle this thread is swaged to, if any.
+    pub fn swaged_to(&self) -> Option<usize> {
+        self.swage.as_ref().map(|s| s.tool)
+    }
+
+    /// The thread's pull on its swage end (N, world frame): its first segment's tension
+    /// along that segment, away from the swage; zero when the segment is slack.
+    pub fn swage_pull(&self) -> Vector3<f64> {
+        let (Some(&tension), [first, second, ..]) =
+            (self.rod.tension.first(), &self.rod.points[..])
+        else {
+            return Vector3::zeros();
+        };
+        let along = (second - first).cast::<f64>();
+        along.try_normalize(1e-12).unwrap_or_default() * tension.max(0.0) as f64
+    }
+
     /// Whether tool `tool` holds any of this thread.
     pub fn held_by(&self, tool: usize) -> bool {
         self.grasps.holds_with(tool) || self.swage.as_ref().is_some_and(|s| s.tool == tool)
