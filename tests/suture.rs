@@ -6,9 +6,14 @@
 //! needle and PSM2 the grasper: their homes put them where the first keyframes do, and
 //! rolling PSM1's instrument turns the needle as the keyframes do (the throw itself through
 //! the node is `launch-scripts/suture_demo.py`'s, run by `tests/ros_suture.rs`). In tissue
-//! with a low toughness the same throw cuts through instead of closing the wound.
+//! with a low toughness the same throw cuts through instead of closing the wound. After the
+//! throw, keyframes added to the scene hand the needle to PSM2: the grasper lets the tail
+//! go, closes on the needle, PSM1 opens its driver and the grasper lifts the needle with the
+//! thread.
 
+use dvrk_tissue_sim::config::Keyframe;
 use dvrk_tissue_sim::math::Vec3;
+use dvrk_tissue_sim::world::needle_body::Carrier;
 use dvrk_tissue_sim::world::World;
 
 mod support;
@@ -54,7 +59,8 @@ fn run_until(world: &mut World, t: f64) -> f32 {
 
 #[test]
 fn the_needle_draws_the_thread_through_both_blocks_and_the_pull_closes_the_wound() {
-    let scene = shipped("suture.toml");
+    let mut scene = shipped("suture.toml");
+    add_handover(&mut scene);
     let top = (scene.tissues[0].center[2] + 0.5 * scene.tissues[0].size[2]) as f32;
     let mut world = World::new(&scene);
     let gap_start = world.wound_gap().expect("two blocks");
@@ -134,6 +140,61 @@ fn the_needle_draws_the_thread_through_both_blocks_and_the_pull_closes_the_wound
     // than a cell (1.25 mm); a tear would make more than two.
     let pieces = world.pieces();
     assert!((1..=2).contains(&pieces), "{pieces} pieces");
+
+    // The handover (keyframes after 7 s, `add_handover`): PSM2's grasper takes the needle
+    // from PSM1's driver, which then opens, and lifts it 10 mm; the thread stays swaged.
+    run_until(&mut world, 7.9);
+    let needle = |world: &World| world.tools()[0].needle().unwrap().carrier().clone();
+    assert_eq!(needle(&world), Carrier::Driver, "PSM1 holds the needle");
+    let before = world.tools()[0].pose_at(world.time()).position;
+    run_until(&mut world, 8.7);
+    assert!(
+        matches!(needle(&world), Carrier::Gripper { tool: 1, .. }),
+        "PSM2's grasper took the needle: {:?}",
+        needle(&world)
+    );
+    let lifted = world.tools()[0].pose_at(world.time()).position;
+    println!(
+        "handover: PSM2's grasper lifted the needle from {:.2} to {:.2} mm; wound gap {:.2} mm",
+        before.z * 1e3,
+        lifted.z * 1e3,
+        world.wound_gap().unwrap() * 1e3
+    );
+    assert!(
+        (lifted - before - Vec3::new(0.0, 0.0, 0.01).cast()).norm() < 1e-6,
+        "the needle moved with the grasper: {before} -> {lifted}"
+    );
+}
+
+/// After the throw (7 s on) the user hands the needle to PSM2: the grasper opens (letting
+/// the tail go), turns its jaws across the needle's wire and moves down onto the arc's top
+/// (10 mm above the needle's centre, at (-14, -5, 35) mm since 6 s) and closes on it from
+/// 7.6 s; PSM1 opens its driver at 8.2 s; the grasper lifts 10 mm over 8.3-8.6 s.
+fn add_handover(scene: &mut dvrk_tissue_sim::config::Scene) {
+    let key = |t: f64, position: [f64; 3], rpy_deg: [f64; 3], jaw_deg: f64| Keyframe {
+        t,
+        position,
+        rpy_deg,
+        jaw_deg,
+    };
+    let needle = [-0.014, -0.005, 0.035];
+    let needle_rpy = [-90.0, -180.0, 0.0];
+    scene.tools[0].keyframes.extend([
+        key(8.2, needle, needle_rpy, 0.0),
+        key(8.25, needle, needle_rpy, 30.0),
+    ]);
+    let tail = [-0.004, -0.009, 0.0225];
+    let over_needle = [needle[0], needle[1], needle[2] + 0.014];
+    let lifted = [needle[0], needle[1], needle[2] + 0.024];
+    let down = [180.0, 0.0, 0.0];
+    scene.tools[1].keyframes.extend([
+        key(7.05, tail, [180.0, 0.0, 90.0], -20.0),
+        key(7.15, tail, [180.0, 0.0, 90.0], 30.0),
+        key(7.6, over_needle, down, 30.0),
+        key(7.7, over_needle, down, -20.0),
+        key(8.3, over_needle, down, -20.0),
+        key(8.6, lifted, down, -20.0),
+    ]);
 }
 
 /// PSM1 of `suture.toml` holds the needle at `tool_xyz`, `tool_rpy_deg` in its tool frame:
