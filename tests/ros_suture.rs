@@ -7,6 +7,12 @@
 //! the gap closes by half. The node records the run: the bag holds the wound gap, the thread
 //! and its tension, both arms' joints and commands, and `/tf`.
 //!
+//! The needle through the same interface (`world::needle_body`), read from the node's bag by
+//! `tests/ros/read_needle_bag.py`: PSM1's `jaw/move_jp` to 30° lets the needle go and it
+//! falls onto the blocks (`test_needle_release.py`); PSM2's grasper, opened, turned and
+//! moved onto the needle with `move_cp`, closes on it, PSM1 opens, and PSM2 lifts it 10 mm
+//! (`test_needle_handover.py`).
+//!
 //! Like `tests/ros_node.rs`, it runs only inside a loopback-only network namespace with the
 //! venv's rclpy (`.ci/run` provides both); elsewhere it prints why and passes, unless `CI`
 //! is set.
@@ -105,10 +111,21 @@ fn suture_demo_throws_a_stitch_with_psm1_and_tensions_it_with_psm2_and_the_wound
 
 #[test]
 fn rclpy_psm1_opens_its_jaw_and_the_needle_falls_onto_the_tissue() {
+    needle_through_the_node("test_needle_release.py", "release", 74);
+}
+
+#[test]
+fn rclpy_psm2_closes_on_the_needle_psm1_opens_and_psm2_lifts_it() {
+    needle_through_the_node("test_needle_handover.py", "handover", 75);
+}
+
+/// Runs `script` against the node on suture.toml, recording a bag, then
+/// tests/ros/read_needle_bag.py on the bag with `kind`.
+fn needle_through_the_node(script: &str, kind: &str, domain: u16) {
     if !network_prerequisites(true) {
         return;
     }
-    let bag = std::env::temp_dir().join(format!("needle-release-{}.mcap", std::process::id()));
+    let bag = std::env::temp_dir().join(format!("needle-{kind}-{}.mcap", std::process::id()));
     let _ = std::fs::remove_file(&bag);
     let node = NodeProcess::start_with(
         &[
@@ -117,9 +134,9 @@ fn rclpy_psm1_opens_its_jaw_and_the_needle_falls_onto_the_tissue() {
             "--record",
             bag.to_str().unwrap(),
         ],
-        74,
+        domain,
     );
-    run_rclpy_against(&node, "test_needle_release.py", 74);
+    run_rclpy_against(&node, script, domain);
     let (status, log) = node.stop();
     assert!(
         status.is_some_and(|s| s.success()),
@@ -129,6 +146,7 @@ fn rclpy_psm1_opens_its_jaw_and_the_needle_falls_onto_the_tissue() {
     let out = std::process::Command::new(python())
         .arg(root().join("tests/ros/read_needle_bag.py"))
         .arg(&bag)
+        .arg(kind)
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);

@@ -1,9 +1,12 @@
-"""Reads where the needle went in a bag of config/suture.toml in which PSM1 let it go
-(tests/ros/test_needle_release.py), from /tf with the PyPI rosbags package: held, the
-needle's frame hangs under PSM1 at its mount; let go, under world, and it falls onto the
-tissue under it and stays on it.
+"""Reads where the needle went in a bag of config/suture.toml, from /tf with the PyPI
+rosbags package. Held by PSM1 the needle's frame hangs under PSM1 at its mount; let go, or
+taken by PSM2's grasper, under world.
+- `release` (tests/ros/test_needle_release.py): PSM1 let it go; it falls onto the tissue
+  under it and comes to rest there.
+- `handover` (tests/ros/test_needle_handover.py): PSM2 took it and lifted it 10 mm; it rose
+  with PSM2 and did not fall when PSM1 opened.
 
-usage: read_needle_bag.py BAG"""
+usage: read_needle_bag.py BAG KIND"""
 
 import sys
 from pathlib import Path
@@ -13,7 +16,7 @@ from rosbags.typesys import Stores, get_typestore
 
 from common import check
 
-bag = Path(sys.argv[1])
+bag, kind = Path(sys.argv[1]), sys.argv[2]
 samples = []  # (stamp s, parent, z)
 with AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_KILTED)) as reader:
     connections = [c for c in reader.connections if c.topic == "/tf"]
@@ -32,6 +35,14 @@ check(len(free) > 0 and free[-1] == samples[-1], "let go, the needle hangs under
 check(all(s[1] == "world" for s in samples[samples.index(free[0]):]),
       "once let go it stays under world")
 start_z, end_z = free[0][2], free[-1][2]
+if kind == "handover":
+    lowest = min(s[2] for s in free)
+    print(f"needle taken at {free[0][0]:.3f} s at z {start_z * 1e3:.2f} mm; "
+          f"at {free[-1][0]:.3f} s z {end_z * 1e3:.2f} mm (lowest {lowest * 1e3:.2f} mm)",
+          flush=True)
+    check(lowest > start_z - 0.0002, "it never fell while PSM2 held it")
+    check(abs(end_z - start_z - 0.01) < 0.0005, "it rose 10 mm with PSM2")
+    sys.exit(0)
 lowest = min(s[2] for s in free)
 print(f"needle let go at {free[0][0]:.3f} s at z {start_z * 1e3:.2f} mm; "
       f"at {free[-1][0]:.3f} s z {end_z * 1e3:.2f} mm (lowest {lowest * 1e3:.2f} mm)", flush=True)
