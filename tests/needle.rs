@@ -2,7 +2,7 @@
 //! user scripts it: let go above tissue it falls onto it and comes to rest on its surface,
 //! on the CPU and on the GPU with both P2G variants (agreeing); a gripper closing on it
 //! carries it, a second gripper closing on it takes it over, and opened it drops it onto
-//! the tissue. `cargo test --release --test needle -- --nocapture` prints the figures.
+//! the tissue; resting, the tissue's force on it is its weight. `cargo test --release --test needle -- --nocapture` prints the figures.
 
 use dvrk_tissue_sim::config::{self, Scene};
 use dvrk_tissue_sim::mpm::backend::{BackendChoice, P2gAtomics};
@@ -66,24 +66,31 @@ fn needle_z(world: &World) -> f64 {
     world.tools()[0].pose_at(world.time()).position.z
 }
 
-/// Lets the needle go at 0.1 s and steps `seconds`; returns the needle's height each frame.
-fn drop_onto_tissue(backend: BackendChoice, p2g: P2gAtomics, seconds: f64) -> (World, Vec<f64>) {
+/// Lets the needle go at 0.1 s and steps `seconds`; returns the needle's height each frame
+/// and the tissue's force on it over the last frame, N.
+fn drop_onto_tissue(
+    backend: BackendChoice,
+    p2g: P2gAtomics,
+    seconds: f64,
+) -> (World, Vec<f64>, f64) {
     let mut scene = scene(Some(0.1), "");
     scene.solver.backend = backend;
     scene.solver.p2g_atomics = p2g;
     let mut world = World::new(&scene);
     let frames = (seconds * 60.0).round() as usize;
     let mut heights = Vec::with_capacity(frames);
+    let mut force = 0.0;
     for _ in 0..frames {
-        world.step_frame().expect("frame");
+        let report = world.step_frame().expect("frame");
+        force = report.wrenches[0].force.z;
         heights.push(needle_z(&world));
     }
-    (world, heights)
+    (world, heights, force)
 }
 
 /// The needle's rest height on the tissue, checked: it fell, never sank through the tissue,
-/// and lies still on its surface.
-fn check_rest(label: &str, world: &World, heights: &[f64]) -> f64 {
+/// lies still on its surface, and the tissue carries its weight (`force`, N).
+fn check_rest(label: &str, world: &World, heights: &[f64], force: f64) -> f64 {
     let needle = world.tools()[0].needle().expect("a needle has a body");
     assert_eq!(*needle.carrier(), Carrier::Free, "{label}: let go");
     let rest = *heights.last().unwrap();
@@ -114,22 +121,32 @@ fn check_rest(label: &str, world: &World, heights: &[f64]) -> f64 {
         "{label}: never sank through: {lowest}"
     );
     assert!(speed < 0.005, "{label}: still: {speed} m/s");
+    let weight = needle.mass() * 9.81;
+    println!(
+        "{label}: the tissue pushes the needle up with {:.3} mN; its weight is {:.3} mN",
+        force * 1e3,
+        weight * 1e3
+    );
+    assert!(
+        (force / weight - 1.0).abs() < 0.05,
+        "{label}: the tissue carries the needle's weight: {force} N against {weight} N"
+    );
     rest
 }
 
 #[test]
 fn let_go_above_tissue_the_needle_falls_onto_it_and_rests_there_on_cpu_and_gpu() {
-    let (world, heights) = drop_onto_tissue(BackendChoice::Cpu, P2gAtomics::Auto, 1.0);
+    let (world, heights, force) = drop_onto_tissue(BackendChoice::Cpu, P2gAtomics::Auto, 1.0);
     // Still held after the first frame (the keyframes open the jaw past 10° at a third of
     // 0.1 s).
     assert!((heights[0] - HELD_Z).abs() < 1e-12, "held: {}", heights[0]);
-    let cpu = check_rest("cpu", &world, &heights);
+    let cpu = check_rest("cpu", &world, &heights, force);
     for p2g in [P2gAtomics::Fixed, P2gAtomics::Float] {
         if !support::gpu::ready(p2g) {
             continue;
         }
-        let (world, heights) = drop_onto_tissue(BackendChoice::Gpu, p2g, 1.0);
-        let gpu = check_rest(&format!("gpu {p2g:?}"), &world, &heights);
+        let (world, heights, force) = drop_onto_tissue(BackendChoice::Gpu, p2g, 1.0);
+        let gpu = check_rest(&format!("gpu {p2g:?}"), &world, &heights, force);
         // The same law on both backends: they differ only in the order atomics sum the
         // contact's momentum.
         assert!(
