@@ -1,10 +1,10 @@
 //! The suture throw through the user's interface: `launch-scripts/suture_demo.py` (rclpy,
-//! CRTK `trajectory_j/set_ratio`, `move_jp` and `move_cp` on PSM1, `jaw/move_jp` and
-//! `move_cp` on PSM2, waiting on `measured_js` as a dVRK client does) against the node on
+//! CRTK `trajectory_j/set_ratio`, `move_jp` and `jaw/move_jp` on PSM1, `move_cp` and
+//! `jaw/move_jp` on PSM2, waiting on `measured_js` as a dVRK client does) against the node on
 //! the shipped `config/suture.toml`. PSM1 holds the needle; rolling the instrument throws the
-//! stitch, moving it back over the wound pulls the thread tight; PSM2's grasper holds the
-//! thread's tail and then draws it out. The script reads `tissue/wound_gap` and fails unless
-//! the gap closes by half. The node records the run: the bag holds the wound gap, the thread
+//! stitch; PSM2's grasper closes on the needle and PSM1 lets it go; PSM2 draws it back over
+//! the wound, which pulls the thread tight against its held tail. The script reads
+//! `tissue/wound_gap` and fails unless the gap closes by half. The node records the run: the bag holds the wound gap, the thread
 //! and its tension, both arms' joints and commands, and `/tf`.
 //!
 //! The needle through the same interface (`world::needle_body`), read from the node's bag by
@@ -32,7 +32,7 @@ fn gaps(stdout: &str) -> Option<(f64, f64)> {
 }
 
 #[test]
-fn suture_demo_throws_a_stitch_with_psm1_and_tensions_it_with_psm2_and_the_wound_closes() {
+fn suture_demo_throws_a_stitch_hands_the_needle_to_psm2_and_the_wound_closes() {
     if !network_prerequisites(true) {
         return;
     }
@@ -50,7 +50,7 @@ fn suture_demo_throws_a_stitch_with_psm1_and_tensions_it_with_psm2_and_the_wound
     let stdout = run_rclpy_against(&node, "../../launch-scripts/suture_demo.py", 73);
     let (before, after) = gaps(&stdout).unwrap_or_else(|| panic!("no wound gap line: {stdout}"));
     // The blocks are laid 4 mm apart (3.9 mm between their nearest particles at rest); the
-    // headless throw on the same scene ends near 0.7 mm (tests/suture.rs).
+    // headless throw on the same scene ends near 0.5 mm (tests/suture.rs).
     assert!(
         (before - 0.0039).abs() < 0.0004,
         "gap at the start {before} m"
@@ -84,7 +84,7 @@ fn suture_demo_throws_a_stitch_with_psm1_and_tensions_it_with_psm2_and_the_wound
         "/threads/suture/tension",
         "/PSM1/measured_js",
         "/PSM1/move_jp",
-        "/PSM1/move_cp",
+        "/PSM1/jaw/move_jp",
         "/PSM2/measured_js",
         "/PSM2/jaw/move_jp",
         "/PSM2/move_cp",

@@ -106,9 +106,9 @@
 //! `launch-scripts/`: `run_node.sh [SCENE] [flags]` starts the node; `dvrk_tissue_sim.launch.py`
 //! is a ROS 2 launch file; `dvrk_tissue_sim.rviz` an RViz 2 view (arm frames, tissue cloud and
 //! mesh, thread, wrench); `teleop_demo.py` plays a scripted MTM on `config/teleop.toml`;
-//! `suture_demo.py` throws a stitch with PSM1 on `config/suture.toml` (roll with `move_jp`,
-//! then `move_cp`) while PSM2's grasper holds the thread's tail, which PSM2 then draws out
-//! (`jaw/move_jp`, `move_cp`), and reads the wound gap before and after;
+//! `suture_demo.py` throws a stitch with PSM1 on `config/suture.toml` (the roll with
+//! `move_jp`), hands the needle to PSM2 (`move_cp` onto it, `jaw/move_jp` on both arms) and
+//! has PSM2 pull the stitch closed (`move_cp`), reading the wound gap before and after;
 //! `record_tissue_bag.sh` records with `ros2 bag`; `soak.py` drives the node for a long run.
 //!
 //! # /clock and status

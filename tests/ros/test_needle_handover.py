@@ -1,5 +1,5 @@
 """Hand the needle of config/suture.toml from PSM1 to PSM2 as a dVRK user does: PSM2 opens
-its grasper (letting the thread's tail go), turns it a quarter about the instrument so that
+its grasper (open from its home already), turns it a quarter about the instrument so that
 its jaws close across the wire, and moves it onto the top of the needle's arc (10 mm above
 the needle's centre at (0, 0, 17) mm); closes it (`jaw/move_jp` -20 deg); PSM1 opens its
 needle driver (30 deg); PSM2 lifts 10 mm. Waits follow simulated time (the stamps of
