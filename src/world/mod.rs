@@ -512,8 +512,10 @@ impl World {
     }
 
     /// Plans every needle's motion over the frame [t_start, t_end]: who carries it (its
-    /// driver, a gripper closed on it, or nothing) and, free, where gravity, the last
-    /// frame's tissue, the table and its thread take it (see [`needle_body`]).
+    /// driver, a gripper closed on it, or nothing) and, free, where gravity, the table and
+    /// its thread would take it without tissue: the frame's plan and the tissue's sleep
+    /// see that; where the tissue steps, [`World::step_by_substep`] moves it with the
+    /// tissue instead (see [`needle_body`]).
     fn advance_needles(&mut self, t_start: f64, t_end: f64) {
         if self.tools.iter().all(|t| t.body.is_none()) {
             return;
