@@ -32,8 +32,8 @@
 //!   - **The wire's reach.** As for any wire thinner than a cell, the grid's contact
 //!     reaches 1.5 cells from the wire's centre line ([`crate::tools`]): a needle lying on
 //!     tissue rests on the nodes that reach touches, 1.9 cells above the particles' top
-//!     face (`cargo test --release --test needle -- --nocapture`: 3.85 mm at dx 2 mm, on
-//!     the CPU and the GPU's two P2G variants alike, the tissue pushing up with 1.940 mN
+//!     face (`cargo test --release --test needle -- --nocapture`: 3.84 mm at dx 2 mm, on
+//!     the CPU and the GPU's two P2G variants alike, the tissue pushing up with 1.912 mN
 //!     against a weight of 1.912 mN). Along its tangent the wire lets
 //!     tissue slide (seed 002 eq. 19), so a needle falling point first goes into the
 //!     tissue as a sharp point does, without a force threshold to pierce it.
@@ -133,8 +133,9 @@ pub struct NeedleBody {
     closed: Vec<usize>,
     /// The tissue's exchange over the last substep stepped.
     tissue: TissueExchange,
-    /// A free needle's pose, velocity and angular velocity at the frame's start.
-    frame_start: Option<(ToolPose, Vector3<f64>, Vector3<f64>)>,
+    /// A free needle's pose, velocity and angular velocity at the frame's start, and the
+    /// tissue's exchange of the substep before it.
+    frame_start: Option<(ToolPose, Vector3<f64>, Vector3<f64>, TissueExchange)>,
 }
 
 impl NeedleBody {
@@ -242,12 +243,12 @@ impl NeedleBody {
         first: bool,
     ) -> (ToolPose, ToolPose) {
         if first {
-            if let Some((pose, velocity, angular_velocity)) = self.frame_start {
+            if let Some((pose, velocity, angular_velocity, tissue)) = self.frame_start {
                 self.pose = pose;
                 self.velocity = velocity;
                 self.angular_velocity = angular_velocity;
+                self.tissue = tissue;
             }
-            self.tissue = TissueExchange::default();
         }
         let start = self.pose;
         let end = self.step_free(&start, around, t1 - t0, start.jaw);
@@ -259,8 +260,8 @@ impl NeedleBody {
 
     /// Plans the frame [t0, t1]: first who carries the needle (its driver, which asks for
     /// `driver_from` at t0 and `driver_to` at t1; the grippers `grippers`), then where it
-    /// goes. A free needle moves under gravity and `around`, with the tissue's exchange of
-    /// the last frame.
+    /// goes. A free needle is predicted under gravity and `around` without tissue (see
+    /// [`NeedleBody::step_substep`] for the frame the tissue steps).
     pub fn advance(
         &mut self,
         driver_from: &ToolPose,
@@ -312,7 +313,8 @@ impl NeedleBody {
             Carrier::Free => {
                 // Predicted without tissue; where tissue steps, it is stepped again with it
                 // from here ([`NeedleBody::step_substep`]).
-                self.frame_start = Some((start, self.velocity, self.angular_velocity));
+                // The last substep's exchange carries over to the frame's first substep.
+                self.frame_start = Some((start, self.velocity, self.angular_velocity, self.tissue));
                 self.tissue = TissueExchange::default();
                 self.step_free(&start, around, dt, driver_to.jaw)
             }
