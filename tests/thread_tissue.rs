@@ -3,11 +3,12 @@
 //! through and moves the tissue little; pulled sideways it drags the tissue it passes through
 //! (at dx 4 mm and 2 mm); with a toughness it cuts through the tissue at G_c per unit
 //! length at either cell size; the momentum the grid loses to the contact is what the rod
-//! receives, and the bound tissue's push is what the rod gave it. Small scenes (a 6–7 cm
-//! thread), seconds each. `cargo test --release --test thread_tissue -- --nocapture` prints
+//! receives, and the bound tissue's push is what the rod gave it; the GPU backend drags and
+//! cuts as the CPU does. Small scenes (a 6–7 cm thread), seconds each. `cargo test --release --test thread_tissue -- --nocapture` prints
 //! the figures.
 
 use dvrk_tissue_sim::config;
+use dvrk_tissue_sim::mpm::backend::{BackendChoice, P2gAtomics};
 use dvrk_tissue_sim::world::World;
 use nalgebra::Vector3;
 use std::path::Path;
@@ -134,6 +135,9 @@ struct Pull {
     /// The largest tension, N, and the largest total force of the tissue on the thread, N.
     peak_tension: f64,
     peak_force: f64,
+    /// The particles and the thread's points at the end, m.
+    particles: Vec<Vector3<f32>>,
+    thread: Vec<Vector3<f32>>,
 }
 
 impl Pull {
@@ -158,16 +162,24 @@ fn pull_through(dx: f64, pull: Vector3<f32>) -> Pull {
 
 /// [`pull_through`] with the thread's keys `keys` and the material's keys `material` added.
 fn pull_through_with(dx: f64, pull: Vector3<f32>, keys: &str, material: &str) -> Pull {
-    // 7 cm along x through the middle of a 4 × 3 × 2 cm block, both ends 15 mm outside it.
-    let scene = scene_with(
+    pull_scene_through(&pull_scene(dx, keys, material), pull)
+}
+
+/// 7 cm along x through the middle of a 4 × 3 × 2 cm block, both ends 15 mm outside it.
+fn pull_scene(dx: f64, keys: &str, material: &str) -> config::Scene {
+    scene_with(
         dx,
         &format!(
             "start = [-0.035, 0.0, 0.02]\nlength = 0.07\nsegments = 35\npinned = \"both\"\n{keys}"
         ),
         [0.04, 0.03, 0.02],
         material,
-    );
-    let mut world = World::new(&scene);
+    )
+}
+
+/// [`pull_through`] on the scene `scene` (a [`pull_scene`]).
+fn pull_scene_through(scene: &config::Scene, pull: Vector3<f32>) -> Pull {
+    let mut world = World::new(scene);
     // Settle under gravity first, then pull over 30 frames.
     for _ in 0..10 {
         step_checked(&mut world);
@@ -214,6 +226,8 @@ fn pull_through_with(dx: f64, pull: Vector3<f32>, keys: &str, material: &str) ->
         tissue_near_middle_moved: (near_end - near_start) / near.len().max(1) as f64,
         peak_tension,
         peak_force,
+        particles: world.particles().x.clone(),
+        thread: world.threads()[0].rod.points.clone(),
     }
 }
 
@@ -438,7 +452,7 @@ fn momentum_balance(material: &str) {
 }
 
 #[test]
-fn check_refuses_a_thread_in_tissue_on_other_methods_and_the_gpu() {
+fn check_refuses_a_thread_in_tissue_on_other_methods() {
     let base = |solver: &str| {
         format!(
             r#"
@@ -467,7 +481,6 @@ length = 0.07
         ("method = \"pb_mpm\"", "solver.method"),
         ("method = \"tl_mpm\"", "solver.method"),
         ("method = \"implicit\"", "solver.method"),
-        ("backend = \"gpu\"", "solver.backend"),
     ] {
         let err = config::from_str(&base(solver), Path::new("t.toml"))
             .err()
@@ -480,4 +493,72 @@ length = 0.07
     }
     config::from_str(&base("method = \"pic_mpm\""), Path::new("t.toml"))
         .expect("pic_mpm takes a thread in tissue");
+    config::from_str(&base("backend = \"gpu\""), Path::new("t.toml"))
+        .expect("the GPU backend takes a thread in tissue");
+}
+
+/// The GPU backend couples the thread to its grid through the CPU's code (`mpm::gpu::
+/// thread_grid`): pulled sideways through the block (dragging it) and, with a toughness,
+/// cutting through it, the thread and the tissue end where the CPU backend puts them, with
+/// fixed-point P2G and with f32 atomics.
+#[test]
+fn the_gpu_backend_drags_and_cuts_the_tissue_as_the_cpu_does() {
+    let pull = Vector3::new(0.0, 0.01, 0.0);
+    for (what, material) in [("drag", ""), ("cut, G_c 1 J/m²", "toughness = 1.0")] {
+        let scene = pull_scene(DX, "", material);
+        let cpu = pull_scene_through(&scene, pull);
+        println!("{}", cpu.report(&format!("{what}, cpu")));
+        for p2g in [P2gAtomics::Fixed, P2gAtomics::Float] {
+            let mut on_gpu = scene.clone();
+            on_gpu.solver.backend = BackendChoice::Gpu;
+            on_gpu.solver.p2g_atomics = p2g;
+            let gpu = pull_scene_through(&on_gpu, pull);
+            let label = format!("{what}, gpu {p2g:?}");
+            println!("{}", gpu.report(&label));
+            let largest = |a: &[Vector3<f32>], b: &[Vector3<f32>]| {
+                a.iter()
+                    .zip(b)
+                    .map(|(a, b)| (a - b).norm())
+                    .fold(0.0f32, f32::max)
+            };
+            let particles = largest(&cpu.particles, &gpu.particles);
+            let thread = largest(&cpu.thread, &gpu.thread);
+            let force = (gpu.peak_force - cpu.peak_force).abs() / cpu.peak_force;
+            println!(
+                "{label}: particles within {:.2e} m, thread within {:.2e} m, peak force {:.2} % apart",
+                particles,
+                thread,
+                force * 100.0
+            );
+            let middle = (gpu.thread_middle_moved - cpu.thread_middle_moved).norm()
+                / cpu.thread_middle_moved.norm();
+            if material.is_empty() {
+                // Dragged: the same motion to the grid's round-off.
+                assert!(particles < 1.5e-4, "{label}: particles {particles} m apart");
+                assert!(thread < 3e-4, "{label}: thread {thread} m apart");
+                assert!(middle < 0.01, "{label}: the middle's motion {middle} apart");
+                assert!(force < 0.02, "{label}: peak force {force} apart");
+            } else {
+                // Cut: the same cut (a point cuts or not by a threshold, so the runs part
+                // by more, and f32 atomics sum in a different order each run).
+                let along = gpu.thread_middle_moved.y;
+                let tissue = gpu.tissue_near_middle_moved.y;
+                assert!(
+                    along > 0.0075 && tissue < 0.1 * along,
+                    "{label}: cut through"
+                );
+                assert!(particles < 1e-3, "{label}: particles {particles} m apart");
+                assert!(thread < 1e-3, "{label}: thread {thread} m apart");
+                // Its peak is one frame's force, noisy where points start and stop
+                // cutting (3–15 % from the CPU's with f32 atomics); the toughness bounds
+                // it on both, as on the CPU (G_c times the 40 mm of block along the thread).
+                let limit = 1.0 * 0.04;
+                assert!(
+                    gpu.peak_force <= 1.02 * limit && gpu.peak_force > 0.5 * limit,
+                    "{label}: cutting force {} N against G_c · 40 mm = {limit} N",
+                    gpu.peak_force
+                );
+            }
+        }
+    }
 }

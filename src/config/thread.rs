@@ -8,7 +8,6 @@
 
 use super::validate::Problem;
 use super::{Scene, Tool};
-use crate::mpm::backend::BackendChoice;
 use crate::mpm::Method;
 use crate::rod::solver::RodSolverSettings;
 use crate::rod::ThreadMaterial;
@@ -381,8 +380,8 @@ pub(super) fn validate(
     };
     let within = |v: f64, (lo, hi): (f64, f64)| v.is_finite() && v >= lo && v <= hi;
     if !scene.threads.is_empty() && !scene.tissues.is_empty() {
-        // Threads in tissue are contact geometry on the explicit CPU grid update only
-        // (crate::mpm::cpu::thread_contact).
+        // Threads in tissue are contact geometry of the explicit grid update
+        // (crate::mpm::cpu::thread_contact), on either backend.
         let method = scene.solver.method;
         require(
             matches!(method, Method::MlsMpm | Method::PicMpm),
@@ -391,13 +390,6 @@ pub(super) fn validate(
             "mls_mpm or pic_mpm: a thread in tissue is contact geometry of the explicit \
              update-Lagrangian grid update only"
                 .into(),
-        );
-        let backend = scene.solver.backend;
-        require(
-            backend != BackendChoice::Gpu,
-            "solver.backend".into(),
-            format!("{backend:?}"),
-            "cpu or auto: the GPU backend has no thread-in-tissue contact".into(),
         );
     }
     for (i, t) in scene.threads.iter().enumerate() {

@@ -94,35 +94,39 @@ impl Backend {
     /// the previous frame's state on both, so its outputs can be built meanwhile.
     pub fn begin_frame(&mut self, plan: &FramePlan) {
         if let Backend::Gpu(g) = self {
-            g.submit_frame(plan);
+            // A frame with threads in the tissue waits for the device every substep: it
+            // runs in `finish_frame`, which has the threads' stepper.
+            if !g.has_threads() {
+                g.submit_frame(plan);
+            }
         }
     }
 
     /// The proxies of `count` threads for the grid to touch over the coming frame (see
     /// [`super::cpu::thread_contact`]), for the caller to load, with no impulse yet; `None`
-    /// on the GPU (which refuses a thread in tissue).
+    /// with a method whose grid does not meet threads.
     pub fn load_threads(&mut self, count: usize) -> Option<&mut [ThreadProxy]> {
         match self {
             Backend::Cpu(c) => Some(c.solver.thread_contact.load(count)),
-            Backend::Gpu(_) => None,
+            Backend::Gpu(g) => g.load_threads(count),
         }
     }
 
     /// Thread `thread` as the grid left it (its frame's sums of contact impulse and bound
-    /// tissue's push among them); `None` on the GPU or for a thread not loaded.
+    /// tissue's push among them); `None` for a thread not loaded.
     pub fn thread_proxy(&self, thread: usize) -> Option<&ThreadProxy> {
         match self {
             Backend::Cpu(c) => c.solver.thread_contact.proxy(thread),
-            Backend::Gpu(_) => None,
+            Backend::Gpu(g) => g.thread_contact()?.proxy(thread),
         }
     }
 
     /// What the grid and the threads exchanged since the frame began (see
-    /// [`super::cpu::thread_contact`]); `None` on the GPU, whose grid does not meet threads.
+    /// [`super::cpu::thread_contact`]); `None` on the GPU before a frame loaded threads.
     pub fn thread_exchange(&self) -> Option<GridExchange> {
         match self {
             Backend::Cpu(c) => Some(c.solver.thread_contact.exchange()),
-            Backend::Gpu(_) => None,
+            Backend::Gpu(g) => g.thread_contact().map(|t| t.exchange()),
         }
     }
 
@@ -178,7 +182,12 @@ impl Backend {
                 }
                 out
             }
-            Backend::Gpu(g) => g.collect_frame(),
+            Backend::Gpu(g) => match threads {
+                Some(threads) if g.has_threads() => g.step_frame_with_threads(plan, threads),
+                // `begin_frame` left a frame with threads loaded to this call.
+                None if g.has_threads() => g.step_frame(plan),
+                _ => g.collect_frame(),
+            },
         }
     }
 

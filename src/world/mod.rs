@@ -222,12 +222,15 @@ impl World {
             split,
         };
         // A scene of threads alone has no tissue to step: its (empty) grid stays on the CPU.
-        // Threads in tissue are contact geometry on the CPU's grid only (`check` refuses
-        // `backend = "gpu"` with them; `auto` takes the CPU).
+        // Threads in tissue take `auto` to the CPU: the GPU backend couples them on the host,
+        // reading its grid back every substep (`mpm::gpu::thread_grid`).
         let gpu_context = if setup.particles.is_empty() {
             None
         } else if !scene.threads.is_empty() && scene.solver.backend == BackendChoice::Auto {
-            tracing::info!("backend: cpu (auto: the GPU backend has no thread-in-tissue contact)");
+            tracing::info!(
+                "backend: cpu (auto: the GPU backend reads its grid back every substep for a \
+                 thread in tissue; `backend = \"gpu\"` asks for it)"
+            );
             None
         } else {
             match gpu::adapter::select(scene.solver.backend)? {

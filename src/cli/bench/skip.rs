@@ -10,8 +10,8 @@
 //! - the resting tissue with a toughness it never reaches against none (the cost of the
 //!   damage model when on; off, the CPU compiles it out and the GPU branches past it);
 //! - the resting tissue with a 100-segment suture thread through it against none (the
-//!   thread's contact on the grid each substep and its rod each frame; skipped on the GPU
-//!   backend, where the grid does not meet threads).
+//!   thread's contact on the grid each substep and its rod each frame; on the GPU backend
+//!   with the grid's round trip each substep, see `mpm::gpu::thread_grid`).
 
 use dvrk_tissue_sim::config::builders::seed000_scene;
 use dvrk_tissue_sim::config::Scene;
@@ -299,11 +299,6 @@ pub fn run(
         } = c;
         scene.solver.backend = backend;
         let mut world = World::try_new(&scene)?;
-        if !scene.threads.is_empty() && world.backend().thread_exchange().is_none() {
-            // The grid meets a thread on the CPU backend alone (see `mpm::cpu::thread_contact`).
-            eprintln!("{name}: skipped: a thread in tissue runs on the CPU backend only");
-            continue;
-        }
         if settle {
             // Step (untimed) until the tissue has come to rest and fallen asleep.
             while !world.is_asleep() {

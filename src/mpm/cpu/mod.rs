@@ -345,25 +345,14 @@ impl CpuSolver {
         self.particle_to_grid(Some(stress_scale), self.method.affine_transfer());
         let tool_impulses = self.update_grid(input);
         if let (false, Some(stepper)) = (self.thread_contact.is_empty(), threads) {
-            let dx = self.layout.dx;
-            let full_node_mass = self
-                .materials
-                .iter()
-                .map(|m| m.density * dx * dx * dx)
-                .fold(f32::MAX, f32::min);
-            let toughness = (self.materials.iter().all(|m| m.toughness > 0.0)).then(|| {
-                (self.materials.iter())
-                    .map(|m| m.toughness)
-                    .fold(f32::MAX, f32::min)
-            });
+            let bins = &self.bins;
             self.thread_contact.apply(
                 &self.layout,
                 &self.boundary,
                 &mut self.grid,
-                &self.bins,
+                &|b| bins.is_touched(b),
                 input.dt,
-                full_node_mass,
-                toughness,
+                thread_contact::TissueLimits::new(&self.materials, self.layout.dx),
                 stepper,
             );
         }

@@ -1,7 +1,8 @@
 //! A suture thread in the tissue, two-way, on the MPM grid (seed 002 §IV-C, its eq. 19 for
-//! the needle generalised to a chain of segments), on the CPU's explicit update-Lagrangian
-//! path (MLS-MPM and PIC share it; the other methods and the GPU backend refuse a thread in
-//! tissue, see `config/README.md`).
+//! the needle generalised to a chain of segments), on the explicit update-Lagrangian path
+//! (MLS-MPM and PIC share it; the other methods refuse a thread in tissue, see
+//! `config/README.md`). The GPU backend runs this same code on its grid, read back and
+//! written again each substep ([`crate::mpm::gpu`]'s `thread_grid`).
 //!
 //! # Coupling scheme
 //!
@@ -122,10 +123,10 @@
 //! (see [`crate::rod::solver`]). `bench skip --only thread` measures a 100-segment thread
 //! through the resting seed-000 block against none.
 
-use super::binning::Binning;
 use super::node_contact::apply_boundary;
 use crate::mpm::grid::{Boundary, GridLayout, Node, NODES_PER_BLOCK};
 use crate::mpm::kernel::Stencil;
+use crate::mpm::MaterialParams;
 use crate::mpm::{Mat3, Vec3};
 use nalgebra::Vector3;
 use std::collections::HashMap;
@@ -346,6 +347,33 @@ struct Claim {
     distance2: f32,
 }
 
+/// What of the tissue's materials the thread's coupling reads.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TissueLimits {
+    /// The mass of a node inside tissue at rest, kg: density · dx³, the least dense
+    /// material's.
+    pub full_node_mass: f32,
+    /// The tissue's G_c, J/m² (the least tough material's); `None` where some tissue has
+    /// none and so never tears.
+    pub toughness: Option<f32>,
+}
+
+impl TissueLimits {
+    /// The limits of tissue made of `materials` on a grid of spacing `dx`.
+    pub fn new(materials: &[MaterialParams], dx: f32) -> Self {
+        let least = |value: fn(&MaterialParams) -> f32| {
+            materials.iter().map(value).fold(f32::MAX, f32::min)
+        };
+        TissueLimits {
+            full_node_mass: least(|m| m.density) * dx * dx * dx,
+            toughness: materials
+                .iter()
+                .all(|m| m.toughness > 0.0)
+                .then(|| least(|m| m.toughness)),
+        }
+    }
+}
+
 /// What the grid and the threads exchanged since the frame began, summed node by node
 /// (momenta in N·s, the counts over substeps).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -402,25 +430,46 @@ impl ThreadContact {
         self.exchange
     }
 
+    /// A box holding every node the next [`ThreadContact::apply`] can read or write, or
+    /// `None` without a thread: the points' segments' capsules (radius plus
+    /// [`REACH_CELLS`]) and the stencils of the points and their anchors, with a cell more
+    /// for the points' motion within the substep.
+    pub fn reach_box(&self, dx: f32) -> Option<(Vec3, Vec3)> {
+        let mut reach: Option<(Vec3, Vec3)> = None;
+        for thread in &self.threads {
+            let margin = Vec3::repeat(thread.radius + (REACH_CELLS.max(2.0) + 1.0) * dx);
+            for p in thread.points.iter().chain(thread.anchor.iter().flatten()) {
+                let (lo, hi) = (p - margin, p + margin);
+                reach = Some(match reach {
+                    Some((a, b)) => (a.inf(&lo), b.sup(&hi)),
+                    None => (lo, hi),
+                });
+            }
+        }
+        reach
+    }
+
     /// One substep of `dt` after the grid update (module doc): the tissue across each point
     /// inside it is bound, the other nodes near segments take the contact, `stepper` steps
     /// the rods, the bound tissue takes its push and the anchors move with the grid.
-    /// `full_node_mass` is the mass of a node inside tissue at rest (density · dx³; the
-    /// least dense material's); `toughness` the tissue's G_c (J/m², the least tough
-    /// material's), `None` where some tissue has none and so never tears.
+    /// `touched` says whether the substep's particles wrote to a block (the others hold
+    /// stale nodes).
     #[allow(clippy::too_many_arguments)]
-    pub(super) fn apply(
+    pub(crate) fn apply(
         &mut self,
         layout: &GridLayout,
         boundary: &Boundary,
         grid: &mut [Node],
-        bins: &Binning,
+        touched: &dyn Fn(usize) -> bool,
         dt: f32,
-        full_node_mass: f32,
-        toughness: Option<f32>,
+        tissue: TissueLimits,
         stepper: &mut dyn ThreadStepper,
     ) {
-        self.claim_nodes(layout, grid, bins);
+        let TissueLimits {
+            full_node_mass,
+            toughness,
+        } = tissue;
+        self.claim_nodes(layout, grid, touched);
         self.bind_tissue(layout, grid, dt, full_node_mass, toughness);
         // Bound tissue moves with its point across the thread: the contact law would act on
         // those nodes a second time (measured at dx 2 mm: the contact's force on the free
@@ -604,7 +653,7 @@ impl ThreadContact {
 
     /// Lists the nodes with mass within reach of a segment, each once (its nearest segment),
     /// grouped by segment.
-    fn claim_nodes(&mut self, layout: &GridLayout, grid: &[Node], bins: &Binning) {
+    fn claim_nodes(&mut self, layout: &GridLayout, grid: &[Node], touched: &dyn Fn(usize) -> bool) {
         self.claims.clear();
         let last = layout.nodes.map(|n| n as i64 - 1);
         for (t, thread) in self.threads.iter_mut().enumerate() {
@@ -636,7 +685,7 @@ impl ThreadContact {
                             if distance2 > reach * reach {
                                 continue;
                             }
-                            let mass = if bins.is_touched(node / NODES_PER_BLOCK) {
+                            let mass = if touched(node / NODES_PER_BLOCK) {
                                 grid[node][3]
                             } else {
                                 0.0

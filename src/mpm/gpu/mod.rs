@@ -176,11 +176,13 @@ mod prelude;
 mod readback;
 mod resources;
 mod sparse;
+mod thread_grid;
 mod tlmpm;
 
 use super::backend::P2gAtomics;
+use super::cpu::thread_contact::{ThreadContact, ThreadProxy, ThreadStepper, TissueLimits};
 use super::frame_plan::{FramePlan, FrameStats};
-use super::grid::Node;
+use super::grid::{Boundary, Node};
 use super::stiffening::{self, StiffeningBounds, MAX_PIECES};
 use super::{GridLayout, Method, Particles, PbMpmParams, SolveCounts, SolverSetup, MAX_TOOLS};
 use crate::tools::{Shape, ToolKinematics};
@@ -198,6 +200,7 @@ use prelude::StageBuilder;
 use readback::Readback;
 use resources::{Resources, ARGS_GROUP};
 use sparse::SparseStage;
+use thread_grid::ThreadGrid;
 use tlmpm::TlStages;
 
 /// How [`GpuError::Unsupported`] names the implicit method on an adapter without f32
@@ -315,6 +318,11 @@ pub struct GpuSolver {
     host: Particles,
     /// The host copy has edits the device does not have yet.
     host_dirty: bool,
+    /// The walls and table, for the threads' coupling on the host.
+    boundary: Boundary,
+    tissue: TissueLimits,
+    /// Threads in the tissue, once a frame loaded them (see [`thread_grid`]).
+    threads: Option<Box<ThreadGrid>>,
 }
 
 /// What of `setup` the backend cannot step on this adapter: the implicit method needs f32
@@ -434,6 +442,8 @@ impl GpuSolver {
                 setup.implicit,
             )
         });
+        let tissue = TissueLimits::new(&setup.materials, setup.layout.dx);
+        let boundary = setup.boundary;
         let total_lagrangian = total_lagrangian.then(|| TotalLagrangian {
             stages: TlStages::new(&builder),
             rest_written: false,
@@ -466,6 +476,9 @@ impl GpuSolver {
             read_deformation: false,
             host: setup.particles,
             host_dirty: false,
+            boundary,
+            tissue,
+            threads: None,
             ctx,
         })
     }
@@ -632,6 +645,116 @@ impl GpuSolver {
         stats
     }
 
+    /// The proxies of `count` threads in the tissue for the caller to load for the coming
+    /// frame (see `thread_grid`); `None` for a method other than MLS-MPM and PIC, whose
+    /// grid update the coupling follows.
+    pub fn load_threads(&mut self, count: usize) -> Option<&mut [ThreadProxy]> {
+        if !matches!(self.method, Method::MlsMpm | Method::PicMpm) {
+            return None;
+        }
+        let threads = self.threads.get_or_insert_with(|| {
+            Box::new(ThreadGrid::new(
+                &self.ctx.device,
+                &self.layout,
+                self.boundary,
+                self.tissue,
+            ))
+        });
+        Some(threads.contact.load(count))
+    }
+
+    /// The threads' coupling with the grid, once loaded.
+    pub fn thread_contact(&self) -> Option<&ThreadContact> {
+        self.threads.as_ref().map(|t| &t.contact)
+    }
+
+    /// Whether frames step threads in the tissue (and so wait for the device each
+    /// substep: [`GpuSolver::step_frame_with_threads`]).
+    pub fn has_threads(&self) -> bool {
+        self.threads.as_ref().is_some_and(|t| !t.contact.is_empty())
+    }
+
+    /// Steps an MLS-MPM or PIC frame with the loaded threads coupled to the grid in every
+    /// substep, `stepper` stepping their rods (see `thread_grid`), and returns its
+    /// statistics: the frame is done when this returns.
+    ///
+    /// # Panics
+    /// When a frame is in flight, no thread was loaded, or the device is lost.
+    pub fn step_frame_with_threads(
+        &mut self,
+        plan: &FramePlan,
+        stepper: &mut dyn ThreadStepper,
+    ) -> FrameStats {
+        assert!(
+            !self.readback.in_flight(),
+            "step_frame_with_threads called while a frame is in flight"
+        );
+        assert!(plan.substeps <= self.max_substeps && plan.tool_count == self.tool_count);
+        let mut threads = self
+            .threads
+            .take()
+            .expect("step_frame_with_threads called with no thread loaded");
+        self.upload_if_dirty();
+        let (entries, relaxation) = step_entries(self.method, self.pb_mpm);
+        self.res
+            .write_frame_inputs(&self.ctx.queue, plan, entries, relaxation);
+        let device = &self.ctx.device;
+        let new_encoder = || {
+            device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("frame with threads"),
+            })
+        };
+        let mut encoder = new_encoder();
+        encoder.copy_buffer_to_buffer(&self.res.particles, 0, &self.res.snapshot, 0, None);
+        if self.cutting {
+            encoder.copy_buffer_to_buffer(&self.res.cracks, 0, &self.res.crack_snapshot, 0, None);
+        }
+        let groups = self.groups();
+        for s in 0..plan.substeps {
+            {
+                let mut pass = self.begin_thread_pass(&mut encoder);
+                if s == 0 {
+                    self.res.bind_step(&mut pass, 0);
+                    self.sparse.record_first_blocks(&mut pass, &groups);
+                }
+                self.record_to_grid(&mut pass, s, &groups);
+            }
+            threads.plan_reach(&self.layout);
+            threads.record_copy(&mut encoder, &self.res);
+            self.ctx.queue.submit([encoder.finish()]);
+            threads.couple(
+                device,
+                &self.ctx.queue,
+                &self.res,
+                &self.layout,
+                plan.dt,
+                stepper,
+            );
+            encoder = new_encoder();
+            let mut pass = self.begin_thread_pass(&mut encoder);
+            self.res.bind_step(&mut pass, s);
+            self.record_from_grid(&mut pass, &groups);
+            if s + 1 == plan.substeps {
+                self.res.bind_step(&mut pass, 0);
+                self.g2p.record_frame_end(&mut pass, &groups);
+            }
+        }
+        self.threads = Some(threads);
+        self.submit_with_readback(encoder);
+        self.collect_frame()
+    }
+
+    /// A pass of a frame with threads, the indirect arguments bound.
+    fn begin_thread_pass<'e>(&self, encoder: &'e mut wgpu::CommandEncoder) -> CountingPass<'e> {
+        let mut pass =
+            CountingPass::new(encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("substep with threads"),
+                timestamp_writes: None,
+            }));
+        pass.set_bind_group(ARGS_GROUP, &self.res.args_group, &[]);
+        pass
+    }
+
     /// Records and submits a total Lagrangian frame (see [`tlmpm`]): the plan cut into the
     /// pieces its stiffening bounds ask for, each piece a step of its own.
     fn submit_tl_frame(&mut self, plan: &FramePlan) {
@@ -710,11 +833,21 @@ impl GpuSolver {
     /// reduction fused with the next block list. The frame's first list comes from
     /// [`SparseStage::record_first_blocks`].
     fn record_substep(&self, pass: &mut CountingPass, s: u32, groups: &Groups) {
+        self.record_to_grid(pass, s, groups);
+        self.record_from_grid(pass, groups);
+    }
+
+    /// The first half of an MLS-MPM (or PIC) substep: up to the grid update.
+    fn record_to_grid(&self, pass: &mut CountingPass, s: u32, groups: &Groups) {
         self.res.bind_step(pass, s);
         self.crack.record(pass, groups);
         self.sparse.record_clear(pass, groups);
         self.p2g.record(pass, groups);
         self.grid_update.record(pass, groups);
+    }
+
+    /// The second half of an MLS-MPM (or PIC) substep, its step bound: G2P on.
+    fn record_from_grid(&self, pass: &mut CountingPass, groups: &Groups) {
         self.g2p.record(pass, groups);
         self.sparse.record_end_substep(pass);
     }

@@ -172,6 +172,10 @@ pub struct Resources {
     pub stats: wgpu::Buffer,
     /// Indirect dispatch arguments: the active block count, 1, 1.
     pub args: wgpu::Buffer,
+    /// Grid velocity and mass (one vec4 a node) after the grid update.
+    pub grid_v: wgpu::Buffer,
+    /// The substep's active blocks, in increasing index (`args`' first word counts them).
+    pub active_blocks: wgpu::Buffer,
     /// End-of-frame extract: positions (n × vec4), then deformation gradient columns
     /// (n × 3 × vec4).
     pub extract: wgpu::Buffer,
@@ -364,7 +368,12 @@ impl Resources {
         if !blade_data.is_empty() {
             queue.write_buffer(&blades, 0, bytemuck::cast_slice(&blade_data));
         }
-        let args = storage(device, "indirect args", 16, wgpu::BufferUsages::INDIRECT);
+        let args = storage(
+            device,
+            "indirect args",
+            16,
+            wgpu::BufferUsages::INDIRECT | copy,
+        );
         let sim = uniform(device, "sim", std::mem::size_of::<SimUniform>() as u64);
         let steps = uniform(
             device,
@@ -467,6 +476,8 @@ impl Resources {
             steps,
             stats,
             args,
+            grid_v,
+            active_blocks: active,
             extract,
             bind_group,
             args_group,

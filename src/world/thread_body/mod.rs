@@ -286,7 +286,7 @@ impl ThreadBody {
     /// grasps begin or end (jaws closed on the thread catch the points between their faces;
     /// opening lets them go), then the rod steps among the table, walls and tools, the
     /// grasped points moving with their jaws and the pinned ones staying put. For a frame
-    /// the tissue did not step (none in the scene, asleep, reset, or on the GPU).
+    /// the tissue did not step (none in the scene, asleep, or reset).
     pub fn step_frame(&mut self, dt: f64, colliders: &[RodCollider], grippers: &[GripperView]) {
         self.tissue_force.fill(Vec3::zeros());
         self.frame_tissue_momentum.fill(Vector3::zeros());
