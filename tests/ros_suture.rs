@@ -36,17 +36,7 @@ fn suture_demo_throws_a_stitch_hands_the_needle_to_psm2_and_the_wound_closes() {
     if !network_prerequisites(true) {
         return;
     }
-    let bag = std::env::temp_dir().join(format!("suture-demo-{}.mcap", std::process::id()));
-    let _ = std::fs::remove_file(&bag);
-    let node = NodeProcess::start_with(
-        &[
-            "--scene",
-            "config/suture.toml",
-            "--record",
-            bag.to_str().unwrap(),
-        ],
-        73,
-    );
+    let (node, bag) = start_recording_suture_node("suture-demo", 73);
     let stdout = run_rclpy_against(&node, "../../launch-scripts/suture_demo.py", 73);
     let (before, after) = gaps(&stdout).unwrap_or_else(|| panic!("no wound gap line: {stdout}"));
     // The blocks are laid 4 mm apart (3.9 mm between their nearest particles at rest); the
@@ -56,12 +46,7 @@ fn suture_demo_throws_a_stitch_hands_the_needle_to_psm2_and_the_wound_closes() {
         "gap at the start {before} m"
     );
     assert!(after < 0.5 * before, "gap {before} m -> {after} m");
-    let (status, log) = node.stop();
-    assert!(
-        status.is_some_and(|s| s.success()),
-        "the node's exit {status:?}:\n{log}"
-    );
-    assert!(!log.contains("ERROR"), "the node logged an error:\n{log}");
+    stop_cleanly(node);
 
     // The bag: every output of the throw, and the wound gap closing in it as the demo saw.
     let bytes = std::fs::read(&bag).unwrap();
@@ -125,24 +110,9 @@ fn needle_through_the_node(script: &str, kind: &str, domain: u16) {
     if !network_prerequisites(true) {
         return;
     }
-    let bag = std::env::temp_dir().join(format!("needle-{kind}-{}.mcap", std::process::id()));
-    let _ = std::fs::remove_file(&bag);
-    let node = NodeProcess::start_with(
-        &[
-            "--scene",
-            "config/suture.toml",
-            "--record",
-            bag.to_str().unwrap(),
-        ],
-        domain,
-    );
+    let (node, bag) = start_recording_suture_node(&format!("needle-{kind}"), domain);
     run_rclpy_against(&node, script, domain);
-    let (status, log) = node.stop();
-    assert!(
-        status.is_some_and(|s| s.success()),
-        "the node's exit {status:?}:\n{log}"
-    );
-    assert!(!log.contains("ERROR"), "the node logged an error:\n{log}");
+    stop_cleanly(node);
     let out = std::process::Command::new(python())
         .arg(root().join("tests/ros/read_needle_bag.py"))
         .arg(&bag)
@@ -157,4 +127,31 @@ fn needle_through_the_node(script: &str, kind: &str, domain: u16) {
         "read_needle_bag.py: {stdout}\n{}",
         String::from_utf8_lossy(&out.stderr)
     );
+}
+
+/// The node on suture.toml in ROS domain `domain`, recording to a fresh bag named after
+/// `name` in the temporary directory; the bag's path.
+fn start_recording_suture_node(name: &str, domain: u16) -> (NodeProcess, std::path::PathBuf) {
+    let bag = std::env::temp_dir().join(format!("{name}-{}.mcap", std::process::id()));
+    let _ = std::fs::remove_file(&bag);
+    let node = NodeProcess::start_with(
+        &[
+            "--scene",
+            "config/suture.toml",
+            "--record",
+            bag.to_str().unwrap(),
+        ],
+        domain,
+    );
+    (node, bag)
+}
+
+/// Stops `node` and checks that it exited cleanly, logging no error.
+fn stop_cleanly(node: NodeProcess) {
+    let (status, log) = node.stop();
+    assert!(
+        status.is_some_and(|s| s.success()),
+        "the node's exit {status:?}:\n{log}"
+    );
+    assert!(!log.contains("ERROR"), "the node logged an error:\n{log}");
 }
