@@ -430,7 +430,7 @@ impl ThreadContact {
         self.exchange
     }
 
-    /// A box holding every node the next [`ThreadContact::apply`] can read or write, or
+    /// A box holding every node the next `ThreadContact::apply` can read or write, or
     /// `None` without a thread: the points' segments' capsules (radius plus
     /// [`REACH_CELLS`]) and the stencils of the points and their anchors, with a cell more
     /// for the points' motion within the substep.

@@ -14,9 +14,19 @@
 //! Cost: a round trip of the blocks in reach per substep (1 KiB a block each way) and a
 //! wait for the device, only while a thread lies in the tissue; every other frame is one
 //! submission as before. `auto` keeps such a scene on the CPU for that reason (see
-//! `World::new`); `backend = "gpu"` asks for this path.
-//! `tests/thread_tissue.rs` steps the same thread through the same block on the CPU, on the
-//! GPU with fixed-point P2G and with f32 atomics and compares them.
+//! `World::new`); `backend = "gpu"` asks for this path. On llvmpipe, `bench skip --only
+//! thread --backend gpu` (a 100-segment thread through the resting 24,000-particle block)
+//! steps at 0.92–0.95 of the time of the block alone (the CPU: 0.95), and
+//! `run --headless --scene config/suture.toml --seconds 1` takes 80 s on the GPU backend
+//! against 30 s on the CPU, with the same summary.
+//!
+//! Agreement (`cargo test --release --test thread_tissue the_gpu -- --nocapture`): a 7 cm
+//! thread pulled 10 mm sideways through a 4 × 3 × 2 cm block drags it to within 2.6e-5 m of
+//! the CPU's particles with fixed-point P2G (the same every run) and 1.5e-5 to 4.8e-5 m with
+//! f32 atomics, the peak force within 0.1 % and 0.5 %; with a toughness of 1 J/m² it cuts
+//! through on both, the particles within 4.4e-4 m, pulling under G_c times the block's
+//! length. `tests/suture.rs` runs the shipped throw's first 2.5 s on both: the thread within
+//! 0.25 mm, the particles within 0.08 mm, the wound gap within 0.011 mm.
 
 use super::readback::map_read;
 use super::resources::Resources;
