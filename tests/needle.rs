@@ -283,3 +283,33 @@ fn a_gripper_closing_on_the_needle_carries_it_a_second_takes_it_over_and_opening
     );
     assert!(world.tools()[0].needle().unwrap().velocity().norm() < 0.005);
 }
+
+/// While the needle is free the tissue steps one backend frame per substep; a guard event's
+/// restore still puts the tissue back to where the world's frame started (not to the start
+/// of its last substep), on the CPU and the GPU.
+#[test]
+fn a_frame_stepped_by_substep_restores_to_its_start() {
+    for backend in [BackendChoice::Cpu, BackendChoice::Gpu] {
+        let mut scene = scene(Some(0.1), "");
+        scene.solver.backend = backend;
+        scene.solver.p2g_atomics = P2gAtomics::Fixed;
+        let mut world = World::new(&scene);
+        while world.time() < 0.15 {
+            world.step_frame().expect("frame");
+        }
+        let needle = world.tools()[0].needle().expect("a needle");
+        assert_eq!(*needle.carrier(), Carrier::Free, "{backend:?}: let go");
+        let start = world.particles().x.clone();
+        world.step_frame().expect("frame");
+        let moved = (world.particles().x.iter().zip(&start))
+            .map(|(a, b)| (a - b).norm())
+            .fold(0.0f32, f32::max);
+        world.backend_mut().restore_frame_start();
+        let restored = (world.particles().x.iter().zip(&start))
+            .map(|(a, b)| (a - b).norm())
+            .fold(0.0f32, f32::max);
+        println!("{backend:?}: the frame moved particles up to {moved:.2e} m, restored to {restored:.1e} m");
+        assert!(moved > 0.0, "{backend:?}: the tissue moved over the frame");
+        assert_eq!(restored, 0.0, "{backend:?}: restored to the frame's start");
+    }
+}

@@ -140,7 +140,9 @@ impl Backend {
     ) -> FrameStats {
         match self {
             Backend::Cpu(c) => {
-                c.frame_start.copy_state_from(&c.solver.particles);
+                if plan.part.first {
+                    c.frame_start.copy_state_from(&c.solver.particles);
+                }
                 // Total Lagrangian MPM cuts each substep into pieces (see `stiffening`).
                 let pieces = if c.solver.method == super::Method::TlMpm {
                     c.solver.stiffening_bounds().pieces(plan)
@@ -172,7 +174,7 @@ impl Backend {
                     out.substeps_done += 1;
                 }
                 out.substeps_done /= pieces;
-                if out.guard.is_none() && c.solver.split.max_edge_cells > 0.0 {
+                if out.guard.is_none() && plan.part.last && c.solver.split.max_edge_cells > 0.0 {
                     let dx = c.solver.layout.dx;
                     let params = c.solver.split;
                     out.split = super::split::split_stretched(&mut c.solver.particles, dx, &params);

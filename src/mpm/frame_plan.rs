@@ -18,6 +18,29 @@ pub struct FramePlan<'a> {
     pub tool_count: usize,
     /// `substeps × tool_count` entries, substep-major.
     pub tools: &'a [ToolKinematics],
+    /// Where this frame sits in the world's frame.
+    pub part: FramePart,
+}
+
+/// Where a backend frame sits in the world's frame: all of it, or one of the substeps the
+/// world steps as a backend frame each while a needle is free (see
+/// [`crate::world::needle_body`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FramePart {
+    /// The world's frame starts here: the backend keeps this state for a guard event's
+    /// restore.
+    pub first: bool,
+    /// The world's frame ends here: the backend reads the particles back (the GPU) and
+    /// splits the stretched ones (the CPU).
+    pub last: bool,
+}
+
+impl FramePart {
+    /// A backend frame that is the world's frame.
+    pub const WHOLE: FramePart = FramePart {
+        first: true,
+        last: true,
+    };
 }
 
 impl FramePlan<'_> {

@@ -101,6 +101,7 @@ pub fn cut<'a>(
         gravity: plan.gravity,
         tool_count: plan.tool_count,
         tools: buffer,
+        part: plan.part,
     }
 }
 
@@ -131,6 +132,7 @@ mod tests {
             gravity: Vec3::zeros(),
             tool_count: tools.len() / substeps as usize,
             tools,
+            part: crate::mpm::frame_plan::FramePart::WHOLE,
         }
     }
 

@@ -15,7 +15,7 @@ use crate::math::Vec3;
 use crate::mpm::backend::{Backend, BackendChoice, CpuBackend};
 use crate::mpm::cpu::thread_contact::{ThreadProxy, ThreadStepper};
 use crate::mpm::cpu::CpuSolver;
-use crate::mpm::frame_plan::{FramePlan, FrameStats};
+use crate::mpm::frame_plan::{FramePart, FramePlan, FrameStats};
 use crate::mpm::gpu::{self, GpuError, GpuSolver};
 use crate::mpm::grid::{Boundary, GridLayout, TableHold};
 use crate::mpm::guard::GuardPolicy;
@@ -99,6 +99,7 @@ impl PlannedFrame {
             gravity,
             tool_count,
             tools: kinematics,
+            part: FramePart::WHOLE,
         }
     }
 }
@@ -885,8 +886,9 @@ impl World {
     /// between them with the tissue's exchange of the substep before (see [`needle_body`]):
     /// a needle far lighter than the tissue it touches must meet it substep by substep, or
     /// the frame's lag makes it ring. Costs a backend frame's overhead per substep (on the
-    /// GPU, a submission and a readback), only while a needle is free. A guard event puts
-    /// the tissue back to the start of the substep it fired in.
+    /// GPU, a submission and a readback of the frame's statistics; the particles are read
+    /// back after the last), only while a needle is free. A guard event puts the tissue
+    /// back to the start of the frame, as in any other frame.
     fn step_by_substep(&mut self, planned: &PlannedFrame, in_tissue: bool) -> FrameStats {
         let tool_count = self.tools.len();
         let dx = self.params.dx as f32;
@@ -916,6 +918,10 @@ impl World {
                 gravity: self.params.gravity,
                 tool_count,
                 tools: &self.kinematics[s * tool_count..(s + 1) * tool_count],
+                part: FramePart {
+                    first: s == 0,
+                    last: s + 1 == planned.substeps as usize,
+                },
             };
             self.backend.begin_frame(&plan);
             let mut stepper = ThreadsInTissue {

@@ -27,8 +27,9 @@
 //!     overestimated. Per frame instead, the same law let a 0.2 g needle bounce 27 mm off
 //!     a 5 kPa block (the frame's lag integrates the tissue's stiffness explicitly at the
 //!     frame's step); per substep it lands and lies still. The cost is a backend frame's
-//!     overhead a substep (on the GPU a submission and a readback), only while a needle is
-//!     free; a guard event then puts the tissue back to the start of its substep.
+//!     overhead a substep (on the GPU a submission and a readback of the statistics; the
+//!     particles are read back once, after the last), only while a needle is free; a guard
+//!     event puts the tissue back to the start of the frame, as in any frame.
 //!   - **The wire's reach.** As for any wire thinner than a cell, the grid's contact
 //!     reaches 1.5 cells from the wire's centre line ([`crate::tools`]): a needle lying on
 //!     tissue rests on the nodes that reach touches, 1.9 cells above the particles' top

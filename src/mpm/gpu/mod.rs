@@ -181,7 +181,7 @@ mod tlmpm;
 
 use super::backend::P2gAtomics;
 use super::cpu::thread_contact::{ThreadContact, ThreadProxy, ThreadStepper, TissueLimits};
-use super::frame_plan::{FramePlan, FrameStats};
+use super::frame_plan::{FramePart, FramePlan, FrameStats};
 use super::grid::{Boundary, Node};
 use super::stiffening::{self, StiffeningBounds, MAX_PIECES};
 use super::{GridLayout, Method, Particles, PbMpmParams, SolveCounts, SolverSetup, MAX_TOOLS};
@@ -584,10 +584,7 @@ impl GpuSolver {
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("frame"),
             });
-        encoder.copy_buffer_to_buffer(&self.res.particles, 0, &self.res.snapshot, 0, None);
-        if self.cutting {
-            encoder.copy_buffer_to_buffer(&self.res.cracks, 0, &self.res.crack_snapshot, 0, None);
-        }
+        self.record_frame_start(&mut encoder, plan.part);
         let dispatches;
         {
             let groups = self.groups();
@@ -611,8 +608,10 @@ impl GpuSolver {
                 }
             }
             let in_substeps = pass.dispatches() - before;
-            self.res.bind_step(&mut pass, 0);
-            self.g2p.record_frame_end(&mut pass, &groups);
+            if plan.part.last {
+                self.res.bind_step(&mut pass, 0);
+                self.g2p.record_frame_end(&mut pass, &groups);
+            }
             dispatches = DispatchCount {
                 frame: pass.dispatches(),
                 substeps: plan.substeps,
@@ -620,7 +619,7 @@ impl GpuSolver {
             };
         }
         self.dispatches = dispatches;
-        self.submit_with_readback(encoder);
+        self.submit_with_readback(encoder, plan.part.last);
     }
 
     /// The dispatches the last explicit frame recorded, counted as they were recorded.
@@ -705,10 +704,7 @@ impl GpuSolver {
             })
         };
         let mut encoder = new_encoder();
-        encoder.copy_buffer_to_buffer(&self.res.particles, 0, &self.res.snapshot, 0, None);
-        if self.cutting {
-            encoder.copy_buffer_to_buffer(&self.res.cracks, 0, &self.res.crack_snapshot, 0, None);
-        }
+        self.record_frame_start(&mut encoder, plan.part);
         let groups = self.groups();
         for s in 0..plan.substeps {
             {
@@ -734,14 +730,30 @@ impl GpuSolver {
             let mut pass = self.begin_thread_pass(&mut encoder);
             self.res.bind_step(&mut pass, s);
             self.record_from_grid(&mut pass, &groups);
-            if s + 1 == plan.substeps {
+            if s + 1 == plan.substeps && plan.part.last {
                 self.res.bind_step(&mut pass, 0);
                 self.g2p.record_frame_end(&mut pass, &groups);
             }
         }
         self.threads = Some(threads);
-        self.submit_with_readback(encoder);
+        self.submit_with_readback(encoder, plan.part.last);
         self.collect_frame()
+    }
+
+    /// Records the copy of the particles (and cracks) kept for a guard event's restore, at
+    /// the start of the world's frame only.
+    pub(in crate::mpm::gpu) fn record_frame_start(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        part: FramePart,
+    ) {
+        if !part.first {
+            return;
+        }
+        encoder.copy_buffer_to_buffer(&self.res.particles, 0, &self.res.snapshot, 0, None);
+        if self.cutting {
+            encoder.copy_buffer_to_buffer(&self.res.cracks, 0, &self.res.crack_snapshot, 0, None);
+        }
     }
 
     /// A pass of a frame with threads, the indirect arguments bound.
@@ -785,7 +797,7 @@ impl GpuSolver {
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("total Lagrangian frame"),
             });
-        encoder.copy_buffer_to_buffer(&self.res.particles, 0, &self.res.snapshot, 0, None);
+        self.record_frame_start(&mut encoder, plan.part);
         let dispatches;
         {
             let groups = self.groups();
@@ -809,7 +821,9 @@ impl GpuSolver {
             let in_substeps = pass.dispatches() - before;
             self.res.bind_step(&mut pass, 0);
             tl.stages.record_bound(&mut pass, &groups);
-            self.g2p.record_frame_end(&mut pass, &groups);
+            if plan.part.last {
+                self.g2p.record_frame_end(&mut pass, &groups);
+            }
             dispatches = DispatchCount {
                 frame: pass.dispatches(),
                 substeps,
@@ -817,7 +831,7 @@ impl GpuSolver {
             };
         }
         self.dispatches = dispatches;
-        self.submit_with_readback(encoder);
+        self.submit_with_readback(encoder, plan.part.last);
     }
 
     /// The dispatch sizes of a frame.
@@ -881,12 +895,14 @@ impl GpuSolver {
     /// `cracks_from`, or cleared without one (the rest state is uncut).
     /// Records the copies the frame's outputs need after a frame's passes, submits the frame
     /// and asks for the readback (shared by the explicit and the implicit frames).
-    fn submit_with_readback(&mut self, mut encoder: wgpu::CommandEncoder) {
+    /// Without `particles` (a frame that does not end the world's frame, see
+    /// [`FramePart`]) only the statistics come back, and the host copy stays as it was.
+    fn submit_with_readback(&mut self, mut encoder: wgpu::CommandEncoder, particles: bool) {
         let copies = self.readback.record(
             &mut encoder,
             &self.res.stats,
             &self.res.extract,
-            self.n as usize,
+            if particles { self.n as usize } else { 0 },
             self.read_deformation,
         );
         self.ctx.queue.submit([encoder.finish()]);

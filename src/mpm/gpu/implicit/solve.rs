@@ -314,7 +314,7 @@ impl GpuSolver {
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("frame start"),
         });
-        encoder.copy_buffer_to_buffer(&self.res.particles, 0, &self.res.snapshot, 0, None);
+        self.record_frame_start(&mut encoder, plan.part);
         self.ctx.queue.submit([encoder.finish()]);
         let mut solve = SolveCounts::default();
         for s in 0..plan.substeps {
@@ -334,10 +334,12 @@ impl GpuSolver {
                     label: Some("frame end"),
                     timestamp_writes: None,
                 }));
-            self.res.bind_step(&mut pass, 0);
-            self.g2p.record_frame_end(&mut pass, &groups);
+            if plan.part.last {
+                self.res.bind_step(&mut pass, 0);
+                self.g2p.record_frame_end(&mut pass, &groups);
+            }
         }
-        self.submit_with_readback(encoder);
+        self.submit_with_readback(encoder, plan.part.last);
     }
 
     /// ‖∇Φ‖ over the free components at each Newton iterate of the last implicit substep
