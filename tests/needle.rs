@@ -156,12 +156,17 @@ fn let_go_above_tissue_the_needle_falls_onto_it_and_rests_there_on_cpu_and_gpu()
     }
 }
 
-/// Two grippers pointing down over the needle, their jaws 20° open: `first` closes on the
-/// wire at the arc's top (90°) from 0.05 s and lifts it 10 mm over 0.4–0.7 s; `second`
+/// Two grippers pointing down over the needle, their jaws 20° open: [`FIRST`], then `second`
 /// closes on it at the arc's start (0°) from 0.75 s, `first` opens at 1.05 s, `second`
 /// carries it 4 mm along −x over 1.15–1.35 s and opens at 1.4 s. Jaws close at the
 /// controller's effort limit, about 0.2 s from 20°.
-const HANDOVER: &str = r#"
+fn handover() -> String {
+    format!("{FIRST}{SECOND}")
+}
+
+/// A gripper pointing down over the needle, its jaws 20° open, that closes on the wire at
+/// the arc's top (90°) from 0.05 s, lifts it 10 mm over 0.4–0.7 s and opens at 1.05 s.
+const FIRST: &str = r#"
 [[tool]]
 name = "first"
 shape = { type = "gripper", jaw_length = 0.008, jaw_width = 0.006, jaw_thickness = 0.004 }
@@ -200,7 +205,9 @@ t = 1.1
 position = [0.0, 0.005, 0.044]
 rpy_deg = [180.0, 0.0, 0.0]
 jaw_deg = 40.0
+"#;
 
+const SECOND: &str = r#"
 [[tool]]
 name = "second"
 shape = { type = "gripper", jaw_length = 0.008, jaw_width = 0.006, jaw_thickness = 0.004 }
@@ -243,7 +250,7 @@ jaw_deg = 40.0
 
 #[test]
 fn a_gripper_closing_on_the_needle_carries_it_a_second_takes_it_over_and_opening_drops_it() {
-    let mut world = World::new(&scene(None, HANDOVER));
+    let mut world = World::new(&scene(None, &handover()));
     let held_by = |world: &World| world.tools()[0].needle().unwrap().carrier().clone();
     let step_to = |world: &mut World, t: f64| {
         while world.time() < t - 1e-9 {
@@ -282,6 +289,87 @@ fn a_gripper_closing_on_the_needle_carries_it_a_second_takes_it_over_and_opening
         "{rest}"
     );
     assert!(world.tools()[0].needle().unwrap().velocity().norm() < 0.005);
+}
+
+/// The needle driver's keyframes after its first (holding the needle at rest): it opens
+/// at 0.3–0.35 s, once [`FIRST`] holds the needle, follows it up 10 mm over 0.4–0.7 s, closes
+/// on it at 0.8–0.85 s, carries it 4 mm along +x over 1.1–1.3 s and opens at 1.4–1.45 s.
+const DRIVER_TAKES_IT_BACK: &str = r#"
+[[tool.keyframe]]
+t = 0.3
+position = [0.0, -0.005, 0.03]
+[[tool.keyframe]]
+t = 0.35
+position = [0.0, -0.005, 0.03]
+jaw_deg = 30.0
+[[tool.keyframe]]
+t = 0.4
+position = [0.0, -0.005, 0.03]
+jaw_deg = 30.0
+[[tool.keyframe]]
+t = 0.7
+position = [0.0, -0.005, 0.04]
+jaw_deg = 30.0
+[[tool.keyframe]]
+t = 0.8
+position = [0.0, -0.005, 0.04]
+jaw_deg = 30.0
+[[tool.keyframe]]
+t = 0.85
+position = [0.0, -0.005, 0.04]
+[[tool.keyframe]]
+t = 1.1
+position = [0.0, -0.005, 0.04]
+[[tool.keyframe]]
+t = 1.3
+position = [0.004, -0.005, 0.04]
+[[tool.keyframe]]
+t = 1.4
+position = [0.004, -0.005, 0.04]
+[[tool.keyframe]]
+t = 1.45
+position = [0.004, -0.005, 0.04]
+jaw_deg = 30.0
+"#;
+
+/// The needle driver hands the needle to a gripper, opens, follows it, closes on it and
+/// takes it back: the gripper opening then drops nothing, the driver carries it, and opened
+/// again it lets it fall onto the tissue.
+#[test]
+fn the_driver_closing_on_the_needle_a_gripper_holds_takes_it_back() {
+    let mut world = World::new(&scene(None, &format!("{DRIVER_TAKES_IT_BACK}{FIRST}")));
+    let held_by = |world: &World| world.tools()[0].needle().unwrap().carrier().clone();
+    let step_to = |world: &mut World, t: f64| {
+        while world.time() < t - 1e-9 {
+            world.step_frame().expect("frame");
+        }
+    };
+    let needle = |world: &World| world.tools()[0].pose_at(world.time()).position;
+    step_to(&mut world, 0.75);
+    assert!(matches!(held_by(&world), Carrier::Gripper { tool: 1, .. }));
+    assert!((needle(&world).z - (HELD_Z + 0.01)).abs() < 1e-9);
+    // Closed on the needle where the gripper holds it: the driver has it again.
+    step_to(&mut world, 0.9);
+    assert_eq!(held_by(&world), Carrier::Driver);
+    // The gripper opens; the driver carries it 4 mm along +x.
+    step_to(&mut world, 1.35);
+    assert_eq!(held_by(&world), Carrier::Driver);
+    let carried = needle(&world);
+    println!(
+        "taken back by the driver and carried to x {:.2} mm",
+        carried.x * 1e3
+    );
+    assert!((carried.x - 0.004).abs() < 1e-9, "{carried}");
+    assert!((carried.z - (HELD_Z + 0.01)).abs() < 1e-9, "{carried}");
+    // Opened: it falls onto the tissue.
+    step_to(&mut world, 2.3);
+    assert_eq!(held_by(&world), Carrier::Free);
+    let rest = needle(&world);
+    println!("let go again: rests at {:.2} mm", rest.z * 1e3);
+    assert!(
+        rest.z > TISSUE_TOP && rest.z < TISSUE_TOP + 2.0 * DX,
+        "{rest}"
+    );
 }
 
 /// While the needle is free the tissue steps one backend frame per substep; a guard event's

@@ -10,8 +10,9 @@
 //! The needle through the same interface (`world::needle_body`), read from the node's bag by
 //! `tests/ros/read_needle_bag.py`: PSM1's `jaw/move_jp` to 30° lets the needle go and it
 //! falls onto the blocks (`test_needle_release.py`); PSM2's grasper, opened, turned and
-//! moved onto the needle with `move_cp`, closes on it, PSM1 opens, and PSM2 lifts it 10 mm
-//! (`test_needle_handover.py`).
+//! moved onto the needle with `move_cp`, closes on it, PSM1 opens, and PSM2 lifts it 10 mm;
+//! PSM1's open driver follows it up with `move_cp`, closes on it and takes it back, and
+//! holds it when PSM2 opens (`test_needle_handover.py`).
 //!
 //! Like `tests/ros_node.rs`, it runs only inside a loopback-only network namespace with the
 //! venv's rclpy (`.ci/run` provides both); elsewhere it prints why and passes, unless `CI`
@@ -100,7 +101,7 @@ fn rclpy_psm1_opens_its_jaw_and_the_needle_falls_onto_the_tissue() {
 }
 
 #[test]
-fn rclpy_psm2_closes_on_the_needle_psm1_opens_and_psm2_lifts_it() {
+fn rclpy_psm2_takes_the_needle_from_psm1_and_psm1_takes_it_back() {
     needle_through_the_node("test_needle_handover.py", "handover", 75);
 }
 

@@ -5,8 +5,13 @@
 //! - **Its driver** (the scene's keyframes, or the arm that holds it as its tool): the pose
 //!   the driver asks for, as for any tool. The driver's jaw is the needle driver's: opened
 //!   past [`RELEASE_OPENING_DEG`] (a keyframe's `jaw_deg`, or the arm's `jaw/move_jp`), it
-//!   lets the needle go. A driver does not take the needle back once it has let it go; a
-//!   gripper can.
+//!   lets the needle go. Closing again (the setpoint crossing back to or below it) it takes
+//!   the needle back where the needle lies seated in its jaws: its frame within
+//!   [`RETAKE_DISTANCE`] and [`RETAKE_ANGLE_DEG`] of where the driver holds it. The needle
+//!   then snaps to the driver's hold (by at most that much), as closing jaws seat a needle
+//!   in their grooves. So a driver picks up a needle it let go of, or takes it back from a
+//!   gripper (the gripper still closed; it then lets nothing go on opening), once its arm
+//!   or keyframes put the hold on the needle's pose (its `/tf` frame).
 //! - **A gripper** (a tool with jaws) that closes on the needle's wire: closed as on a
 //!   thread (see [`crate::world::thread_body::grasp`]: pressed shut, the tips no further
 //!   apart than the wire is thick, a point of the wire inside the closed jaws' volume).
@@ -56,6 +61,13 @@ pub const NEEDLE_DENSITY: f64 = 7900.0;
 
 /// A needle's driver lets go of it while its jaw setpoint is open wider than this, degrees.
 pub const RELEASE_OPENING_DEG: f64 = 10.0;
+
+/// A driver closing its jaw takes the needle back while the needle's frame origin (the
+/// arc's centre) lies within this of where the driver holds it, m.
+pub const RETAKE_DISTANCE: f64 = 1e-3;
+
+/// ... and its frame is turned from the driver's hold by at most this, degrees.
+pub const RETAKE_ANGLE_DEG: f64 = 10.0;
 
 /// Points along the arc at which the table and the grippers' jaws meet the wire.
 const ARC_SAMPLES: usize = 33;
@@ -283,14 +295,19 @@ impl NeedleBody {
             .map(|g| g.tool)
             .collect();
         // The holder lets go first, so that a gripper closing as another opens takes it.
+        let release = RELEASE_OPENING_DEG.to_radians();
         match self.carrier {
             Carrier::Gripper { tool, .. } if !closed_now.contains(&tool) => {
                 self.carrier = Carrier::Free;
             }
-            Carrier::Driver if driver_to.jaw > RELEASE_OPENING_DEG.to_radians() => {
+            Carrier::Driver if driver_to.jaw > release => {
                 self.carrier = Carrier::Free;
             }
             _ => {}
+        }
+        let driver_closing = driver_from.jaw > release && driver_to.jaw <= release;
+        if self.carrier != Carrier::Driver && driver_closing && seated(&start, driver_from) {
+            self.carrier = Carrier::Driver;
         }
         for g in grippers {
             let closing = closed_now.contains(&g.tool) && !self.closed.contains(&g.tool);
@@ -496,6 +513,13 @@ fn world_inverse_inertia(
     r * inverse * r.transpose()
 }
 
+/// Whether a needle at `needle` lies seated in the jaws of a driver whose hold is at `hold`
+/// (see [`RETAKE_DISTANCE`]).
+fn seated(needle: &ToolPose, hold: &ToolPose) -> bool {
+    (needle.position - hold.position).norm() <= RETAKE_DISTANCE
+        && needle.rotation.angle_to(&hold.rotation) <= RETAKE_ANGLE_DEG.to_radians()
+}
+
 fn isometry(pose: &ToolPose) -> Isometry3<f64> {
     Isometry3::from_parts(Translation3::from(pose.position), pose.rotation)
 }
@@ -582,6 +606,72 @@ mod tests {
     ) {
         let t0 = frame as f64 * FRAME;
         body.advance(held, held, grippers, around, (t0, t0 + FRAME));
+    }
+
+    #[test]
+    fn its_driver_closing_where_the_needle_lies_takes_it_back_and_nowhere_else() {
+        let start = Vector3::new(0.0, 0.0, 0.03);
+        let mut body = needle_at(start);
+        let around = nothing_around(0.002);
+        // Let go, it falls onto the table and lies there; the driver stays open above.
+        let open_above = driver(start, 30.0);
+        for f in 0..120 {
+            step(&mut body, &open_above, &[], &around, f);
+        }
+        assert_eq!(*body.carrier(), Carrier::Free);
+        let t = 120.0 * FRAME;
+        let lying = body.pose_at(t).unwrap();
+        let closing = |body: &mut NeedleBody, hold: ToolPose, t: f64| {
+            let open = ToolPose {
+                jaw: 30f64.to_radians(),
+                ..hold
+            };
+            body.advance(&open, &hold, &[], &around, (t, t + FRAME));
+        };
+        let turned = |deg: f64| {
+            lying.rotation * UnitQuaternion::from_euler_angles(0.0, 0.0, deg.to_radians())
+        };
+        // Closing 3 mm off the needle, or on it but turned 15°, takes nothing.
+        for (offset, turn) in [(0.003, 0.0), (0.0, 15.0)] {
+            let hold = ToolPose {
+                position: lying.position + Vector3::new(offset, 0.0, 0.0),
+                rotation: turned(turn),
+                jaw: 0.0,
+            };
+            closing(&mut body, hold, t);
+            assert_eq!(*body.carrier(), Carrier::Free, "{offset} m, {turn}°");
+        }
+        // Closing 0.5 mm off and turned 5° takes it: it is where the driver holds it and
+        // moves with the driver.
+        let hold = ToolPose {
+            position: lying.position + Vector3::new(0.0005, 0.0, 0.0),
+            rotation: turned(5.0),
+            jaw: 0.0,
+        };
+        closing(&mut body, hold, t + FRAME);
+        assert_eq!(*body.carrier(), Carrier::Driver);
+        assert!(
+            body.pose_at(t + 2.0 * FRAME).is_none(),
+            "its driver says where it is"
+        );
+        let up = Vector3::new(0.0, 0.0, 0.001);
+        let lifted = ToolPose {
+            position: hold.position + up,
+            ..hold
+        };
+        body.advance(
+            &hold,
+            &lifted,
+            &[],
+            &around,
+            (t + 2.0 * FRAME, t + 3.0 * FRAME),
+        );
+        assert_eq!(*body.carrier(), Carrier::Driver);
+        assert!(
+            (body.velocity().z - 0.06).abs() < 1e-9,
+            "{}",
+            body.velocity()
+        );
     }
 
     #[test]
