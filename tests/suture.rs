@@ -226,9 +226,9 @@ fn on_the_gpu_the_throw_draws_the_thread_through_the_tissue_as_on_the_cpu() {
         gap * 1e3
     );
     // Measured with fixed-point P2G (the same figures every run): the thread within
-    // 0.254 mm (the largest on its free span, which swings), particles within 0.079 mm
-    // (median 1.4 µm), the gap within 0.011 mm. f32 atomics sum in a different order each
-    // run and part further where the needle's tip pushes tissue aside (1.5 mm and 0.78 mm).
+    // 0.254 mm (the largest near its middle, 0 at the swage end and the pinned tail),
+    // particles within 0.079 mm (median 1.4 µm), the gap within 0.011 mm. f32 atomics sum
+    // in a different order each run; one run parted further (1.5 mm and 0.78 mm).
     assert!(thread < 5e-4, "the thread {thread} m from the CPU's");
     assert!(particles < 2e-4, "particles {particles} m from the CPU's");
     assert!(gap < 5e-5, "the wound gap {gap} m from the CPU's");
