@@ -44,8 +44,6 @@ pub struct ThreadGrid {
     nodes: Vec<Node>,
     /// Per block: whether the substep's particles wrote to it.
     touched: Vec<bool>,
-    /// Active blocks as read back.
-    active: Vec<u32>,
     /// The blocks in the threads' reach this substep, as runs of consecutive indices.
     runs: Vec<Range<usize>>,
     /// Map-readable copy of: the indirect arguments (16 bytes, the first word the active
@@ -77,7 +75,6 @@ impl ThreadGrid {
             tissue,
             nodes: vec![[0.0; 4]; nodes],
             touched: vec![false; blocks],
-            active: Vec::with_capacity(blocks),
             runs: Vec::new(),
             staging,
         }
@@ -151,11 +148,9 @@ impl ThreadGrid {
             let count = (args[0] as usize).min(self.touched.len());
             let at = ARGS_BYTES as usize;
             let list: &[u32] = bytemuck::cast_slice(&bytes[at..at + list]);
-            self.active.clear();
-            self.active.extend_from_slice(&list[..count]);
             let nodes: &[Node] = bytemuck::cast_slice(&bytes[at + list.len() * 4..]);
             self.touched.fill(false);
-            for &b in &self.active {
+            for &b in &list[..count] {
                 self.touched[b as usize] = true;
             }
             for run in &self.runs {
