@@ -772,14 +772,13 @@ impl World {
         let stats = if planned.by_substep {
             self.step_by_substep(&planned, in_tissue)
         } else {
-            let mut stepper = ThreadsInTissue {
-                threads: &mut self.threads,
-                tools: &self.tools,
-                view: &mut self.thread_tools,
-                t_start: planned.t_start,
-                frame_dt: planned.t_end - planned.t_start,
-                elapsed: &mut self.thread_elapsed,
-            };
+            let mut stepper = ThreadsInTissue::over(
+                &planned,
+                &mut self.threads,
+                &self.tools,
+                &mut self.thread_tools,
+                &mut self.thread_elapsed,
+            );
             let threads = in_tissue.then_some(&mut stepper as &mut dyn ThreadStepper);
             self.backend.finish_frame(&plan, threads)
         };
@@ -924,14 +923,13 @@ impl World {
                 },
             };
             self.backend.begin_frame(&plan);
-            let mut stepper = ThreadsInTissue {
-                threads: &mut self.threads,
-                tools: &self.tools,
-                view: &mut self.thread_tools,
-                t_start: planned.t_start,
-                frame_dt: planned.t_end - planned.t_start,
-                elapsed: &mut self.thread_elapsed,
-            };
+            let mut stepper = ThreadsInTissue::over(
+                planned,
+                &mut self.threads,
+                &self.tools,
+                &mut self.thread_tools,
+                &mut self.thread_elapsed,
+            );
             let threads = in_tissue.then_some(&mut stepper as &mut dyn ThreadStepper);
             let stats = self.backend.finish_frame(&plan, threads);
             for (tool, imp) in self.tools.iter_mut().zip(&stats.tool_impulses) {
@@ -983,6 +981,27 @@ struct ThreadsInTissue<'a> {
     frame_dt: f64,
     /// Seconds of the frame each thread has stepped.
     elapsed: &'a mut [f64],
+}
+
+impl<'a> ThreadsInTissue<'a> {
+    /// The stepper for `planned`'s frame; the fields are the world's, borrowed apart from
+    /// its backend, which calls the stepper.
+    fn over(
+        planned: &PlannedFrame,
+        threads: &'a mut [ThreadBody],
+        tools: &'a [WorldTool],
+        view: &'a mut ToolsOverStep,
+        elapsed: &'a mut [f64],
+    ) -> Self {
+        ThreadsInTissue {
+            threads,
+            tools,
+            view,
+            t_start: planned.t_start,
+            frame_dt: planned.t_end - planned.t_start,
+            elapsed,
+        }
+    }
 }
 
 impl ThreadStepper for ThreadsInTissue<'_> {
