@@ -143,7 +143,7 @@ fn lift_with_toughness(toughness: f64) -> (f64, f64, usize) {
 /// With a toughness, total Lagrangian MPM tears where the material says so: the same 25 mm
 /// lift pulls a chunk out of the liver around the jaws (two pieces at the top, the force
 /// fallen to a fraction of its peak), and the force the tear takes follows G_c. The crack
-/// band's onset is an energy density, Y₀ = G_c/(2·dx) (`mpm::damage`), and the tissue's
+/// band's onset is an energy density, Y₀ = G_c/(2h) (`mpm::damage`), and the tissue's
 /// energy density grows as the square of the pull, so four times the toughness takes
 /// twice the force: √4.
 #[test]

@@ -110,8 +110,9 @@ impl EnergyAudit {
     }
 }
 
-/// The stored strain, kinetic and damage-dissipated energies of `p` (J).
-fn energies(p: &Particles, materials: &[MaterialParams], dx: f32) -> [f64; 3] {
+/// The stored strain, kinetic and damage-dissipated energies of `p` (J), the damage's
+/// onset set by the crack band `band` (m, [`damage::crack_band`]).
+fn energies(p: &Particles, materials: &[MaterialParams], band: f32) -> [f64; 3] {
     let mut sums = [0.0f64; 3];
     for i in 0..p.len() {
         let m = &materials[p.material[i] as usize];
@@ -122,7 +123,7 @@ fn energies(p: &Particles, materials: &[MaterialParams], dx: f32) -> [f64; 3] {
         sums[0] += volume * (total - d * tension);
         sums[1] += 0.5 * p.mass[i] as f64 * p.v[i].norm_squared() as f64;
         if m.toughness > 0.0 {
-            let onset = damage::onset_energy(m.toughness, dx) as f64;
+            let onset = damage::onset_energy(m.toughness, band) as f64;
             sums[2] += volume * damage::dissipated_energy(d, onset);
         }
     }
@@ -299,6 +300,7 @@ fn trouser_by(method: Method, line_cells: f32, dx: f32, toughness: f32, young: f
     let grip = 0.002;
     let half_leg = Vec3::new(0.5 * t + dx, 0.5 * w + dx, 0.5 * grip);
     let materials = [sheet, line];
+    let band = damage::crack_band(method, dx, dx / per_axis as f32);
     let mut sums = [0.0f64; 2];
     let mut steady = 0.0f64;
     let mut half = ([0.0f64; 3], 0.0f64);
@@ -306,7 +308,7 @@ fn trouser_by(method: Method, line_cells: f32, dx: f32, toughness: f32, young: f
     for s in 0..substeps {
         if s == substeps / 2 {
             half = (
-                energies(&solver.particles, &materials, dx),
+                energies(&solver.particles, &materials, band),
                 tear_front(&solver.particles, &start, tail),
             );
         }
@@ -361,7 +363,7 @@ fn trouser_by(method: Method, line_cells: f32, dx: f32, toughness: f32, young: f
         / n)
         .sqrt();
     let advance = tear_front(parts, &start, tail);
-    let end = energies(parts, &materials, dx);
+    let end = energies(parts, &materials, band);
     let energy = EnergyAudit {
         work,
         elastic: end[0] - half.0[0],
@@ -559,20 +561,22 @@ fn trouser_without_toughness_does_not_tear() {
 
 /// Total Lagrangian MPM tears where the toughness is, but two particles that share a grid
 /// node at rest stay coupled through it, torn or not: its legs part only where the torn
-/// band is about as wide as the stencil. A tear's line one cell wide (as MLS-MPM's) holds:
-/// the tear barely runs and the legs pull many times G_c·t/2. Three cells wide, it runs as
-/// far as the grips move, each leg's force a few times G_c·t/2 as MLS-MPM's, and the
-/// damage law takes more than G_c per unit area (the band is wider than the crack band's
-/// cell). Measured: a line 1 cell wide, 31 × G_c·t/2 and an advance of 1.25 mm for a 6 mm
-/// pull; 3 cells wide, 5.2 × and 5.75 mm, the damage law taking 2.3 G_c per unit area
-/// (MLS-MPM with its one-cell line: 4.1 ×).
+/// band is as wide as the stencil less a particle spacing, 2.5 cells, and the crack band
+/// over which the damage law spreads G_c is that wide (`damage::crack_band`). A tear's
+/// line one cell wide (as MLS-MPM's) holds: the legs pull many times G_c·t/2 and the tear
+/// runs a fraction of the pull. Three cells wide, it runs as far as the grips move, each
+/// leg's force a few times G_c·t/2 (MLS-MPM with its one-cell line: 4.1 ×), and the damage
+/// law takes G_c per unit area. Measured: a line 1 cell wide, 30.7 × G_c·t/2 and an
+/// advance of 2.25 mm for a 6 mm pull; 3 cells wide, 2.74 / 2.86 × and 7.75 mm, the damage
+/// law taking 0.87 G_c per unit area. With the band one cell wide, as under MLS-MPM, the
+/// same tear took 5.2 × and 2.28 G_c per unit area.
 #[test]
 fn trouser_under_total_lagrangian_mpm_tears_through_a_band_as_wide_as_the_stencil() {
     let expected = TOUGHNESS as f64 * THICKNESS as f64 / 2.0;
     let narrow = trouser_by(Method::TlMpm, 1.0, 0.001, TOUGHNESS, YOUNG);
     report(0.001, &narrow);
     assert!(
-        narrow.advance < 0.3 * PULL && narrow.force.iter().all(|&f| f > 15.0 * expected),
+        narrow.advance < 0.5 * PULL && narrow.force.iter().all(|&f| f > 15.0 * expected),
         "a one-cell line tore under total Lagrangian MPM: {:?}, {} m",
         narrow.force,
         narrow.advance
@@ -581,7 +585,7 @@ fn trouser_under_total_lagrangian_mpm_tears_through_a_band_as_wide_as_the_stenci
     report(0.001, &wide);
     for f in wide.force {
         assert!(
-            (1.0..7.0).contains(&(f / expected)),
+            (1.0..4.0).contains(&(f / expected)),
             "steady tearing force {f} N vs G_c·t/2 = {expected} N"
         );
     }
@@ -593,7 +597,7 @@ fn trouser_under_total_lagrangian_mpm_tears_through_a_band_as_wide_as_the_stenci
     let e = &wide.energy;
     let per_area = e.damage / (TOUGHNESS as f64 * THICKNESS as f64 * e.advance);
     assert!(
-        (1.0..4.0).contains(&per_area),
+        (0.75..1.25).contains(&per_area),
         "damage dissipated {per_area} G_c per unit area"
     );
 }
@@ -1282,16 +1286,18 @@ fn gpu_tearing_agrees_with_cpu_fixed_point() {
 #[test]
 fn gpu_tearing_agrees_with_cpu_tl_f32_atomics() {
     // Total Lagrangian MPM: the nodes gather on the CPU in a fixed order and take atomic
-    // adds in no fixed order on the GPU. Measured on llvmpipe: damage within 9.2e-4 and
-    // positions within 1.9e-6 m before the first tear, positions within 8.8e-6 m after it,
-    // the same damage at the end and the same 128 particles torn through on both. The
-    // bounds allow a partly damaged particle at the tear's edge to differ (seen at 2.95e-2,
-    // where 3e-5 m is 1.5 % of a cell's strain).
+    // adds in no fixed order on the GPU. Measured on llvmpipe: positions within 2.0e-6 m
+    // before the first tear and 3.2e-6 m after it, the same 128 particles torn through on
+    // both, and damage within 8.2e-3 from 0.27 s on, where the jaws' squeeze damages 122
+    // particles partly: the crack band 2.5 cells wide puts the onset at 100 J/m³, where a
+    // position difference of 2e-6 m (0.2 % of the particle spacing) moves the energy
+    // density by about 1 J/m³ and the damage by about 1e-2. The bounds allow a partly
+    // damaged particle at the tear's edge to differ (seen at 2.95e-2).
     gpu_tear_agrees(
         Method::TlMpm,
         P2gAtomics::Float,
         Agreement {
-            damage_before: 5e-3,
+            damage_before: 2e-2,
             damage_at_end: 6e-2,
             position_before: 1e-5,
             position_after: 2e-3,
@@ -1301,16 +1307,16 @@ fn gpu_tearing_agrees_with_cpu_tl_f32_atomics() {
 
 #[test]
 fn gpu_tearing_agrees_with_cpu_tl_fixed_point() {
-    // Measured on llvmpipe: damage within 3.7e-4 and positions within 1.5e-6 m before the
-    // first tear, positions within 8.3e-6 m after it, the same damage at the end and the
-    // same 128 particles torn through. The position bound after the tear allows a particle
-    // tearing through a substep apart on the two backends (seen at 9.8e-4 m).
+    // Measured on llvmpipe: positions within 1.9e-6 m before the first tear and 3.2e-6 m
+    // after it, the same 128 particles torn through, and damage within 7.9e-3 from the
+    // jaws' squeeze on (see the f32 variant). The position bound after the tear allows a
+    // particle tearing through a substep apart on the two backends (seen at 9.8e-4 m).
     gpu_tear_agrees(
         Method::TlMpm,
         P2gAtomics::Fixed,
         Agreement {
-            damage_before: 3e-3,
-            damage_at_end: 3e-3,
+            damage_before: 2e-2,
+            damage_at_end: 2e-2,
             position_before: 1e-5,
             position_after: 2e-3,
         },

@@ -22,7 +22,12 @@
 //! **Crack band** (Bažant & Oh 1983). Damage localises in a band of material one cell wide,
 //! h = dx, so the energy a unit area of crack dissipates is (Y₀ + Y_f)·h. Setting
 //! Y₀ = Y_f = G_c / (2h) makes it G_c whatever the cell size: the tear's energy balance,
-//! and with it the tearing force, does not depend on dx. There is no separate strength:
+//! and with it the tearing force, does not depend on dx. Under total Lagrangian MPM the
+//! two sides of a tear part only once the torn band is as wide as a rest stencil less one
+//! particle spacing, h = 3·dx − spacing (2.5 cells at two particles a cell; see
+//! [`crack_band`] and [`super::cpu::tlmpm`]), and the onset takes that h: with one cell,
+//! a trouser tear under that method dissipated 2.28 G_c per unit area, with 2.5 cells
+//! 0.87 G_c (`tests/tearing.rs`). There is no separate strength:
 //! the process zone is the cell at the crack tip, the limit of linear elastic fracture
 //! mechanics, where a cell at the tip of a crack with energy release rate G holds an
 //! energy density of about G/h, and it begins to fail when that reaches Y₀ (G ≈ G_c/2) and
@@ -87,7 +92,8 @@
 //! 221.0 ms without, 1.084 × (target ≤ 1.1).
 
 use super::material::{rotation_of, J_MIN};
-use super::{Mat3, MaterialModel, MaterialParams};
+use super::particles::Particles;
+use super::{Mat3, MaterialModel, MaterialParams, Method, SolverSetup};
 
 /// Damage past which a particle counts as torn through: it no longer links pieces (see
 /// [`super::pieces`]) and carries under 1 % of its tension.
@@ -152,11 +158,38 @@ pub fn split(material: &MaterialParams, f: &Mat3) -> Split {
     }
 }
 
+/// Cells a particle's rest stencil spans under total Lagrangian MPM (quadratic B-splines):
+/// two particles closer than this at rest share a node, whatever lies between them.
+const TL_STENCIL_CELLS: f32 = 3.0;
+
+/// Width h (m) of the crack band: the material a tear must damage for the two sides to part
+/// (see the module docs). One cell under the updated-Lagrangian methods, whose grid meets
+/// the particles where they are now. Under total Lagrangian MPM two sides stay coupled
+/// through every node whose rest stencil reaches both, so the torn particles must fill the
+/// stencil's width less one particle `spacing` (m): 2.5 cells at two particles a cell.
+pub fn crack_band(method: Method, dx: f32, spacing: f32) -> f32 {
+    match method {
+        Method::TlMpm => (TL_STENCIL_CELLS * dx - spacing).max(dx),
+        _ => dx,
+    }
+}
+
 /// Energy density (J/m³) at which damage starts, and the softening scale, both
-/// Y₀ = Y_f = G_c / (2 dx) (see the module docs); `toughness` G_c in J/m², `dx` in m.
+/// Y₀ = Y_f = G_c / (2h) (see the module docs); `toughness` G_c in J/m², the crack band
+/// `band` h in m ([`crack_band`]).
 #[inline(always)]
-pub fn onset_energy(toughness: f32, dx: f32) -> f32 {
-    0.5 * toughness / dx
+pub fn onset_energy(toughness: f32, band: f32) -> f32 {
+    0.5 * toughness / band
+}
+
+/// Rest spacing (m) of material `material`'s particles: the cube root of the first one's
+/// rest volume; `dx` if the material has none.
+pub fn rest_spacing(particles: &Particles, material: usize, dx: f32) -> f32 {
+    particles
+        .material
+        .iter()
+        .position(|&m| usize::from(m) == material)
+        .map_or(dx, |i| particles.volume0[i].cbrt())
 }
 
 /// Damage of a particle whose largest tensile energy density so far is `tensile_energy`
@@ -207,16 +240,19 @@ pub fn degraded_stress(material: &MaterialParams, onset: f32, f: &mut Mat3, d: &
     parts.tension * (1.0 - *d) + parts.compression
 }
 
-/// Damage onset energy of each material (J/m³) on a grid of cell size `dx` (m), 0 for
-/// materials without toughness; `None` when no material has toughness (the solver then
-/// keeps no damage state).
-pub fn onsets(materials: &[MaterialParams], dx: f32) -> Option<Vec<f32>> {
+/// Damage onset energy (J/m³) of each material of `setup` (its method, cell size and
+/// particles set the crack band), 0 for materials without toughness; `None` when no
+/// material has toughness (the solver then keeps no damage state).
+pub fn onsets(setup: &SolverSetup) -> Option<Vec<f32>> {
+    let (materials, dx) = (&setup.materials, setup.layout.dx);
     materials.iter().any(|m| m.toughness > 0.0).then(|| {
         materials
             .iter()
-            .map(|m| {
+            .enumerate()
+            .map(|(index, m)| {
                 if m.toughness > 0.0 {
-                    onset_energy(m.toughness, dx)
+                    let spacing = rest_spacing(&setup.particles, index, dx);
+                    onset_energy(m.toughness, crack_band(setup.method, dx, spacing))
                 } else {
                     0.0
                 }
@@ -229,7 +265,7 @@ pub fn onsets(materials: &[MaterialParams], dx: f32) -> Option<Vec<f32>> {
 mod tests {
     use super::*;
     use crate::mpm::material::{energy_density, kirchhoff_stress};
-    use crate::mpm::Lame;
+    use crate::mpm::{Lame, Vec3};
 
     fn material(model: MaterialModel) -> MaterialParams {
         MaterialParams {
@@ -301,6 +337,32 @@ mod tests {
         let pressure = m.lame.lambda * j.ln();
         assert!(pressure < 0.0);
         assert!((tau - Mat3::identity() * pressure).norm() < 1e-4 * pressure.abs());
+    }
+
+    /// One cell under the updated-Lagrangian methods; under total Lagrangian MPM the stencil
+    /// less one particle spacing, read from the particles' rest volume.
+    #[test]
+    fn the_crack_band_is_a_cell_or_the_rest_stencil_less_a_spacing() {
+        let dx = 0.002;
+        let mut particles = Particles::default();
+        particles.add_box(Vec3::zeros(), Vec3::repeat(0.004), dx, 2, 1000.0, 0);
+        let spacing = rest_spacing(&particles, 0, dx);
+        assert!((spacing - 0.001).abs() < 1e-9, "spacing {spacing}");
+        assert_eq!(
+            rest_spacing(&particles, 1, dx),
+            dx,
+            "a material with no particles"
+        );
+        for method in [
+            Method::MlsMpm,
+            Method::PicMpm,
+            Method::PbMpm,
+            Method::Implicit,
+        ] {
+            assert_eq!(crack_band(method, dx, spacing), dx);
+        }
+        assert!((crack_band(Method::TlMpm, dx, spacing) - 0.005).abs() < 1e-9);
+        assert_eq!(onset_energy(20.0, 0.005), 2000.0);
     }
 
     #[test]

@@ -250,8 +250,8 @@ impl CpuSolver {
     pub fn new(setup: SolverSetup) -> Self {
         let layout = setup.layout;
         let bins = Binning::new(&layout, setup.particles.len());
+        let damage_onset = damage::onsets(&setup).unwrap_or_default();
         let mut particles = setup.particles;
-        let damage_onset = damage::onsets(&setup.materials, layout.dx).unwrap_or_default();
         if !damage_onset.is_empty() {
             particles.damage = vec![0.0; particles.len()];
         }

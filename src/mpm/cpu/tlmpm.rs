@@ -48,22 +48,23 @@
 //! links only the particles that are not torn, on the rest configuration. Measured on
 //! `config/default.toml` with a toughness (`tests/deep_lift.rs`): the same 25 mm lift
 //! pulls a chunk out around the jaws, two pieces at the top, the force at its peak
-//! 0.967 N with G_c = 7.5 J/m² and 1.821 N with 30 J/m² (1.88×, where the crack band's
-//! energy-density onset Y₀ = G_c/(2·dx) predicts √4 = 2); `config/tearing.toml` run
+//! 0.612 N with G_c = 7.5 J/m² and 1.201 N with 30 J/m² (1.96×, where the crack band's
+//! energy-density onset Y₀ = G_c/(2h) predicts √4 = 2); `config/tearing.toml` run
 //! headless with `method = "tl_mpm"` ends in two pieces as under MLS-MPM, its highest
-//! particle 20.7 mm up against MLS-MPM's 22.1 mm. The GPU tears the same particles
+//! particle 21.3 mm up against MLS-MPM's 22.1 mm. The GPU tears the same particles
 //! (`tests/tearing.rs`).
 //!
 //! Two particles that share a node at rest stay coupled through it, torn or not: the
-//! material on either side of a tear parts only where the torn band is about as wide as
-//! the stencil. With the toughness everywhere (the liver above) damage spreads until the
-//! parts come apart; a tear confined to a line takes more than G_c per unit area. The
-//! trouser specimen of `tests/tearing.rs` (dx 1 mm, the slit pre-torn) with the toughness
-//! on a line 1 cell wide: 31 × G_c·t/2 per leg and the tear 1.25 mm into a 6 mm pull;
-//! 3 cells wide: 5.2 × and 5.75 mm, the damage law taking 2.3 G_c per unit area (MLS-MPM,
-//! whose crack needs no band: 4.1 ×). A crack band three cells wide under this method, or
-//! nodes split across a tear by the damage field's gradient (Homel & Herbold 2017), would
-//! bring it back to G_c; neither is built.
+//! material on either side of a tear parts only where the torn band is as wide as the
+//! stencil (3 cells) less one particle spacing, 2.5 cells at two particles a cell. That is
+//! this method's crack band ([`damage::crack_band`]): the damage onset Y₀ = G_c/(2h) takes
+//! h = 2.5·dx, so that a unit area of tear dissipates G_c. The trouser specimen of
+//! `tests/tearing.rs` (dx 1 mm, the slit pre-torn, the toughness on a line 3 cells wide):
+//! each leg pulls 2.74 / 2.86 × G_c·t/2 and the damage law takes 0.87 G_c per unit area of
+//! tear (MLS-MPM, whose crack needs no band: 4.1 ×); with a one-cell band, as MLS-MPM's,
+//! it took 5.2 × and 2.28 G_c. A line 1 cell wide cannot part the legs: 30.7 × G_c·t/2.
+//! Nodes split across a tear by the damage field's gradient (Homel & Herbold 2017) would
+//! let a one-cell band part too; that is not built.
 //!
 //! What it does not do: cut (a crack would have to be carried back to the rest
 //! configuration); contact between separate pieces of tissue is not seen (their nodes

@@ -402,7 +402,7 @@ impl GpuSolver {
         // A scene with toughness keeps one damage per particle (as the CPU solver), which
         // the device holds in each position's w.
         let mut setup = setup;
-        if crate::mpm::damage::onsets(&setup.materials, setup.layout.dx).is_some() {
+        if crate::mpm::damage::onsets(&setup).is_some() {
             setup.particles.damage = vec![0.0; setup.particles.len()];
         }
         let max_substeps = setup.max_substeps.max(1);

@@ -1,7 +1,6 @@
 //! The structs Rust and WGSL share, declared once here (std430/uniform layout: vec3 and
 //! mat3x3 columns padded to 16 bytes), and the packing of the host state into them.
 
-use crate::mpm::damage;
 use crate::mpm::material::MaterialModel;
 use crate::mpm::{Mat3, MaterialParams, Particles, Vec3};
 use crate::tools::{ContactModel, Shape, ToolKinematics};
@@ -295,11 +294,12 @@ pub fn constants(p: &Particles) -> Vec<[f32; 4]> {
         .collect()
 }
 
-/// Per material: model, μ, λ, damping, density, and the damage onset on a grid of cell
-/// size `dx` (m).
-pub fn materials(m: &[MaterialParams], dx: f32) -> Vec<GpuMaterial> {
+/// Per material: model, μ, λ, damping, density, and the damage onset `onsets` gives it
+/// ([`crate::mpm::damage::onsets`]; none: 0, the material never damages).
+pub fn materials(m: &[MaterialParams], onsets: &[f32]) -> Vec<GpuMaterial> {
     m.iter()
-        .map(|m| GpuMaterial {
+        .enumerate()
+        .map(|(i, m)| GpuMaterial {
             model: match m.model {
                 MaterialModel::NeoHookean => NEO_HOOKEAN,
                 MaterialModel::FixedCorotated => FIXED_COROTATED,
@@ -308,11 +308,7 @@ pub fn materials(m: &[MaterialParams], dx: f32) -> Vec<GpuMaterial> {
             lambda: m.lame.lambda,
             damping: m.damping,
             density: m.density,
-            onset: if m.toughness > 0.0 {
-                damage::onset_energy(m.toughness, dx)
-            } else {
-                0.0
-            },
+            onset: onsets.get(i).copied().unwrap_or(0.0),
             pad1: 0.0,
             pad2: 0.0,
         })

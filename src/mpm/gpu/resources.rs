@@ -13,7 +13,7 @@ use super::readback::{self, extract_bytes_per_particle, CRACK_BYTES, STATS_BYTES
 use super::tlmpm::TL_WORDS;
 use crate::mpm::frame_plan::FramePlan;
 use crate::mpm::grid::Node;
-use crate::mpm::{SolverSetup, TableHold, Vec3, MAX_TOOLS};
+use crate::mpm::{damage, SolverSetup, TableHold, Vec3, MAX_TOOLS};
 use crate::tools::Shape;
 
 /// The bind group of the indirect dispatch arguments (binding 0 in it).
@@ -390,7 +390,10 @@ impl Resources {
         queue.write_buffer(
             &materials,
             0,
-            bytemuck::cast_slice(&pack::materials(&setup.materials, setup.layout.dx)),
+            bytemuck::cast_slice(&pack::materials(
+                &setup.materials,
+                &damage::onsets(setup).unwrap_or_default(),
+            )),
         );
         let packed = pack::particles(&setup.particles);
         queue.write_buffer(&particles, 0, bytemuck::cast_slice(&packed));
