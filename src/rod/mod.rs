@@ -135,8 +135,18 @@
 //! (`direct`: the same sums in the same order, to the bit): `bench thread` with the builds
 //! before and after alternated twice on a 2-core Intel Xeon, the knot row 46.4 and 46.6 s
 //! against 44.7 and 44.5 s, 1000 segments 0.423 and 0.429 against 0.406 and 0.403 ms a
-//! frame, every other figure of the tables the same. Real time needs fewer substeps than
-//! 100 a frame, which `config/knot.toml` explains.
+//! frame, every other figure of the tables the same. The blocks factorised as L·D·Lᵀ
+//! instead of L·Lᵀ (no square root on the elimination's chain of pivots, where `perf`
+//! put 17 % of the knot row): on an AMD EPYC, the builds alternated in one sitting, the
+//! knot row 54.8 against 49.3 s of one core (real-time factor 0.31 → 0.35), the first 4 s
+//! 9.1 and 9.2 s against 8.0 and 8.0 s, 1000 segments 0.514 against 0.449 ms a frame; the
+//! knot tied in both. Not taken: the rounding it changes moved `config/suture.toml`'s
+//! throw (`tests/suture.rs`), whose pull then closed the wound from 0.98 to 0.72 mm
+//! instead of to 0.53 mm. Fewer substeps (`bench thread --knot-scene` on copies of the
+//! file): at 75 a frame the largest strain is 2.58e-2, at 50 2.29e-1 with four frames held
+//! back, at 32 2.73 (the knot still tied); 2 iterations instead of 3 cost as much (the
+//! residual asks for the third) and strain 4.38e-2. Real time needs fewer substeps than 100
+//! a frame, which `config/knot.toml` explains.
 //!
 //! Not yet: a contact force report back to the tools. A GPU rod would need a parallel
 //! block-tridiagonal solve (cyclic reduction, or one thread per rod); at a few hundred segments
