@@ -320,3 +320,72 @@ fn tissue_that_can_tear_is_drawn_as_its_isosurface_so_a_gap_shows() {
     assert_eq!(in_gap, 0, "the isosurface drew tissue in the gap");
     assert!(iso_tissue > mesh_tissue / 2, "{iso_tissue} tissue pixels");
 }
+
+#[test]
+fn the_gpu_backend_draws_the_tissue_from_its_own_buffers_as_the_host_would() {
+    use dvrk_tissue_sim::mpm::backend::BackendChoice;
+    use dvrk_tissue_sim::render::{CameraRig, CameraSettings};
+    // The grasp scene on the GPU backend: the jaws close on the block and lift it 20 mm.
+    let mut scene = grasp_scene(0.05, 0.15, 0.35, 0.02);
+    scene.solver.backend = BackendChoice::Gpu;
+    scene.camera = Some(CameraSettings {
+        resolution: [160, 120],
+        position: Some([0.015, -0.025, 0.028]),
+        look_at: Some([0.0, 0.0, 0.008]),
+        ..CameraSettings::default()
+    });
+    let mut world = World::try_new(&scene).expect("the GPU backend (llvmpipe will do)");
+    let mut in_place = CameraRig::for_world(&world).expect("a camera");
+    let mut host = CameraRig::for_world(&world).expect("a camera");
+    host.set_in_place(false);
+    // The camera's first frame was submitted before the mesh was on the device.
+    let rest = in_place.render(&mut world).unwrap().frame;
+    assert!(!in_place.drew_in_place());
+    while world.time() < 0.3 {
+        world.step_frame().expect("frame");
+    }
+    // As the node draws: the next frame is in flight while the last one's outputs are
+    // built, so the device's particles are a frame ahead of the picture.
+    world.begin_frame();
+    let drawn = in_place.render(&mut world).unwrap().frame;
+    assert!(in_place.drew_in_place(), "the tissue drawn from the device");
+    let reference = host.render(&mut world).unwrap().frame;
+    assert!(!host.drew_in_place());
+    world.finish_frame().expect("frame");
+    let is_tissue = |l: u8| l == LABEL_TISSUE;
+    let (mut tissue, mut label_differs, mut deepest, mut brightest) = (0, 0, 0f32, 0u8);
+    let mut moved = 0;
+    for i in 0..drawn.labels.len() {
+        let (a, b) = (drawn.labels[i], reference.labels[i]);
+        if a != b {
+            label_differs += 1;
+            continue;
+        }
+        if !is_tissue(a) {
+            continue;
+        }
+        tissue += 1;
+        deepest = deepest.max((drawn.depth[i] - reference.depth[i]).abs());
+        for c in 0..3 {
+            brightest = brightest.max(drawn.rgb[3 * i + c].abs_diff(reference.rgb[3 * i + c]));
+        }
+        if !is_tissue(rest.labels[i]) || (drawn.depth[i] - rest.depth[i]).abs() > 5e-4 {
+            moved += 1;
+        }
+    }
+    println!(
+        "tissue pixels {tissue}, labels differing {label_differs} of {}, largest depth \
+         difference {deepest:.2e} m, largest colour difference {brightest}/255, tissue pixels \
+         moved since rest {moved}",
+        drawn.labels.len()
+    );
+    assert!(tissue > 1000, "{tissue} tissue pixels");
+    assert!(
+        moved > tissue / 10,
+        "the lift moved the drawn tissue: {moved} of {tissue} pixels"
+    );
+    // The same sums in another order (f32), so edges may flip a pixel's label.
+    assert!(label_differs * 200 < drawn.labels.len(), "{label_differs}");
+    assert!(deepest < 1e-6, "depth {deepest} m apart");
+    assert!(brightest <= 3, "colour {brightest}/255 apart");
+}

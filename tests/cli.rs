@@ -262,7 +262,8 @@ fn table_rows(text: &str, keep: impl Fn(&str) -> bool) -> Vec<Vec<&str>> {
 
 /// `bench camera` times the stereo frame at three resolutions and the simulation unsubscribed,
 /// subscribed and recorded with and without the pictures; the bag of the last holds one
-/// picture every other frame (30 Hz at 60 frames/s), as many as the subscribed run rendered.
+/// picture every other frame (30 Hz at 60 frames/s), as many as the subscribed run rendered;
+/// on the GPU backend it times the tissue drawn in place against drawn from the host.
 #[test]
 fn bench_camera_times_the_frame_and_the_runs_with_and_without_pictures() {
     let dir = std::env::temp_dir().join(format!("dts-bench-camera-{}", std::process::id()));
@@ -290,6 +291,14 @@ fn bench_camera_times_the_frame_and_the_runs_with_and_without_pictures() {
         "{stdout}"
     );
     for r in &runs {
+        assert!(r[1].parse::<f64>().unwrap() > 0.0, "{r:?}");
+    }
+    // On the GPU backend (llvmpipe here) the tissue drawn in place and from the host.
+    let drawn = table_rows(&stdout, |from| {
+        from.starts_with("the solver's buffers") || from.starts_with("positions read back")
+    });
+    assert_eq!(drawn.len(), 2, "{stdout}");
+    for r in &drawn {
         assert!(r[1].parse::<f64>().unwrap() > 0.0, "{r:?}");
     }
 }

@@ -203,6 +203,12 @@ impl TissueMesh {
         self.normals = vertex_normals(&self.vertices, &self.triangles);
     }
 
+    /// The binding: vertex v is the sum over entries `offsets[v]..offsets[v + 1]` of
+    /// `particles`' positions times `coefficients` (returned in that order).
+    pub fn binding(&self) -> (&[u32], &[u32], &[f32]) {
+        (&self.offsets, &self.particle, &self.coefficient)
+    }
+
     /// A per-particle scalar averaged onto the vertices with the binding's kernel weights.
     pub fn vertex_values(&self, per_particle: &[f32]) -> Vec<f32> {
         (0..self.vertices.len())

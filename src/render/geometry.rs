@@ -414,8 +414,28 @@ impl SceneGeometry {
         self.last_strain_range
     }
 
+    /// The tissue's mesh with each vertex's block, where the camera may draw it from the
+    /// GPU solver's buffers: a mesh (the isosurface is extracted on the host) in the tissue
+    /// colour (strain colours need the deformation gradients on the host).
+    pub fn device_drawable(&self) -> Option<(&TissueMesh, &[u16])> {
+        match (&self.tissue, self.strain) {
+            (Some(TissueDrawing::Mesh { mesh, vertex_block }), None) => Some((mesh, vertex_block)),
+            _ => None,
+        }
+    }
+
     /// The world's triangles now (particles as the backend last read them back).
     pub fn triangles(&mut self, world: &World) -> Triangles {
+        self.scene_triangles(world, true)
+    }
+
+    /// The world's triangles now but the tissue's, which the renderer draws from the
+    /// device (see [`SceneGeometry::device_drawable`]).
+    pub fn triangles_around_tissue(&mut self, world: &World) -> Triangles {
+        self.scene_triangles(world, false)
+    }
+
+    fn scene_triangles(&mut self, world: &World, with_tissue: bool) -> Triangles {
         let mut out = Triangles::default();
         let scene = world.scene();
         if let Some(table) = &scene.table {
@@ -431,7 +451,12 @@ impl SceneGeometry {
         let particles = world.particles();
         let (strain, range) = (self.strain, self.strain_range);
         let mut used_range = None;
-        match &mut self.tissue {
+        let tissue = if with_tissue {
+            &mut self.tissue
+        } else {
+            &mut None
+        };
+        match tissue {
             Some(TissueDrawing::Mesh { mesh, vertex_block }) => {
                 mesh.update(&particles.x);
                 let colours = strain_colours(strain, range, particles, |values| {

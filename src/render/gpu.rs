@@ -138,11 +138,39 @@ struct Targets {
     padded_row: u32,
 }
 
-/// The camera's renderer: its own device on the best adapter there is.
+/// A tissue mesh already on the renderer's device (the GPU solver's skinned surface, see
+/// [`crate::mpm::gpu::skin`]), drawn with the triangle list from its own buffers.
+pub struct DeviceMesh<'a> {
+    /// Positions, one `vec4` a vertex (xyz in m).
+    pub positions: &'a wgpu::Buffer,
+    /// Unit normals, one `vec4` a vertex.
+    pub normals: &'a wgpu::Buffer,
+    /// Colour and label, one [`MeshAttributes`] a vertex.
+    pub attributes: &'a wgpu::Buffer,
+    /// Triangles as `u32` vertex indices; a triangle takes its first corner's label.
+    pub indices: &'a wgpu::Buffer,
+    /// Indices to draw.
+    pub index_count: u32,
+}
+
+/// A device mesh vertex's colour (linear RGB) and label.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct MeshAttributes {
+    /// Linear RGB.
+    pub colour: [f32; 3],
+    /// Label (see [`super::geometry`]'s `LABEL_` constants).
+    pub label: u32,
+}
+
+/// The camera's renderer: its own device on the best adapter there is, or the GPU solver's
+/// (to draw its buffers in place).
 pub struct Renderer {
     device: wgpu::Device,
     queue: wgpu::Queue,
     pipeline: wgpu::RenderPipeline,
+    /// The same shading, fed by a [`DeviceMesh`]'s three vertex buffers and its indices.
+    mesh_pipeline: wgpu::RenderPipeline,
     eyes: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
     vertices: Option<wgpu::Buffer>,
@@ -170,6 +198,32 @@ impl Renderer {
             ..Default::default()
         }))
         .map_err(|e| RenderError::Device(format!("on adapter \"{}\": {e}", info.name)))?;
+        let adapter = format!("{} ({:?}, {:?})", info.name, info.backend, info.device_type);
+        Ok(Renderer::on_device(
+            device,
+            queue,
+            limits.max_texture_dimension_2d,
+            adapter,
+        ))
+    }
+
+    /// A renderer on the GPU solver's device, which draws that solver's buffers in place.
+    pub fn on_solver_device(ctx: &crate::mpm::gpu::adapter::GpuContext) -> Renderer {
+        let info = &ctx.info;
+        Renderer::on_device(
+            ctx.device.clone(),
+            ctx.queue.clone(),
+            ctx.device.limits().max_texture_dimension_2d,
+            format!("{} ({:?}, {:?})", info.name, info.backend, info.device_type),
+        )
+    }
+
+    fn on_device(
+        device: wgpu::Device,
+        queue: wgpu::Queue,
+        max_texture: u32,
+        adapter: String,
+    ) -> Renderer {
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("camera"),
             source: wgpu::ShaderSource::Wgsl(SHADER.into()),
@@ -219,56 +273,74 @@ impl Renderer {
                 write_mask: wgpu::ColorWrites::ALL,
             })
         };
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("camera"),
-            layout: Some(&pipeline_layout),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs"),
-                compilation_options: Default::default(),
-                buffers: &[wgpu::VertexBufferLayout {
-                    array_stride: std::mem::size_of::<Vertex>() as u64,
-                    step_mode: wgpu::VertexStepMode::Vertex,
-                    attributes: &attributes,
-                }],
-            },
-            primitive: wgpu::PrimitiveState {
-                topology: wgpu::PrimitiveTopology::TriangleList,
-                cull_mode: None,
-                ..Default::default()
-            },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: Z_FORMAT,
-                depth_write_enabled: true,
-                depth_compare: wgpu::CompareFunction::Less,
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("fs"),
-                compilation_options: Default::default(),
-                targets: &[
-                    target(COLOUR_FORMAT),
-                    target(DEPTH_FORMAT),
-                    target(LABEL_FORMAT),
-                ],
-            }),
-            multiview: None,
-            cache: None,
-        });
-        Ok(Renderer {
+        let triangle_list = [wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<Vertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &attributes,
+        }];
+        let position = wgpu::vertex_attr_array![0 => Float32x3];
+        let normal = wgpu::vertex_attr_array![1 => Float32x3];
+        let colour_label = wgpu::vertex_attr_array![2 => Float32x3, 3 => Uint32];
+        let vec4 = |attributes| wgpu::VertexBufferLayout {
+            array_stride: 16,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes,
+        };
+        let device_mesh = [vec4(&position), vec4(&normal), vec4(&colour_label)];
+        let pipeline = |buffers| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("camera"),
+                layout: Some(&pipeline_layout),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("vs"),
+                    compilation_options: Default::default(),
+                    buffers,
+                },
+                primitive: wgpu::PrimitiveState {
+                    topology: wgpu::PrimitiveTopology::TriangleList,
+                    cull_mode: None,
+                    ..Default::default()
+                },
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: Z_FORMAT,
+                    depth_write_enabled: true,
+                    depth_compare: wgpu::CompareFunction::Less,
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some("fs"),
+                    compilation_options: Default::default(),
+                    targets: &[
+                        target(COLOUR_FORMAT),
+                        target(DEPTH_FORMAT),
+                        target(LABEL_FORMAT),
+                    ],
+                }),
+                multiview: None,
+                cache: None,
+            })
+        };
+        Renderer {
+            pipeline: pipeline(&triangle_list),
+            mesh_pipeline: pipeline(&device_mesh),
             device,
             queue,
-            pipeline,
             eyes,
             bind_group,
             vertices: None,
             targets: None,
-            max_texture: limits.max_texture_dimension_2d,
-            adapter: format!("{} ({:?}, {:?})", info.name, info.backend, info.device_type),
-        })
+            max_texture,
+            adapter,
+        }
+    }
+
+    /// The device the renderer draws on (a [`DeviceMesh`]'s buffers must live there).
+    pub fn device(&self) -> &wgpu::Device {
+        &self.device
     }
 
     fn targets(&mut self, width: u32, height: u32) -> &Targets {
@@ -323,6 +395,16 @@ impl Renderer {
     /// Draws `vertices` (a triangle list) from each of `eyes` (one or two, all of one image
     /// size), side by side, and reads the images back.
     pub fn render(&mut self, vertices: &[Vertex], eyes: &[Eye]) -> Result<Frame, RenderError> {
+        self.render_with(vertices, None, eyes)
+    }
+
+    /// As [`Renderer::render`], with `mesh` (on this renderer's device) drawn too.
+    pub fn render_with(
+        &mut self,
+        vertices: &[Vertex],
+        mesh: Option<&DeviceMesh>,
+        eyes: &[Eye],
+    ) -> Result<Frame, RenderError> {
         let pinhole = eyes[0].pinhole;
         let (eye_w, h) = (pinhole.width, pinhole.height);
         let w = eye_w * eyes.len() as u32;
@@ -400,20 +482,28 @@ impl Renderer {
                 timestamp_writes: None,
                 occlusion_query_set: None,
             });
-            if let (Some(buffer), true) = (&self.vertices, bytes > 0) {
-                pass.set_pipeline(&self.pipeline);
-                pass.set_vertex_buffer(0, buffer.slice(..bytes));
-                for k in 0..eyes.len() {
-                    pass.set_bind_group(0, &self.bind_group, &[(k as u64 * EYE_SLOT) as u32]);
-                    pass.set_viewport(
-                        (k as u32 * eye_w) as f32,
-                        0.0,
-                        eye_w as f32,
-                        h as f32,
-                        0.0,
-                        1.0,
-                    );
+            for k in 0..eyes.len() {
+                pass.set_bind_group(0, &self.bind_group, &[(k as u64 * EYE_SLOT) as u32]);
+                pass.set_viewport(
+                    (k as u32 * eye_w) as f32,
+                    0.0,
+                    eye_w as f32,
+                    h as f32,
+                    0.0,
+                    1.0,
+                );
+                if let (Some(buffer), true) = (&self.vertices, bytes > 0) {
+                    pass.set_pipeline(&self.pipeline);
+                    pass.set_vertex_buffer(0, buffer.slice(..bytes));
                     pass.draw(0..vertices.len() as u32, 0..1);
+                }
+                if let Some(mesh) = mesh.filter(|m| m.index_count > 0) {
+                    pass.set_pipeline(&self.mesh_pipeline);
+                    pass.set_vertex_buffer(0, mesh.positions.slice(..));
+                    pass.set_vertex_buffer(1, mesh.normals.slice(..));
+                    pass.set_vertex_buffer(2, mesh.attributes.slice(..));
+                    pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+                    pass.draw_indexed(0..mesh.index_count, 0, 0..1);
                 }
             }
         }

@@ -3,7 +3,11 @@
 
 use super::camera::{stereo_eyes, CameraSettings, Eye, TissueColour};
 use super::geometry::SceneGeometry;
-use super::gpu::{Frame, RenderError, Renderer};
+use super::geometry::LABEL_TISSUE;
+use super::gpu::{DeviceMesh, Frame, MeshAttributes, RenderError, Renderer};
+use crate::mpm::backend::Backend;
+use crate::mpm::gpu::skin::MeshBinding;
+use crate::mpm::gpu::GpuSolver;
 use crate::world::World;
 use nalgebra::Isometry3;
 
@@ -29,6 +33,22 @@ pub struct CameraRig {
     geometry: SceneGeometry,
     /// Simulated time from which the next frame is due (s); the first frame asked is.
     next: f64,
+    /// Whether the tissue may be drawn from the GPU solver's buffers (see
+    /// [`CameraRig::set_in_place`]).
+    in_place: bool,
+    /// The tissue mesh's colours and labels on the solver's device, once it is skinned
+    /// there.
+    mesh_attributes: Option<wgpu::Buffer>,
+    /// Whether the last picture drew the tissue from the solver's buffers.
+    drew_in_place: bool,
+}
+
+/// The GPU solver of `world`, if it runs on one.
+fn gpu_solver(world: &World) -> Option<&GpuSolver> {
+    match world.backend() {
+        Backend::Gpu(g) => Some(g),
+        Backend::Cpu(_) => None,
+    }
 }
 
 impl CameraRig {
@@ -75,6 +95,9 @@ impl CameraRig {
             renderer: None,
             geometry,
             next: f64::NEG_INFINITY,
+            in_place: true,
+            mesh_attributes: None,
+            drew_in_place: false,
         })
     }
 
@@ -119,20 +142,99 @@ impl CameraRig {
         true
     }
 
-    /// Draws `world` as it is now (opening the device the first time).
-    pub fn render(&mut self, world: &World) -> Result<CameraImages, RenderError> {
+    /// Whether the tissue may be drawn where the GPU solver's buffers already are (on by
+    /// default): the tissue mesh is then moved with the particles on the solver's device
+    /// at the end of each frame and drawn from there (see [`crate::mpm::gpu::skin`]), and
+    /// only the tools, threads and table go from the host to the renderer. Off, or on the
+    /// CPU backend, or where the tissue is the isosurface or coloured by strain, the mesh
+    /// follows the particles read back to the host. Takes effect before the first picture.
+    pub fn set_in_place(&mut self, on: bool) {
+        self.in_place = on;
+    }
+
+    /// Whether the last picture drew the tissue from the GPU solver's buffers (the first
+    /// frame after the camera opens still draws from the host: its frame was submitted
+    /// before the mesh was on the device).
+    pub fn drew_in_place(&self) -> bool {
+        self.drew_in_place
+    }
+
+    /// Draws `world` as it is now (opening the device the first time: the GPU solver's own
+    /// when the tissue is drawn in place, see [`CameraRig::set_in_place`]).
+    pub fn render(&mut self, world: &mut World) -> Result<CameraImages, RenderError> {
         if self.renderer.is_none() {
-            self.renderer = Some(Renderer::new()?);
+            let in_place = self.in_place && self.geometry.device_drawable().is_some();
+            self.renderer = Some(match gpu_solver(world).filter(|_| in_place) {
+                Some(gpu) => {
+                    let renderer = Renderer::on_solver_device(gpu.context());
+                    self.mesh_attributes = Some(self.skin_on_device(world, &renderer));
+                    renderer
+                }
+                None => Renderer::new()?,
+            });
         }
-        let triangles = self.geometry.triangles(world);
         let eyes = self.eyes();
+        let skinned = gpu_solver(world)
+            .and_then(GpuSolver::skinned)
+            .zip(self.mesh_attributes.as_ref());
         let renderer = self.renderer.as_mut().expect("opened above");
-        let frame = renderer.render(&triangles.vertices, &eyes)?;
+        self.drew_in_place = skinned.is_some();
+        let frame = match skinned {
+            Some(((stage, vertices), attributes)) => {
+                let triangles = self.geometry.triangles_around_tissue(world);
+                let mesh = DeviceMesh {
+                    positions: &vertices.positions,
+                    normals: &vertices.normals,
+                    attributes,
+                    indices: &stage.indices,
+                    index_count: stage.index_count,
+                };
+                renderer.render_with(&triangles.vertices, Some(&mesh), &eyes)?
+            }
+            None => {
+                let triangles = self.geometry.triangles(world);
+                renderer.render(&triangles.vertices, &eyes)?
+            }
+        };
         Ok(CameraImages {
             time: world.time(),
             frame,
             eyes,
             baseline: self.settings.baseline,
         })
+    }
+
+    /// Has the GPU solver move the tissue mesh with the particles from the next frame on,
+    /// and returns the mesh's colours and labels on `renderer`'s device (the solver's).
+    fn skin_on_device(&self, world: &mut World, renderer: &Renderer) -> wgpu::Buffer {
+        use wgpu::util::DeviceExt;
+        let (mesh, blocks) = self
+            .geometry
+            .device_drawable()
+            .expect("checked by the caller");
+        let (offsets, particles, coefficients) = mesh.binding();
+        let binding = MeshBinding {
+            offsets,
+            particles,
+            coefficients,
+            triangles: &mesh.triangles,
+        };
+        if let Backend::Gpu(gpu) = world.backend_mut() {
+            gpu.skin_mesh(&binding);
+        }
+        let attributes: Vec<MeshAttributes> = blocks
+            .iter()
+            .map(|&b| MeshAttributes {
+                colour: super::geometry::TISSUE_COLOUR,
+                label: LABEL_TISSUE.saturating_add(b.min(39) as u8) as u32,
+            })
+            .collect();
+        renderer
+            .device()
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("tissue mesh attributes"),
+                contents: bytemuck::cast_slice(&attributes),
+                usage: wgpu::BufferUsages::VERTEX,
+            })
     }
 }

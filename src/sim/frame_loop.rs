@@ -312,7 +312,7 @@ impl FrameLoop {
             if let Some(pose) = camera_pose {
                 rig.set_pose(pose);
             }
-            match rig.render(&setup.world) {
+            match rig.render(&mut setup.world) {
                 Ok(images) => frame.camera = Some(Arc::new(images)),
                 Err(e) => {
                     tracing::error!("camera off: {e}");

@@ -1,13 +1,16 @@
 //! The camera's cost on a scene with a `[camera]`: the time of one stereo frame (the
 //! scene's triangles, the render with RGB, depth and labels and its readback, the JPEG) at
 //! a few resolutions, and the simulation's frame rate with the camera subscribed against
-//! unsubscribed, and recorded to a bag with the pictures against without.
+//! unsubscribed, and recorded to a bag with the pictures against without. On the GPU
+//! backend: a camera frame with the tissue drawn from the solver's buffers against one
+//! drawn from the positions read back to the host.
 
 use anyhow::{bail, Result};
 use dvrk_tissue_sim::config::Scene;
+use dvrk_tissue_sim::mpm::backend::BackendChoice;
 use dvrk_tissue_sim::render::camera::stereo_eyes;
 use dvrk_tissue_sim::render::CameraRecord;
-use dvrk_tissue_sim::render::{CameraImages, Renderer, SceneGeometry};
+use dvrk_tissue_sim::render::{CameraImages, CameraRig, Renderer, SceneGeometry};
 use dvrk_tissue_sim::ros::camera::{compressed_message, COMPRESSED_TOPIC};
 use dvrk_tissue_sim::ros::outputs::OutputLayout;
 use dvrk_tissue_sim::ros::recorder::Recorder;
@@ -40,6 +43,9 @@ pub struct CameraBench {
     rendered: usize,
     recorded: u64,
     frames: u32,
+    /// On the GPU backend at the scene's camera settings: ms per camera frame with the
+    /// tissue drawn in place and from the host, or why not measured.
+    in_place: Result<[f64; 2], String>,
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -148,6 +154,7 @@ pub fn run(scene: &Scene, frames: u32) -> Result<CameraBench> {
         fps[k] = frames as f64 / start.elapsed().as_secs_f64();
     }
     std::fs::remove_file(&bag).ok();
+    let in_place = in_place_against_host(scene, pose, frames).map_err(|e| format!("{e:#}"));
     Ok(CameraBench {
         scene: scene.name.clone(),
         adapter: renderer.adapter.clone(),
@@ -156,7 +163,42 @@ pub fn run(scene: &Scene, frames: u32) -> Result<CameraBench> {
         rendered,
         recorded,
         frames,
+        in_place,
     })
+}
+
+/// Median ms of a camera frame (the scene's triangles, the render and its readback) on the
+/// GPU backend, with the tissue drawn from the solver's buffers and from the host.
+fn in_place_against_host(
+    scene: &Scene,
+    pose: nalgebra::Isometry3<f32>,
+    frames: u32,
+) -> Result<[f64; 2]> {
+    let mut scene = scene.clone();
+    scene.solver.backend = BackendChoice::Gpu;
+    let mut world = World::try_new(&scene)?;
+    let mut out = [0.0; 2];
+    for (k, in_place) in [true, false].into_iter().enumerate() {
+        let Some(mut rig) = CameraRig::for_world(&world) else {
+            bail!("the camera cannot run on this scene");
+        };
+        rig.set_pose(pose);
+        rig.set_in_place(in_place);
+        // The first picture opens the device and has the mesh skinned from the next frame.
+        rig.render(&mut world)?;
+        world.step_frame()?;
+        let mut times = Vec::new();
+        for _ in 0..frames.max(1) {
+            let start = Instant::now();
+            rig.render(&mut world)?;
+            times.push(start.elapsed().as_secs_f64() * 1e3);
+        }
+        if rig.drew_in_place() != in_place {
+            bail!("the tissue cannot be drawn in place here (the isosurface, or strain colours)");
+        }
+        out[k] = median(times);
+    }
+    Ok(out)
 }
 
 /// The JPEG pictures in `bag`.
@@ -207,6 +249,21 @@ impl CameraBench {
             self.fps[3],
             self.recorded
         );
+        let _ = match &self.in_place {
+            Ok([in_place, host]) => write!(
+                s,
+                "\nGPU backend, a camera frame at the scene's settings (triangles, render and \
+                 readback), median of {} frames:\n\n\
+                 | tissue drawn from | ms per frame |\n|---|---|\n\
+                 | the solver's buffers (in place) | {in_place:.2} |\n\
+                 | positions read back to the host | {host:.2} |\n",
+                self.frames
+            ),
+            Err(why) => write!(
+                s,
+                "\nGPU backend in place against host: not measured ({why})\n"
+            ),
+        };
         s
     }
 }

@@ -175,6 +175,7 @@ mod pbmpm;
 mod prelude;
 mod readback;
 mod resources;
+pub mod skin;
 mod sparse;
 mod thread_grid;
 mod tlmpm;
@@ -199,6 +200,7 @@ use pbmpm::PbMpmStages;
 use prelude::StageBuilder;
 use readback::Readback;
 use resources::{Resources, ARGS_GROUP};
+use skin::{MeshBinding, SkinStage, SkinnedVertices};
 use sparse::SparseStage;
 use thread_grid::ThreadGrid;
 use tlmpm::TlStages;
@@ -323,6 +325,8 @@ pub struct GpuSolver {
     tissue: TissueLimits,
     /// Threads in the tissue, once a frame loaded them (see [`thread_grid`]).
     threads: Option<Box<ThreadGrid>>,
+    /// The tissue mesh moved with the particles for a camera, once one asked (see [`skin`]).
+    skin: Option<SkinStage>,
 }
 
 /// What of `setup` the backend cannot step on this adapter: the implicit method needs f32
@@ -479,6 +483,7 @@ impl GpuSolver {
             boundary,
             tissue,
             threads: None,
+            skin: None,
             ctx,
         })
     }
@@ -519,6 +524,7 @@ impl GpuSolver {
     pub fn host_particles_mut(&mut self) -> &mut Particles {
         self.download_all();
         self.host_dirty = true;
+        self.invalidate_skin();
         &mut self.host
     }
 
@@ -634,6 +640,9 @@ impl GpuSolver {
     /// When no frame was submitted, or the device is lost.
     pub fn collect_frame(&mut self) -> FrameStats {
         let mut stats = self.readback.collect(&self.ctx.device, &mut self.host);
+        if let Some(skin) = &mut self.skin {
+            skin.collected();
+        }
         stats.solve = std::mem::take(&mut self.frame_solve);
         if let Some(tl) = &mut self.total_lagrangian {
             // Steps done, in whole substeps; the bounds decide the next frame's pieces.
@@ -898,6 +907,9 @@ impl GpuSolver {
     /// Without `particles` (a frame that does not end the world's frame, see
     /// [`FramePart`]) only the statistics come back, and the host copy stays as it was.
     fn submit_with_readback(&mut self, mut encoder: wgpu::CommandEncoder, particles: bool) {
+        if let (true, Some(skin)) = (particles, &mut self.skin) {
+            skin.record(&mut encoder);
+        }
         let copies = self.readback.record(
             &mut encoder,
             &self.res.stats,
@@ -929,6 +941,7 @@ impl GpuSolver {
     /// Device-side copy of the frame-start state back into the particles.
     pub fn restore_frame_start(&mut self) {
         self.mark_bounds_stale();
+        self.invalidate_skin();
         self.submit_copy(&self.res.snapshot, Some(&self.res.crack_snapshot));
         self.host_dirty = false;
         self.download_all();
@@ -937,9 +950,42 @@ impl GpuSolver {
     /// Device-side copy of the rest state into the particles.
     pub fn reset_to_rest(&mut self) {
         self.mark_bounds_stale();
+        self.invalidate_skin();
         self.submit_copy(&self.res.rest, None);
         self.host_dirty = false;
         self.download_all();
+    }
+
+    /// The device's particles moved outside a frame: the skinned mesh is stale until the
+    /// next frame.
+    fn invalidate_skin(&mut self) {
+        if let Some(skin) = &mut self.skin {
+            skin.invalidate();
+        }
+    }
+
+    /// Moves `binding`'s mesh (the tissue surface bound to these particles) with the
+    /// particles at the end of every frame from the next one submitted, for a camera to draw
+    /// on this device (see [`skin`]).
+    pub fn skin_mesh(&mut self, binding: &MeshBinding) {
+        self.skin = Some(SkinStage::new(
+            &self.ctx.device,
+            &self.res.particles,
+            binding,
+        ));
+    }
+
+    /// The skinned mesh of the frame last collected (its stage, for the triangles, and its
+    /// vertices), while it matches the particles; `None` before [`GpuSolver::skin_mesh`],
+    /// before the first frame after it, and after the particles moved outside a frame.
+    pub fn skinned(&self) -> Option<(&SkinStage, &SkinnedVertices)> {
+        let skin = self.skin.as_ref()?;
+        Some((skin, skin.vertices()?))
+    }
+
+    /// The device and queue the solver runs on.
+    pub fn context(&self) -> &GpuContext {
+        &self.ctx
     }
 
     /// The device's state changed behind total Lagrangian MPM's stiffening bounds.
