@@ -300,6 +300,7 @@ fn bench_camera_times_the_frame_and_the_runs_with_and_without_pictures() {
     assert_eq!(drawn.len(), 2, "{stdout}");
     for r in &drawn {
         assert!(r[1].parse::<f64>().unwrap() > 0.0, "{r:?}");
+        assert!(r[2].parse::<f64>().unwrap() > 0.0, "{r:?}");
     }
 }
 

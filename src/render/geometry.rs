@@ -337,6 +337,18 @@ enum TissueDrawing {
     Isosurface { cell: f32 },
 }
 
+/// The tissue surface as the GPU solver can build it (see
+/// [`SceneGeometry::device_drawable`]).
+pub enum DeviceDrawable<'a> {
+    /// The rest mesh with each vertex's tissue block.
+    Mesh(&'a TissueMesh, &'a [u16]),
+    /// The level set on a lattice of spacing `cell` (m).
+    LevelSet {
+        /// Lattice spacing, m.
+        cell: f32,
+    },
+}
+
 /// Builds a world's triangles each frame; holds the tissue mesh bound to the particles.
 pub struct SceneGeometry {
     /// The tissue surface (None: no tissue).
@@ -414,12 +426,17 @@ impl SceneGeometry {
         self.last_strain_range
     }
 
-    /// The tissue's mesh with each vertex's block, where the camera may draw it from the
-    /// GPU solver's buffers: a mesh (the isosurface is extracted on the host) in the tissue
-    /// colour (strain colours need the deformation gradients on the host).
-    pub fn device_drawable(&self) -> Option<(&TissueMesh, &[u16])> {
-        match (&self.tissue, self.strain) {
-            (Some(TissueDrawing::Mesh { mesh, vertex_block }), None) => Some((mesh, vertex_block)),
+    /// The tissue's surface where the camera may draw it from the GPU solver's buffers:
+    /// in the tissue colour (strain colours need the deformation gradients on the host)
+    /// and not marking cut faces.
+    pub fn device_drawable(&self) -> Option<DeviceDrawable<'_>> {
+        match (&self.tissue, self.strain, self.cut_faces) {
+            (Some(TissueDrawing::Mesh { mesh, vertex_block }), None, None) => {
+                Some(DeviceDrawable::Mesh(mesh, vertex_block))
+            }
+            (Some(TissueDrawing::Isosurface { cell }), None, None) => {
+                Some(DeviceDrawable::LevelSet { cell: *cell })
+            }
             _ => None,
         }
     }

@@ -138,19 +138,36 @@ struct Targets {
     padded_row: u32,
 }
 
-/// A tissue mesh already on the renderer's device (the GPU solver's skinned surface, see
-/// [`crate::mpm::gpu::skin`]), drawn with the triangle list from its own buffers.
+/// A tissue surface already on the renderer's device (the GPU solver's skinned mesh or
+/// level set, see [`crate::mpm::gpu::skin`] and [`crate::mpm::gpu::level_set`]), drawn with
+/// the triangle list from its own buffers.
 pub struct DeviceMesh<'a> {
     /// Positions, one `vec4` a vertex (xyz in m).
     pub positions: &'a wgpu::Buffer,
     /// Unit normals, one `vec4` a vertex.
     pub normals: &'a wgpu::Buffer,
-    /// Colour and label, one [`MeshAttributes`] a vertex.
+    /// Colour and label, one [`MeshAttributes`] a vertex; a triangle takes its first
+    /// corner's label.
     pub attributes: &'a wgpu::Buffer,
-    /// Triangles as `u32` vertex indices; a triangle takes its first corner's label.
-    pub indices: &'a wgpu::Buffer,
-    /// Indices to draw.
-    pub index_count: u32,
+    /// Which vertices make the triangles.
+    pub draw: MeshDraw<'a>,
+}
+
+/// How a [`DeviceMesh`]'s vertices make triangles.
+pub enum MeshDraw<'a> {
+    /// `count` `u32` vertex indices, three a triangle.
+    Indexed {
+        /// The index buffer.
+        indices: &'a wgpu::Buffer,
+        /// Indices to draw.
+        count: u32,
+    },
+    /// Three vertices a triangle, as many as the device wrote into `args` (the arguments of
+    /// `draw_indirect`).
+    Indirect {
+        /// Vertex count, instance count (1), first vertex, first instance.
+        args: &'a wgpu::Buffer,
+    },
 }
 
 /// A device mesh vertex's colour (linear RGB) and label.
@@ -497,13 +514,18 @@ impl Renderer {
                     pass.set_vertex_buffer(0, buffer.slice(..bytes));
                     pass.draw(0..vertices.len() as u32, 0..1);
                 }
-                if let Some(mesh) = mesh.filter(|m| m.index_count > 0) {
+                if let Some(mesh) = mesh {
                     pass.set_pipeline(&self.mesh_pipeline);
                     pass.set_vertex_buffer(0, mesh.positions.slice(..));
                     pass.set_vertex_buffer(1, mesh.normals.slice(..));
                     pass.set_vertex_buffer(2, mesh.attributes.slice(..));
-                    pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                    pass.draw_indexed(0..mesh.index_count, 0, 0..1);
+                    match mesh.draw {
+                        MeshDraw::Indexed { indices, count } => {
+                            pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
+                            pass.draw_indexed(0..count, 0, 0..1);
+                        }
+                        MeshDraw::Indirect { args } => pass.draw_indirect(args, 0),
+                    }
                 }
             }
         }

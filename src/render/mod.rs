@@ -31,18 +31,20 @@
 //! `[camera] position` and `look_at` put it.
 //!
 //! **In place on the GPU backend** ([`CameraRig::set_in_place`], on by default): the
-//! renderer opens on the solver's own device, the solver moves the tissue mesh with its
-//! particles at the end of each frame (two dispatches a frame, [`crate::mpm::gpu::skin`])
-//! and the tissue is drawn from those buffers; only the tools, threads and table go from
-//! the host. The particles' round trip is not what a picture costs: the positions come back
-//! each frame anyway (the point cloud, the pieces, the wound gap are built from them), but
-//! the host no longer moves the mesh, computes its normals and uploads its triangles
-//! (6,266 triangles, 0.75 MB a picture on `config/default.toml`). On the CPU backend, and
-//! where the tissue is the isosurface (it can be cut or tear) or coloured by strain, the
-//! mesh follows the particles on the host. `tests/camera.rs` draws a grasp lifted on the
-//! GPU backend both ways, the next frame in flight as the node runs it, and finds the same
-//! picture (depth within 1 µm; it measured 0), which a mesh a frame stale fails.
-//! `bench camera` times a picture both ways.
+//! renderer opens on the solver's own device, the solver builds the tissue's surface from
+//! its particles at the end of each frame, and the tissue is drawn from those buffers; only
+//! the tools, threads and table go from the host. The surface is the rest mesh moved with
+//! the particles (two dispatches a frame, [`crate::mpm::gpu::skin`]) or, for tissue that can
+//! be cut or tear, the level set extracted on a lattice over the domain (four,
+//! [`crate::mpm::gpu::level_set`]), each the host's construction. The positions still come
+//! back each frame (the point cloud, the pieces, the wound gap are built from them); what a
+//! picture no longer costs is the host moving the mesh or extracting the level set,
+//! computing normals and uploading the triangles (6,266 triangles, 0.75 MB a picture on
+//! `config/default.toml`). Strain colours and the cut faces a `snapshot` marks need the
+//! host. `tests/camera.rs` draws a grasp lifted on the GPU backend both ways, the next
+//! frame in flight as the node runs it, and finds the same picture: the mesh 0 m apart in
+//! depth, the level set 4.5e-8 m (bound 1 µm); a surface a frame stale measured 6.7e-6 and
+//! 5.8e-5 m and fails. `bench camera` times a picture both ways.
 //!
 //! `tests/camera.rs` checks the picture against geometry: a plane's depth against the
 //! analytic one, a point's pixel against K, stereo disparity against f·b/z, labels against

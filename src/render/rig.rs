@@ -3,11 +3,13 @@
 
 use super::camera::{stereo_eyes, CameraSettings, Eye, TissueColour};
 use super::geometry::SceneGeometry;
-use super::geometry::LABEL_TISSUE;
-use super::gpu::{DeviceMesh, Frame, MeshAttributes, RenderError, Renderer};
+use super::geometry::{DeviceDrawable, LABEL_TISSUE, TISSUE_COLOUR};
+use super::gpu::{DeviceMesh, Frame, MeshAttributes, MeshDraw, RenderError, Renderer};
 use crate::mpm::backend::Backend;
+use crate::mpm::gpu::level_set::{Lattice, LevelSetLook};
 use crate::mpm::gpu::skin::MeshBinding;
-use crate::mpm::gpu::GpuSolver;
+use crate::mpm::gpu::{GpuSolver, SurfaceOnDevice};
+use crate::output::isosurface;
 use crate::world::World;
 use nalgebra::Isometry3;
 
@@ -36,8 +38,10 @@ pub struct CameraRig {
     /// Whether the tissue may be drawn from the GPU solver's buffers (see
     /// [`CameraRig::set_in_place`]).
     in_place: bool,
+    /// The renderer is on the GPU solver's device, which builds the tissue's surface.
+    on_device: bool,
     /// The tissue mesh's colours and labels on the solver's device, once it is skinned
-    /// there.
+    /// there (a level set writes its own).
     mesh_attributes: Option<wgpu::Buffer>,
     /// Whether the last picture drew the tissue from the solver's buffers.
     drew_in_place: bool,
@@ -96,6 +100,7 @@ impl CameraRig {
             geometry,
             next: f64::NEG_INFINITY,
             in_place: true,
+            on_device: false,
             mesh_attributes: None,
             drew_in_place: false,
         })
@@ -167,28 +172,44 @@ impl CameraRig {
             self.renderer = Some(match gpu_solver(world).filter(|_| in_place) {
                 Some(gpu) => {
                     let renderer = Renderer::on_solver_device(gpu.context());
-                    self.mesh_attributes = Some(self.skin_on_device(world, &renderer));
+                    self.mesh_attributes = self.surface_on_device(world, &renderer);
+                    self.on_device = true;
                     renderer
                 }
                 None => Renderer::new()?,
             });
         }
         let eyes = self.eyes();
-        let skinned = gpu_solver(world)
-            .and_then(GpuSolver::skinned)
-            .zip(self.mesh_attributes.as_ref());
+        let on_device = gpu_solver(world)
+            .filter(|_| self.on_device)
+            .and_then(GpuSolver::surface_on_device);
         let renderer = self.renderer.as_mut().expect("opened above");
-        self.drew_in_place = skinned.is_some();
-        let frame = match skinned {
-            Some(((stage, vertices), attributes)) => {
-                let triangles = self.geometry.triangles_around_tissue(world);
-                let mesh = DeviceMesh {
+        let mesh = match &on_device {
+            Some(SurfaceOnDevice::Mesh(stage, vertices)) => {
+                self.mesh_attributes.as_ref().map(|attributes| DeviceMesh {
                     positions: &vertices.positions,
                     normals: &vertices.normals,
                     attributes,
-                    indices: &stage.indices,
-                    index_count: stage.index_count,
-                };
+                    draw: MeshDraw::Indexed {
+                        indices: &stage.indices,
+                        count: stage.index_count,
+                    },
+                })
+            }
+            Some(SurfaceOnDevice::LevelSet(vertices)) => Some(DeviceMesh {
+                positions: &vertices.positions,
+                normals: &vertices.normals,
+                attributes: &vertices.attributes,
+                draw: MeshDraw::Indirect {
+                    args: &vertices.args,
+                },
+            }),
+            None => None,
+        };
+        self.drew_in_place = mesh.is_some();
+        let frame = match mesh {
+            Some(mesh) => {
+                let triangles = self.geometry.triangles_around_tissue(world);
                 renderer.render_with(&triangles.vertices, Some(&mesh), &eyes)?
             }
             None => {
@@ -204,37 +225,57 @@ impl CameraRig {
         })
     }
 
-    /// Has the GPU solver move the tissue mesh with the particles from the next frame on,
-    /// and returns the mesh's colours and labels on `renderer`'s device (the solver's).
-    fn skin_on_device(&self, world: &mut World, renderer: &Renderer) -> wgpu::Buffer {
+    /// Has the GPU solver build the tissue's surface from the next frame on (the mesh
+    /// moved with the particles, or the level set), and returns the mesh's colours and
+    /// labels on `renderer`'s device (the solver's); the level set writes its own.
+    fn surface_on_device(&self, world: &mut World, renderer: &Renderer) -> Option<wgpu::Buffer> {
         use wgpu::util::DeviceExt;
-        let (mesh, blocks) = self
-            .geometry
-            .device_drawable()
-            .expect("checked by the caller");
-        let (offsets, particles, coefficients) = mesh.binding();
-        let binding = MeshBinding {
-            offsets,
-            particles,
-            coefficients,
-            triangles: &mesh.triangles,
+        let drawable = self.geometry.device_drawable()?;
+        let attributes = match drawable {
+            DeviceDrawable::Mesh(mesh, blocks) => {
+                let (offsets, particles, coefficients) = mesh.binding();
+                let binding = MeshBinding {
+                    offsets,
+                    particles,
+                    coefficients,
+                    triangles: &mesh.triangles,
+                };
+                if let Backend::Gpu(gpu) = world.backend_mut() {
+                    gpu.skin_mesh(&binding);
+                }
+                let attributes: Vec<MeshAttributes> = blocks
+                    .iter()
+                    .map(|&b| MeshAttributes {
+                        colour: TISSUE_COLOUR,
+                        label: LABEL_TISSUE.saturating_add(b.min(39) as u8) as u32,
+                    })
+                    .collect();
+                Some(
+                    renderer
+                        .device()
+                        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                            label: Some("tissue mesh attributes"),
+                            contents: bytemuck::cast_slice(&attributes),
+                            usage: wgpu::BufferUsages::VERTEX,
+                        }),
+                )
+            }
+            DeviceDrawable::LevelSet { cell } => {
+                let domain = &world.scene().domain;
+                let lattice = Lattice::around(domain.origin, domain.size, cell);
+                // Room for four times the rest surface's triangles: a tear adds its faces.
+                let rest = isosurface::extract(&world.rest_particles(), cell);
+                let look = LevelSetLook {
+                    colour: TISSUE_COLOUR,
+                    label: LABEL_TISSUE as u32,
+                    capacity: (4 * rest.triangles.len()).max(65_536) as u32,
+                };
+                if let Backend::Gpu(gpu) = world.backend_mut() {
+                    gpu.extract_level_set(lattice, look);
+                }
+                None
+            }
         };
-        if let Backend::Gpu(gpu) = world.backend_mut() {
-            gpu.skin_mesh(&binding);
-        }
-        let attributes: Vec<MeshAttributes> = blocks
-            .iter()
-            .map(|&b| MeshAttributes {
-                colour: super::geometry::TISSUE_COLOUR,
-                label: LABEL_TISSUE.saturating_add(b.min(39) as u8) as u32,
-            })
-            .collect();
-        renderer
-            .device()
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("tissue mesh attributes"),
-                contents: bytemuck::cast_slice(&attributes),
-                usage: wgpu::BufferUsages::VERTEX,
-            })
+        attributes
     }
 }

@@ -168,6 +168,7 @@ mod crack;
 mod g2p;
 mod grid_update;
 mod implicit;
+pub mod level_set;
 mod p2g;
 mod pack;
 mod pass;
@@ -192,6 +193,7 @@ use crack::CrackStage;
 use g2p::G2pStage;
 use grid_update::GridUpdateStage;
 use implicit::ImplicitStages;
+use level_set::{Lattice, LevelSetLook, LevelSetStage, LevelSetVertices};
 use p2g::P2gStage;
 pub use p2g::FIXED_SCALE;
 use pack::GpuParticle;
@@ -325,8 +327,24 @@ pub struct GpuSolver {
     tissue: TissueLimits,
     /// Threads in the tissue, once a frame loaded them (see [`thread_grid`]).
     threads: Option<Box<ThreadGrid>>,
-    /// The tissue mesh moved with the particles for a camera, once one asked (see [`skin`]).
-    skin: Option<SkinStage>,
+    /// The tissue surface a camera draws from the device, once one asked.
+    surface: Option<DeviceSurface>,
+}
+
+/// The tissue surface built on the device at the end of each frame, for the camera.
+enum DeviceSurface {
+    /// The rest mesh moved with the particles ([`skin`]).
+    Mesh(SkinStage),
+    /// The level set extracted afresh ([`level_set`]).
+    LevelSet(LevelSetStage),
+}
+
+/// The device surface of the frame last collected, as the camera draws it.
+pub enum SurfaceOnDevice<'a> {
+    /// The skinned mesh: its stage (for the triangles) and its vertices.
+    Mesh(&'a SkinStage, &'a SkinnedVertices),
+    /// The level set's triangle list.
+    LevelSet(&'a LevelSetVertices),
 }
 
 /// What of `setup` the backend cannot step on this adapter: the implicit method needs f32
@@ -483,7 +501,7 @@ impl GpuSolver {
             boundary,
             tissue,
             threads: None,
-            skin: None,
+            surface: None,
             ctx,
         })
     }
@@ -640,8 +658,10 @@ impl GpuSolver {
     /// When no frame was submitted, or the device is lost.
     pub fn collect_frame(&mut self) -> FrameStats {
         let mut stats = self.readback.collect(&self.ctx.device, &mut self.host);
-        if let Some(skin) = &mut self.skin {
-            skin.collected();
+        match &mut self.surface {
+            Some(DeviceSurface::Mesh(s)) => s.collected(),
+            Some(DeviceSurface::LevelSet(s)) => s.collected(),
+            None => {}
         }
         stats.solve = std::mem::take(&mut self.frame_solve);
         if let Some(tl) = &mut self.total_lagrangian {
@@ -907,8 +927,10 @@ impl GpuSolver {
     /// Without `particles` (a frame that does not end the world's frame, see
     /// [`FramePart`]) only the statistics come back, and the host copy stays as it was.
     fn submit_with_readback(&mut self, mut encoder: wgpu::CommandEncoder, particles: bool) {
-        if let (true, Some(skin)) = (particles, &mut self.skin) {
-            skin.record(&mut encoder);
+        match (particles, &mut self.surface) {
+            (true, Some(DeviceSurface::Mesh(s))) => s.record(&mut encoder),
+            (true, Some(DeviceSurface::LevelSet(s))) => s.record(&mut encoder),
+            _ => {}
         }
         let copies = self.readback.record(
             &mut encoder,
@@ -959,8 +981,10 @@ impl GpuSolver {
     /// The device's particles moved outside a frame: the skinned mesh is stale until the
     /// next frame.
     fn invalidate_skin(&mut self) {
-        if let Some(skin) = &mut self.skin {
-            skin.invalidate();
+        match &mut self.surface {
+            Some(DeviceSurface::Mesh(s)) => s.invalidate(),
+            Some(DeviceSurface::LevelSet(s)) => s.invalidate(),
+            None => {}
         }
     }
 
@@ -968,19 +992,35 @@ impl GpuSolver {
     /// particles at the end of every frame from the next one submitted, for a camera to draw
     /// on this device (see [`skin`]).
     pub fn skin_mesh(&mut self, binding: &MeshBinding) {
-        self.skin = Some(SkinStage::new(
+        self.surface = Some(DeviceSurface::Mesh(SkinStage::new(
             &self.ctx.device,
             &self.res.particles,
             binding,
-        ));
+        )));
     }
 
-    /// The skinned mesh of the frame last collected (its stage, for the triangles, and its
-    /// vertices), while it matches the particles; `None` before [`GpuSolver::skin_mesh`],
-    /// before the first frame after it, and after the particles moved outside a frame.
-    pub fn skinned(&self) -> Option<(&SkinStage, &SkinnedVertices)> {
-        let skin = self.skin.as_ref()?;
-        Some((skin, skin.vertices()?))
+    /// Extracts the particles' ½ volume-fraction level set on `lattice` at the end of every
+    /// frame from the next one submitted, for a camera to draw on this device (see
+    /// [`level_set`]).
+    pub fn extract_level_set(&mut self, lattice: Lattice, look: LevelSetLook) {
+        // The host copy's rest volumes and materials are the device's: neither changes.
+        self.surface = Some(DeviceSurface::LevelSet(LevelSetStage::new(
+            &self.ctx.device,
+            &self.res.particles,
+            &self.host,
+            lattice,
+            look,
+        )));
+    }
+
+    /// The device surface of the frame last collected, while it matches the particles;
+    /// `None` before [`GpuSolver::skin_mesh`] or [`GpuSolver::extract_level_set`], before
+    /// the first frame after it, and after the particles moved outside a frame.
+    pub fn surface_on_device(&self) -> Option<SurfaceOnDevice<'_>> {
+        match self.surface.as_ref()? {
+            DeviceSurface::Mesh(s) => Some(SurfaceOnDevice::Mesh(s, s.vertices()?)),
+            DeviceSurface::LevelSet(s) => Some(SurfaceOnDevice::LevelSet(s.vertices()?)),
+        }
     }
 
     /// The device and queue the solver runs on.

@@ -94,13 +94,46 @@ pub struct SkinStage {
     /// Indices in `indices`.
     pub index_count: u32,
     vertex_count: u32,
+    slots: FrameSlots,
+}
+
+/// Which of two output sets a frame writes and which one is drawn: a frame writes the set
+/// the frame collected before it does not hold.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FrameSlots {
     /// The slot the next frame writes.
     next: usize,
-    /// The slot the frame in flight wrote, if it skinned.
+    /// The slot the frame in flight wrote, if it wrote one.
     in_flight: Option<usize>,
-    /// The slot holding the frame last collected, if it skinned and nothing moved the
+    /// The slot holding the frame last collected, if it wrote one and nothing moved the
     /// particles since.
     collected: Option<usize>,
+}
+
+impl FrameSlots {
+    /// The slot a frame being recorded writes.
+    pub fn begin(&mut self) -> usize {
+        let slot = self.next;
+        self.in_flight = Some(slot);
+        self.next = 1 - slot;
+        slot
+    }
+
+    /// The frame in flight was collected: its slot (if it wrote one) is the drawn one.
+    pub fn collected(&mut self) {
+        self.collected = self.in_flight.take();
+    }
+
+    /// Something moved the particles outside a frame (a restore, an upload): no slot
+    /// matches them until the next frame.
+    pub fn invalidate(&mut self) {
+        self.collected = None;
+    }
+
+    /// The slot of the frame last collected, while it matches the particles.
+    pub fn current(&self) -> Option<usize> {
+        self.collected
+    }
 }
 
 impl SkinStage {
@@ -273,16 +306,14 @@ impl SkinStage {
             indices,
             index_count: 3 * binding.triangles.len() as u32,
             vertex_count,
-            next: 0,
-            in_flight: None,
-            collected: None,
+            slots: FrameSlots::default(),
         }
     }
 
     /// Records both passes at the end of a frame that ends the world's frame, into the
     /// slot the frame collected before it does not hold.
     pub fn record(&mut self, encoder: &mut wgpu::CommandEncoder) {
-        let slot = self.next;
+        let slot = self.slots.begin();
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("skin"),
@@ -296,23 +327,20 @@ impl SkinStage {
             pass.set_bind_group(0, &self.groups[slot][1], &[]);
             pass.dispatch_workgroups(groups, 1, 1);
         }
-        self.in_flight = Some(slot);
-        self.next = 1 - slot;
     }
 
-    /// The frame in flight was collected: its vertices (if it skinned) are the drawn ones.
+    /// The frame in flight was collected.
     pub fn collected(&mut self) {
-        self.collected = self.in_flight.take();
+        self.slots.collected();
     }
 
-    /// Something moved the particles outside a frame (a restore, an upload): the skinned
-    /// vertices no longer match them until the next frame.
+    /// The particles moved outside a frame.
     pub fn invalidate(&mut self) {
-        self.collected = None;
+        self.slots.invalidate();
     }
 
     /// The vertices of the frame last collected, while they match the particles.
     pub fn vertices(&self) -> Option<&SkinnedVertices> {
-        self.collected.map(|slot| &self.outputs[slot])
+        self.slots.current().map(|slot| &self.outputs[slot])
     }
 }
