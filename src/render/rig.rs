@@ -263,12 +263,27 @@ impl CameraRig {
             DeviceDrawable::LevelSet { cell } => {
                 let domain = &world.scene().domain;
                 let lattice = Lattice::around(domain.origin, domain.size, cell);
-                // Room for four times the rest surface's triangles: a tear adds its faces.
+                let limits = renderer.device().limits();
+                let largest = limits
+                    .max_storage_buffer_binding_size
+                    .min(limits.max_buffer_size.min(u32::MAX as u64) as u32)
+                    as u64;
+                // Room for four times the rest surface's triangles (a tear adds its faces),
+                // 48 bytes a triangle in each of its three buffers.
                 let rest = isosurface::extract(&world.rest_particles(), cell);
+                let capacity = ((4 * rest.triangles.len()).max(65_536) as u64).min(largest / 48);
+                if 4 * lattice.nodes() > largest {
+                    tracing::warn!(
+                        "camera: the tissue's isosurface is drawn from the host: a lattice of \
+                         {} nodes over the domain exceeds the device's largest buffer",
+                        lattice.nodes()
+                    );
+                    return None;
+                }
                 let look = LevelSetLook {
                     colour: TISSUE_COLOUR,
                     label: LABEL_TISSUE as u32,
-                    capacity: (4 * rest.triangles.len()).max(65_536) as u32,
+                    capacity: capacity as u32,
                 };
                 if let Backend::Gpu(gpu) = world.backend_mut() {
                     gpu.extract_level_set(lattice, look);

@@ -14,10 +14,11 @@
 //! 4. one invocation writes the draw's indirect arguments (3 × the triangles kept).
 //!
 //! A triangle list has no shared vertices here (the host's has): the picture is the same.
-//! The list holds at most `capacity` triangles, four times the rest surface's or 65,536;
-//! beyond that triangles are dropped (a torn tissue's surface grows by its crack faces,
-//! far less than fourfold). As with the skinned mesh ([`super::skin`]) the outputs go
-//! into two sets in turn.
+//! The list holds at most `capacity` triangles, four times the rest surface's or 65,536
+//! (within the device's largest buffer); beyond that triangles are dropped (a torn tissue's
+//! surface grows by its crack faces, far less than fourfold). A lattice too large for one
+//! buffer leaves the isosurface to the host (the camera logs it). As with the skinned mesh
+//! ([`super::skin`]) the outputs go into two sets in turn.
 
 use super::skin::FrameSlots;
 use crate::mpm::Particles;
@@ -280,6 +281,11 @@ impl Lattice {
     fn dims(&self) -> [u32; 3] {
         std::array::from_fn(|k| (self.hi[k] - self.lo[k] + 1).max(1) as u32)
     }
+
+    /// Nodes in the lattice.
+    pub fn nodes(&self) -> u64 {
+        self.dims().iter().map(|&d| d as u64).product()
+    }
 }
 
 /// One frame's isosurface on the device: a triangle list and its draw arguments.
@@ -328,7 +334,7 @@ impl LevelSetStage {
     ) -> LevelSetStage {
         use wgpu::util::DeviceExt;
         let dims = lattice.dims();
-        let nodes = dims.iter().map(|&d| d as u64).product::<u64>();
+        let nodes = lattice.nodes();
         let particle_vec4s = std::mem::size_of::<super::pack::GpuParticle>() / 16;
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("level set"),
