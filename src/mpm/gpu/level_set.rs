@@ -20,7 +20,7 @@
 //! buffer leaves the isosurface to the host (the camera logs it). As with the skinned mesh
 //! ([`super::skin`]) the outputs go into two sets in turn.
 
-use super::skin::FrameSlots;
+use super::skin::{bind_buffers, compute_pipeline, particle_reader};
 use crate::mpm::Particles;
 
 const SHADER: &str = r#"
@@ -307,7 +307,6 @@ pub struct LevelSetStage {
     outputs: [LevelSetVertices; 2],
     dims: [u32; 3],
     particles: u32,
-    slots: FrameSlots,
 }
 
 /// What the level set is drawn with: the tissue colour and the label of material 0
@@ -335,15 +334,7 @@ impl LevelSetStage {
         use wgpu::util::DeviceExt;
         let dims = lattice.dims();
         let nodes = lattice.nodes();
-        let particle_vec4s = std::mem::size_of::<super::pack::GpuParticle>() / 16;
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("level set"),
-            source: wgpu::ShaderSource::Wgsl(
-                SHADER
-                    .replace("{PARTICLE_VEC4S}", &particle_vec4s.to_string())
-                    .into(),
-            ),
-        });
+        let module = particle_reader(device, "level set", SHADER);
         let mut uniform = [0u32; 16];
         uniform[..3].copy_from_slice(&lattice.lo.map(|v| v as u32));
         uniform[4..7].copy_from_slice(&dims);
@@ -435,21 +426,8 @@ impl LevelSetStage {
             label: Some("level set"),
             entries: &entries,
         });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("level set"),
-            bind_group_layouts: &[&layout],
-            push_constant_ranges: &[],
-        });
-        let pipelines = ["clear", "splat", "march", "draw_args"].map(|entry| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: Some(&pipeline_layout),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        });
+        let pipelines = ["clear", "splat", "march", "draw_args"]
+            .map(|entry| compute_pipeline(device, &module, entry, &layout));
         let groups = [0, 1].map(|slot| {
             let out = &outputs[slot];
             let buffers = [
@@ -464,18 +442,7 @@ impl LevelSetStage {
                 &out.attributes,
                 &out.args,
             ];
-            let entries: Vec<_> = (0..)
-                .zip(buffers)
-                .map(|(binding, buffer)| wgpu::BindGroupEntry {
-                    binding,
-                    resource: buffer.as_entire_binding(),
-                })
-                .collect();
-            device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("level set"),
-                layout: &layout,
-                entries: &entries,
-            })
+            bind_buffers(device, "level set", &layout, 0, &buffers)
         });
         LevelSetStage {
             pipelines,
@@ -483,13 +450,12 @@ impl LevelSetStage {
             outputs,
             dims,
             particles: rest.len() as u32,
-            slots: FrameSlots::default(),
         }
     }
 
-    /// Records the four passes at the end of a frame that ends the world's frame.
-    pub fn record(&mut self, encoder: &mut wgpu::CommandEncoder) {
-        let slot = self.slots.begin();
+    /// Records the four passes at the end of a frame that ends the world's frame, into
+    /// output set `slot`.
+    pub fn record(&self, encoder: &mut wgpu::CommandEncoder, slot: usize) {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("level set"),
             timestamp_writes: None,
@@ -507,18 +473,8 @@ impl LevelSetStage {
         pass.dispatch_workgroups(1, 1, 1);
     }
 
-    /// The frame in flight was collected.
-    pub fn collected(&mut self) {
-        self.slots.collected();
-    }
-
-    /// The particles moved outside a frame.
-    pub fn invalidate(&mut self) {
-        self.slots.invalidate();
-    }
-
-    /// The triangles of the frame last collected, while they match the particles.
-    pub fn vertices(&self) -> Option<&LevelSetVertices> {
-        self.slots.current().map(|slot| &self.outputs[slot])
+    /// The triangles a frame wrote into `slot`.
+    pub fn vertices(&self, slot: usize) -> &LevelSetVertices {
+        &self.outputs[slot]
     }
 }

@@ -202,7 +202,7 @@ use pbmpm::PbMpmStages;
 use prelude::StageBuilder;
 use readback::Readback;
 use resources::{Resources, ARGS_GROUP};
-use skin::{MeshBinding, SkinStage, SkinnedVertices};
+use skin::{FrameSlots, MeshBinding, SkinStage, SkinnedVertices};
 use sparse::SparseStage;
 use thread_grid::ThreadGrid;
 use tlmpm::TlStages;
@@ -331,8 +331,14 @@ pub struct GpuSolver {
     surface: Option<DeviceSurface>,
 }
 
-/// The tissue surface built on the device at the end of each frame, for the camera.
-enum DeviceSurface {
+/// The tissue surface built on the device at the end of each frame, for the camera, into
+/// two output sets in turn.
+struct DeviceSurface {
+    stage: SurfaceStage,
+    slots: FrameSlots,
+}
+
+enum SurfaceStage {
     /// The rest mesh moved with the particles ([`skin`]).
     Mesh(SkinStage),
     /// The level set extracted afresh ([`level_set`]).
@@ -658,10 +664,8 @@ impl GpuSolver {
     /// When no frame was submitted, or the device is lost.
     pub fn collect_frame(&mut self) -> FrameStats {
         let mut stats = self.readback.collect(&self.ctx.device, &mut self.host);
-        match &mut self.surface {
-            Some(DeviceSurface::Mesh(s)) => s.collected(),
-            Some(DeviceSurface::LevelSet(s)) => s.collected(),
-            None => {}
+        if let Some(surface) = &mut self.surface {
+            surface.slots.collected();
         }
         stats.solve = std::mem::take(&mut self.frame_solve);
         if let Some(tl) = &mut self.total_lagrangian {
@@ -927,10 +931,12 @@ impl GpuSolver {
     /// Without `particles` (a frame that does not end the world's frame, see
     /// [`FramePart`]) only the statistics come back, and the host copy stays as it was.
     fn submit_with_readback(&mut self, mut encoder: wgpu::CommandEncoder, particles: bool) {
-        match (particles, &mut self.surface) {
-            (true, Some(DeviceSurface::Mesh(s))) => s.record(&mut encoder),
-            (true, Some(DeviceSurface::LevelSet(s))) => s.record(&mut encoder),
-            _ => {}
+        if let (true, Some(surface)) = (particles, &mut self.surface) {
+            let slot = surface.slots.begin();
+            match &surface.stage {
+                SurfaceStage::Mesh(s) => s.record(&mut encoder, slot),
+                SurfaceStage::LevelSet(s) => s.record(&mut encoder, slot),
+            }
         }
         let copies = self.readback.record(
             &mut encoder,
@@ -981,10 +987,8 @@ impl GpuSolver {
     /// The device's particles moved outside a frame: the skinned mesh is stale until the
     /// next frame.
     fn invalidate_skin(&mut self) {
-        match &mut self.surface {
-            Some(DeviceSurface::Mesh(s)) => s.invalidate(),
-            Some(DeviceSurface::LevelSet(s)) => s.invalidate(),
-            None => {}
+        if let Some(surface) = &mut self.surface {
+            surface.slots.invalidate();
         }
     }
 
@@ -992,11 +996,14 @@ impl GpuSolver {
     /// particles at the end of every frame from the next one submitted, for a camera to draw
     /// on this device (see [`skin`]).
     pub fn skin_mesh(&mut self, binding: &MeshBinding) {
-        self.surface = Some(DeviceSurface::Mesh(SkinStage::new(
-            &self.ctx.device,
-            &self.res.particles,
-            binding,
-        )));
+        self.surface = Some(DeviceSurface {
+            stage: SurfaceStage::Mesh(SkinStage::new(
+                &self.ctx.device,
+                &self.res.particles,
+                binding,
+            )),
+            slots: FrameSlots::default(),
+        });
     }
 
     /// Extracts the particles' ½ volume-fraction level set on `lattice` at the end of every
@@ -1004,23 +1011,28 @@ impl GpuSolver {
     /// [`level_set`]).
     pub fn extract_level_set(&mut self, lattice: Lattice, look: LevelSetLook) {
         // The host copy's rest volumes and materials are the device's: neither changes.
-        self.surface = Some(DeviceSurface::LevelSet(LevelSetStage::new(
-            &self.ctx.device,
-            &self.res.particles,
-            &self.host,
-            lattice,
-            look,
-        )));
+        self.surface = Some(DeviceSurface {
+            stage: SurfaceStage::LevelSet(LevelSetStage::new(
+                &self.ctx.device,
+                &self.res.particles,
+                &self.host,
+                lattice,
+                look,
+            )),
+            slots: FrameSlots::default(),
+        });
     }
 
     /// The device surface of the frame last collected, while it matches the particles;
     /// `None` before [`GpuSolver::skin_mesh`] or [`GpuSolver::extract_level_set`], before
     /// the first frame after it, and after the particles moved outside a frame.
     pub fn surface_on_device(&self) -> Option<SurfaceOnDevice<'_>> {
-        match self.surface.as_ref()? {
-            DeviceSurface::Mesh(s) => Some(SurfaceOnDevice::Mesh(s, s.vertices()?)),
-            DeviceSurface::LevelSet(s) => Some(SurfaceOnDevice::LevelSet(s.vertices()?)),
-        }
+        let surface = self.surface.as_ref()?;
+        let slot = surface.slots.current()?;
+        Some(match &surface.stage {
+            SurfaceStage::Mesh(s) => SurfaceOnDevice::Mesh(s, s.vertices(slot)),
+            SurfaceStage::LevelSet(s) => SurfaceOnDevice::LevelSet(s.vertices(slot)),
+        })
     }
 
     /// The device and queue the solver runs on.

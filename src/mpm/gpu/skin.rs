@@ -62,6 +62,69 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
 }
 "#;
 
+/// A shader module from `source`, whose `{PARTICLE_VEC4S}` becomes the particle record's
+/// stride in `vec4`s (the stages here read the solver's particles as `array<vec4<f32>>`,
+/// the position first).
+pub(super) fn particle_reader(
+    device: &wgpu::Device,
+    label: &str,
+    source: &str,
+) -> wgpu::ShaderModule {
+    let particle_vec4s = std::mem::size_of::<super::pack::GpuParticle>() / 16;
+    device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(label),
+        source: wgpu::ShaderSource::Wgsl(
+            source
+                .replace("{PARTICLE_VEC4S}", &particle_vec4s.to_string())
+                .into(),
+        ),
+    })
+}
+
+/// The compute pipeline of `module`'s `entry` over one bind group of `layout`.
+pub(super) fn compute_pipeline(
+    device: &wgpu::Device,
+    module: &wgpu::ShaderModule,
+    entry: &str,
+    layout: &wgpu::BindGroupLayout,
+) -> wgpu::ComputePipeline {
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(entry),
+        bind_group_layouts: &[layout],
+        push_constant_ranges: &[],
+    });
+    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(entry),
+        layout: Some(&pipeline_layout),
+        module,
+        entry_point: Some(entry),
+        compilation_options: Default::default(),
+        cache: None,
+    })
+}
+
+/// A bind group of whole `buffers` at bindings `first`, `first + 1`, ...
+pub(super) fn bind_buffers(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::BindGroupLayout,
+    first: u32,
+    buffers: &[&wgpu::Buffer],
+) -> wgpu::BindGroup {
+    let entries: Vec<_> = (first..)
+        .zip(buffers)
+        .map(|(binding, buffer)| wgpu::BindGroupEntry {
+            binding,
+            resource: buffer.as_entire_binding(),
+        })
+        .collect();
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &entries,
+    })
+}
+
 /// How a mesh's vertices follow the particles: the binding rows and the triangles.
 pub struct MeshBinding<'a> {
     /// Vertex v uses entries `offsets[v]..offsets[v + 1]` of `particles` and `coefficients`.
@@ -94,7 +157,6 @@ pub struct SkinStage {
     /// Indices in `indices`.
     pub index_count: u32,
     vertex_count: u32,
-    slots: FrameSlots,
 }
 
 /// Which of two output sets a frame writes and which one is drawn: a frame writes the set
@@ -145,15 +207,7 @@ impl SkinStage {
     ) -> SkinStage {
         use wgpu::util::DeviceExt;
         let vertex_count = binding.offsets.len().saturating_sub(1) as u32;
-        let particle_vec4s = std::mem::size_of::<super::pack::GpuParticle>() / 16;
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("skin"),
-            source: wgpu::ShaderSource::Wgsl(
-                SHADER
-                    .replace("{PARTICLE_VEC4S}", &particle_vec4s.to_string())
-                    .into(),
-            ),
-        });
+        let module = particle_reader(device, "skin", SHADER);
         let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
             binding,
             visibility: wgpu::ShaderStages::COMPUTE,
@@ -172,21 +226,7 @@ impl SkinStage {
                 entries: &entries,
             })
         });
-        let pipeline = |entry, layout| {
-            let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some(entry),
-                bind_group_layouts: &[layout],
-                push_constant_ranges: &[],
-            });
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: Some(&pipeline_layout),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
+        let pipeline = |entry, layout| compute_pipeline(device, &module, entry, layout);
         // Each vertex's triangles, compressed rows like the binding's.
         let mut corner_offsets = vec![0u32; vertex_count as usize + 1];
         for t in binding.triangles {
@@ -262,19 +302,8 @@ impl SkinStage {
             positions: output("skinned positions"),
             normals: output("skinned normals"),
         });
-        let group = |layout, first: u32, buffers: [&wgpu::Buffer; 5]| {
-            let entries: Vec<_> = (first..)
-                .zip(buffers)
-                .map(|(binding, buffer)| wgpu::BindGroupEntry {
-                    binding,
-                    resource: buffer.as_entire_binding(),
-                })
-                .collect();
-            device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("skin"),
-                layout,
-                entries: &entries,
-            })
+        let group = |layout, first, buffers: [&wgpu::Buffer; 5]| {
+            bind_buffers(device, "skin", layout, first, &buffers)
         };
         let groups = [0, 1].map(|slot| {
             let out = &outputs[slot];
@@ -306,14 +335,12 @@ impl SkinStage {
             indices,
             index_count: 3 * binding.triangles.len() as u32,
             vertex_count,
-            slots: FrameSlots::default(),
         }
     }
 
-    /// Records both passes at the end of a frame that ends the world's frame, into the
-    /// slot the frame collected before it does not hold.
-    pub fn record(&mut self, encoder: &mut wgpu::CommandEncoder) {
-        let slot = self.slots.begin();
+    /// Records both passes at the end of a frame that ends the world's frame, into
+    /// output set `slot`.
+    pub fn record(&self, encoder: &mut wgpu::CommandEncoder, slot: usize) {
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("skin"),
@@ -329,18 +356,8 @@ impl SkinStage {
         }
     }
 
-    /// The frame in flight was collected.
-    pub fn collected(&mut self) {
-        self.slots.collected();
-    }
-
-    /// The particles moved outside a frame.
-    pub fn invalidate(&mut self) {
-        self.slots.invalidate();
-    }
-
-    /// The vertices of the frame last collected, while they match the particles.
-    pub fn vertices(&self) -> Option<&SkinnedVertices> {
-        self.slots.current().map(|slot| &self.outputs[slot])
+    /// The vertices a frame wrote into `slot`.
+    pub fn vertices(&self, slot: usize) -> &SkinnedVertices {
+        &self.outputs[slot]
     }
 }
