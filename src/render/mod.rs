@@ -43,7 +43,7 @@
 //! `config/default.toml`). Strain colours and the cut faces a `snapshot` marks need the
 //! host. `tests/camera.rs` draws a grasp lifted on the GPU backend both ways, the next
 //! frame in flight as the node runs it, and finds the same picture: the mesh 0 m apart in
-//! depth, the level set 4.5e-8 m (bound 1 µm); a surface a frame stale measured 6.7e-6 and
+//! depth, the level set 4.5e-8 to 1.2e-7 m (bound 1 µm); a surface a frame stale measured 6.7e-6 and
 //! 5.8e-5 m and fails. `bench camera` times a picture both ways.
 //!
 //! `tests/camera.rs` checks the picture against geometry: a plane's depth against the
