@@ -42,9 +42,12 @@
 //! computing normals and uploading the triangles (6,266 triangles, 0.75 MB a picture on
 //! `config/default.toml`). Strain colours and the cut faces a `snapshot` marks need the
 //! host. `tests/camera.rs` draws a grasp lifted on the GPU backend both ways, the next
-//! frame in flight as the node runs it, and finds the same picture: the mesh 0 m apart in
-//! depth, the level set 4.5e-8 to 1.2e-7 m (bound 1 µm); a surface a frame stale measured 6.7e-6 and
-//! 5.8e-5 m and fails. `bench camera` times a picture both ways.
+//! frame in flight as the node runs it, and finds the same picture: the mesh (under total
+//! Lagrangian MPM) 0 m apart in depth, the level set (MLS-MPM) 4.5e-8 to 1.2e-7 m, against
+//! a bound of 1 µm; a surface a frame stale measured 6.7e-6 and 5.8e-5 m and fails.
+//! `bench camera` times a picture and a frame both ways (llvmpipe, 2 × 1280 × 720:
+//! `config/tearing.toml` with a camera 38.9–40.9 ms a picture from the host, 26.2–29.8 ms
+//! in place; `config/default.toml` 33.3 and 30.8 ms).
 //!
 //! `tests/camera.rs` checks the picture against geometry: a plane's depth against the
 //! analytic one, a point's pixel against K, stereo disparity against f·b/z, labels against
