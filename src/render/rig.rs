@@ -148,18 +148,19 @@ impl CameraRig {
     }
 
     /// Whether the tissue may be drawn where the GPU solver's buffers already are (on by
-    /// default): the tissue mesh is then moved with the particles on the solver's device
-    /// at the end of each frame and drawn from there (see [`crate::mpm::gpu::skin`]), and
-    /// only the tools, threads and table go from the host to the renderer. Off, or on the
-    /// CPU backend, or where the tissue is the isosurface or coloured by strain, the mesh
-    /// follows the particles read back to the host. Takes effect before the first picture.
+    /// default): the solver then builds the tissue's surface at the end of each frame (the
+    /// mesh moved with the particles, [`crate::mpm::gpu::skin`], or the isosurface,
+    /// [`crate::mpm::gpu::level_set`]) and it is drawn from there; only the tools, threads
+    /// and table go from the host to the renderer. Off, or on the CPU backend, or where the
+    /// tissue is coloured by strain, the surface is built from the particles read back to
+    /// the host. Takes effect before the first picture.
     pub fn set_in_place(&mut self, on: bool) {
         self.in_place = on;
     }
 
     /// Whether the last picture drew the tissue from the GPU solver's buffers (the first
     /// frame after the camera opens still draws from the host: its frame was submitted
-    /// before the mesh was on the device).
+    /// before the solver built the surface).
     pub fn drew_in_place(&self) -> bool {
         self.drew_in_place
     }
