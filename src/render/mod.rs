@@ -14,7 +14,7 @@
 //!   tiles. Labels: 0 nothing, 1 the table, 10 + i tissue block i, 50 + i thread i,
 //!   100 + i tool i in scene order (a needle or a blade is a tool).
 //! - **Rasteriser** ([`gpu`]): wgpu on the best adapter (a hardware GPU, otherwise Mesa's
-//!   llvmpipe); both eyes drawn into one side-by-side image (left eye on the left) with
+//!   llvmpipe), or on the GPU solver's own device (below); both eyes drawn into one side-by-side image (left eye on the left) with
 //!   three targets: RGB lit from the eye (an endoscope's light sits beside its lens),
 //!   depth as the camera-frame z in metres (32-bit float, NaN where nothing was drawn, as
 //!   REP 118 asks) and the label. Without any adapter [`gpu::Renderer::new`] says so and the
