@@ -21,7 +21,6 @@
 //! ([`super::skin`]) the outputs go into two sets in turn.
 
 use super::skin::{bind_buffers, compute_pipeline, particle_reader};
-use crate::mpm::Particles;
 
 const SHADER: &str = r#"
 struct Lattice {
@@ -322,12 +321,12 @@ pub struct LevelSetLook {
 }
 
 impl LevelSetStage {
-    /// The passes over `particles_buffer` (the solver's particles; `rest` gives each one's
-    /// rest volume and material) on `lattice`.
+    /// The passes over the solver's `count` particles (its particle buffer and its
+    /// per-particle constants: mass, rest volume, material) on `lattice`.
     pub fn new(
         device: &wgpu::Device,
-        particles_buffer: &wgpu::Buffer,
-        rest: &Particles,
+        [particles_buffer, constants]: [&wgpu::Buffer; 2],
+        count: u32,
         lattice: Lattice,
         look: LevelSetLook,
     ) -> LevelSetStage {
@@ -357,25 +356,6 @@ impl LevelSetStage {
             "level set lattice",
             bytemuck::cast_slice(&uniform),
             wgpu::BufferUsages::UNIFORM,
-        );
-        let constants: Vec<[f32; 4]> = (0..rest.len())
-            .map(|i| {
-                [
-                    0.0,
-                    rest.volume0[i],
-                    f32::from_bits(rest.material[i] as u32),
-                    0.0,
-                ]
-            })
-            .collect();
-        let constants = init(
-            "level set particles",
-            bytemuck::cast_slice(if constants.is_empty() {
-                &[[0.0; 4]]
-            } else {
-                &constants[..]
-            }),
-            wgpu::BufferUsages::STORAGE,
         );
         let buffer = |label, size: u64, usage| {
             device.create_buffer(&wgpu::BufferDescriptor {
@@ -433,7 +413,7 @@ impl LevelSetStage {
             let buffers = [
                 &uniform,
                 particles_buffer,
-                &constants,
+                constants,
                 &field,
                 &owner,
                 &counts[slot],
@@ -449,7 +429,7 @@ impl LevelSetStage {
             groups,
             outputs,
             dims,
-            particles: rest.len() as u32,
+            particles: count,
         }
     }
 

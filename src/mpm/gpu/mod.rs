@@ -548,7 +548,7 @@ impl GpuSolver {
     pub fn host_particles_mut(&mut self) -> &mut Particles {
         self.download_all();
         self.host_dirty = true;
-        self.invalidate_skin();
+        self.invalidate_surface();
         &mut self.host
     }
 
@@ -969,7 +969,7 @@ impl GpuSolver {
     /// Device-side copy of the frame-start state back into the particles.
     pub fn restore_frame_start(&mut self) {
         self.mark_bounds_stale();
-        self.invalidate_skin();
+        self.invalidate_surface();
         self.submit_copy(&self.res.snapshot, Some(&self.res.crack_snapshot));
         self.host_dirty = false;
         self.download_all();
@@ -978,15 +978,15 @@ impl GpuSolver {
     /// Device-side copy of the rest state into the particles.
     pub fn reset_to_rest(&mut self) {
         self.mark_bounds_stale();
-        self.invalidate_skin();
+        self.invalidate_surface();
         self.submit_copy(&self.res.rest, None);
         self.host_dirty = false;
         self.download_all();
     }
 
-    /// The device's particles moved outside a frame: the skinned mesh is stale until the
+    /// The device's particles moved outside a frame: the device surface is stale until the
     /// next frame.
-    fn invalidate_skin(&mut self) {
+    fn invalidate_surface(&mut self) {
         if let Some(surface) = &mut self.surface {
             surface.slots.invalidate();
         }
@@ -1010,12 +1010,11 @@ impl GpuSolver {
     /// frame from the next one submitted, for a camera to draw on this device (see
     /// [`level_set`]).
     pub fn extract_level_set(&mut self, lattice: Lattice, look: LevelSetLook) {
-        // The host copy's rest volumes and materials are the device's: neither changes.
         self.surface = Some(DeviceSurface {
             stage: SurfaceStage::LevelSet(LevelSetStage::new(
                 &self.ctx.device,
-                &self.res.particles,
-                &self.host,
+                [&self.res.particles, &self.res.constants],
+                self.n,
                 lattice,
                 look,
             )),

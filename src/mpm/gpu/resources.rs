@@ -157,6 +157,8 @@ const _: () = assert!(Binding::ALL.len() == Binding::TlNodes as usize + 1);
 /// Buffers, bind groups and pipeline layouts of one solver.
 pub struct Resources {
     pub particles: wgpu::Buffer,
+    /// Per particle: mass, rest volume, material (bits), 0 ([`pack::constants`]).
+    pub constants: wgpu::Buffer,
     /// Frame-start particles, for the guard's restore.
     pub snapshot: wgpu::Buffer,
     /// Rest particles, for the reset.
@@ -470,6 +472,7 @@ impl Resources {
         });
         Resources {
             particles,
+            constants: pconst,
             snapshot,
             rest,
             cracks,
